@@ -1,0 +1,204 @@
+"""Symbolic definition of manoeuvring-model structures: the one place the equations live.
+
+Every model variant in this project is *linear in its coefficients*: each body-frame
+acceleration is a sum of coefficient × regressor,
+
+.. math::
+
+    \\dot u = \\sum_i a_i \\, \\phi^u_i(u, v, r, \\delta, n), \\quad
+    \\dot v = \\sum_j b_j \\, \\phi^v_j(\\ldots), \\quad
+    \\dot r = \\sum_k c_k \\, \\phi^r_k(\\ldots),
+
+with masses and inertias absorbed into the coefficients (Shi et al. 2009, eq. (2)).
+A structure is therefore just three tuples of :class:`Term` (a coefficient name and its
+regressor as a sympy expression). Everything numeric derives from it:
+
+* the numpy right-hand side, the analytic Jacobians ∂f/∂x and ∂f/∂θ (``fmu_model.numeric``),
+* the C source of the native FMU (``fmu_model.codegen``),
+* the units of every coefficient (:func:`coefficient_unit`).
+
+Symbols (SI inside): ``u, v`` [m/s], ``r`` [rad/s], ``delta`` rudder angle [rad],
+``n`` propeller speed [rev/s], ``L`` ship length [m]; kinematics in ``x, y`` [m] (North,
+East) and heading ``psi`` [rad] clockwise from North.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import sympy as sp
+
+# Motion state, inputs and the one vessel constant a structure may use.
+u, v, r = sp.symbols("u v r", real=True)
+x, y, psi = sp.symbols("x y psi", real=True)
+delta = sp.Symbol("delta", real=True)
+n = sp.Symbol("n", real=True)
+L = sp.Symbol("L", positive=True)
+
+VELOCITY_SYMBOLS = (u, v, r)
+STATE_SYMBOLS = (u, v, r, x, y, psi)
+INPUT_SYMBOLS = (delta, n)
+STATE_NAMES = ("u", "v", "r", "x", "y", "psi")
+EQUATIONS = ("surge", "sway", "yaw")
+
+# Earth-fixed kinematics, x North, y East, psi clockwise from North (DESIGN.md
+# conventions; Shi et al. 2009, Fig. 1):  x' = u cos psi - v sin psi,
+# y' = u sin psi + v cos psi,  psi' = r.
+KINEMATICS = (u * sp.cos(psi) - v * sp.sin(psi), u * sp.sin(psi) + v * sp.cos(psi), r)
+
+# SI dimensions as exponents of (metre, second). Angles and revolutions are
+# dimensionless; r is rad/s and n is rev/s, both 1/s.
+_DIMENSIONS: dict[sp.Symbol, tuple[int, int]] = {
+    u: (1, -1),
+    v: (1, -1),
+    r: (0, -1),
+    delta: (0, 0),
+    n: (0, -1),
+    L: (1, 0),
+}
+# Units of the accelerations u', v' [m/s^2] and r' [rad/s^2].
+_ACCELERATION_DIMENSIONS = {"surge": (1, -2), "sway": (1, -2), "yaw": (0, -2)}
+
+
+@dataclass(frozen=True)
+class Term:
+    """One coefficient × regressor term of an acceleration equation.
+
+    Parameters
+    ----------
+    coefficient : str
+        Coefficient name, unique within the structure (e.g. ``"a1"``).
+    regressor : sympy.Expr
+        Regressor in the module's symbols (e.g. ``u**2``).
+    """
+
+    coefficient: str
+    regressor: sp.Expr
+
+
+@dataclass(frozen=True)
+class ModelStructure:
+    """A manoeuvring-model variant: three linear-in-coefficient acceleration equations.
+
+    Parameters
+    ----------
+    name : str
+        Registry name (``--model NAME``).
+    description : str
+        One line for help texts and the FMU description.
+    reference : str
+        Where the equations come from.
+    surge, sway, yaw : tuple of Term
+        Terms of u', v' and r'.
+    """
+
+    name: str
+    description: str
+    reference: str
+    surge: tuple[Term, ...]
+    sway: tuple[Term, ...]
+    yaw: tuple[Term, ...]
+
+    def __post_init__(self) -> None:
+        names = [t.coefficient for t in self.terms]
+        if len(set(names)) != len(names):
+            raise ValueError(f"model {self.name!r}: duplicate coefficient names in {names}")
+        allowed = set(VELOCITY_SYMBOLS) | set(INPUT_SYMBOLS) | {L}
+        for term in self.terms:
+            extra = term.regressor.free_symbols - allowed
+            if extra:
+                raise ValueError(
+                    f"model {self.name!r}: term {term.coefficient} uses unknown symbols {extra}"
+                )
+
+    @property
+    def terms(self) -> tuple[Term, ...]:
+        """All terms, surge first, then sway, then yaw (the coefficient-vector order)."""
+        return self.surge + self.sway + self.yaw
+
+    @property
+    def coefficient_names(self) -> tuple[str, ...]:
+        """Coefficient names in vector order."""
+        return tuple(t.coefficient for t in self.terms)
+
+    @property
+    def n_coefficients(self) -> int:
+        """Number of coefficients θ."""
+        return len(self.terms)
+
+    @property
+    def equation_index(self) -> tuple[int, ...]:
+        """For each coefficient, which acceleration it enters (0 surge, 1 sway, 2 yaw)."""
+        return (0,) * len(self.surge) + (1,) * len(self.sway) + (2,) * len(self.yaw)
+
+    @cached_property
+    def coefficient_symbols(self) -> tuple[sp.Symbol, ...]:
+        """One real sympy symbol per coefficient, named as the coefficient."""
+        return tuple(sp.Symbol(name, real=True) for name in self.coefficient_names)
+
+    def accelerations(self) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
+        """Symbolic (u', v', r') with the coefficients as symbols."""
+        sums: list[sp.Expr] = [sp.Integer(0), sp.Integer(0), sp.Integer(0)]
+        for theta, term, eq in zip(
+            self.coefficient_symbols, self.terms, self.equation_index, strict=True
+        ):
+            sums[eq] = sums[eq] + theta * term.regressor
+        return sums[0], sums[1], sums[2]
+
+    def coefficient_units(self) -> dict[str, tuple[int, int]]:
+        """SI dimension (metre, second exponents) of every coefficient."""
+        return {
+            term.coefficient: coefficient_unit(term.regressor, EQUATIONS[eq])
+            for term, eq in zip(self.terms, self.equation_index, strict=True)
+        }
+
+
+def regressor_dimension(expr: sp.Expr) -> tuple[int, int]:
+    """SI dimension of a regressor as exponents of (metre, second).
+
+    Found by scaling every symbol by its unit (``u -> u·M/S`` …) and reading off the
+    factor by which the expression changes; raises ``ValueError`` when the expression
+    is not dimensionally homogeneous (e.g. ``u + r``).
+    """
+    metre, second = sp.symbols("metre second", positive=True)
+    scaled = expr.subs(
+        {s: s * metre**dm * second**ds for s, (dm, ds) in _DIMENSIONS.items()},
+        simultaneous=True,
+    )
+    factor = sp.simplify(sp.powsimp(sp.powdenest(scaled / expr, force=True), force=True))
+    powers = sp.Mul.make_args(factor)
+    dims = [0, 0]
+    for p in powers:
+        base, exp = p.as_base_exp()
+        if base == metre and exp.is_integer:
+            dims[0] += int(exp)
+        elif base == second and exp.is_integer:
+            dims[1] += int(exp)
+        elif p != 1:
+            raise ValueError(f"regressor {expr} is not dimensionally homogeneous ({factor})")
+    return dims[0], dims[1]
+
+
+def coefficient_unit(regressor: sp.Expr, equation: str) -> tuple[int, int]:
+    """Dimension of the coefficient that multiplies ``regressor`` in ``equation``."""
+    acc_m, acc_s = _ACCELERATION_DIMENSIONS[equation]
+    reg_m, reg_s = regressor_dimension(regressor)
+    return acc_m - reg_m, acc_s - reg_s
+
+
+def unit_string(dimension: tuple[int, int]) -> str:
+    """Readable SI unit of a (metre, second) exponent pair, e.g. (1, -2) -> ``"m/s2"``."""
+    metre_exp, second_exp = dimension
+
+    def part(symbol: str, exp: int) -> str:
+        return symbol if exp == 1 else f"{symbol}{exp}"
+
+    numerator = [part(s, e) for s, e in (("m", metre_exp), ("s", second_exp)) if e > 0]
+    denominator = [part(s, -e) for s, e in (("m", metre_exp), ("s", second_exp)) if e < 0]
+    text = ".".join(numerator) or "1"
+    if len(denominator) == 1:
+        text += "/" + denominator[0]
+    elif denominator:
+        text += "/(" + ".".join(denominator) + ")"
+    return text

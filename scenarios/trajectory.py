@@ -1,0 +1,28 @@
+"""The trajectory record shared by the driver, the reference ship and the metrics.
+
+A trajectory is a structured numpy array, one row per communication point, SI units
+and radians inside (DESIGN.md conventions); the field names carry the unit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+TRAJECTORY_DTYPE = np.dtype(
+    [
+        ("time_s", "f8"),
+        ("x_m", "f8"),  # North of the origin
+        ("y_m", "f8"),  # East of the origin
+        ("psi_rad", "f8"),  # heading, clockwise from North, continuous (not wrapped)
+        ("u_mps", "f8"),  # surge velocity
+        ("v_mps", "f8"),  # sway velocity, positive to starboard
+        ("r_radps", "f8"),  # yaw rate, positive turning to starboard
+        ("rudder_rad", "f8"),  # actual rudder angle, positive turns to starboard
+        ("n_rps", "f8"),  # propeller speed [rev/s]
+    ]
+)
+
+
+def empty_trajectory(n_samples: int) -> np.ndarray:
+    """Return a zero-filled trajectory with ``n_samples`` rows."""
+    return np.zeros(n_samples, dtype=TRAJECTORY_DTYPE)
