@@ -36,7 +36,9 @@ def generate_model_c(structure: ModelStructure) -> str:
     }
     subs.update({s: state[i] for i, s in enumerate(STATE_SYMBOLS)})
     rudder_sym, n_sym = INPUT_SYMBOLS
-    subs.update({rudder_sym: sp.Symbol("rudder"), n_sym: sp.Symbol("n_rps"), L: sp.Symbol("length")})
+    subs.update(
+        {rudder_sym: sp.Symbol("rudder"), n_sym: sp.Symbol("n_rps"), L: sp.Symbol("length")}
+    )
     exprs = [e.subs(subs, simultaneous=True) for e in (*structure.accelerations(), *KINEMATICS)]
     temporaries, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("t"))
 

@@ -60,37 +60,73 @@ def fmu_variables(params: ModelParameters) -> tuple[FmuVariable, ...]:
     structure = get_model(params.model)
     variables: list[FmuVariable] = [
         FmuVariable(
-            "rudder_angle", 0, "input", "continuous", 0.0, "rad",
-            "rudder angle, positive turns the ship to starboard", "deg",
-            -RUDDER_LIMIT_RAD, RUDDER_LIMIT_RAD,
+            "rudder_angle",
+            0,
+            "input",
+            "continuous",
+            0.0,
+            "rad",
+            "rudder angle, positive turns the ship to starboard",
+            "deg",
+            -RUDDER_LIMIT_RAD,
+            RUDDER_LIMIT_RAD,
         ),
         FmuVariable(
-            "propeller_rpm", 1, "input", "continuous", params.nominal_n_rps * 60.0, "rpm",
+            "propeller_rpm",
+            1,
+            "input",
+            "continuous",
+            params.nominal_n_rps * 60.0,
+            "rpm",
             "propeller speed [rev/min]",
         ),
     ]
     for name, unit, text in _STATES:
-        variables.append(FmuVariable(name, len(variables), "output", "continuous", None, unit, text))
+        variables.append(
+            FmuVariable(name, len(variables), "output", "continuous", None, unit, text)
+        )
     variables.append(
-        FmuVariable("length", len(variables), "parameter", "fixed", params.length_m, "m",
-                    "ship length between perpendiculars")
+        FmuVariable(
+            "length",
+            len(variables),
+            "parameter",
+            "fixed",
+            params.length_m,
+            "m",
+            "ship length between perpendiculars",
+        )
     )
     variables.append(
-        FmuVariable("max_step", len(variables), "parameter", "fixed", DEFAULT_MAX_STEP_S, "s",
-                    "largest internal RK4 step inside doStep", min=1e-6)
+        FmuVariable(
+            "max_step",
+            len(variables),
+            "parameter",
+            "fixed",
+            DEFAULT_MAX_STEP_S,
+            "s",
+            "largest internal RK4 step inside doStep",
+            min=1e-6,
+        )
     )
     initial = (params.nominal_speed_mps, 0.0, 0.0, 0.0, 0.0, 0.0)
     for (name, unit, text), start in zip(_STATES, initial, strict=True):
         variables.append(
-            FmuVariable(f"{name}0", len(variables), "parameter", "fixed", start, unit,
-                        f"initial {text}")
+            FmuVariable(
+                f"{name}0", len(variables), "parameter", "fixed", start, unit, f"initial {text}"
+            )
         )
     units = structure.coefficient_units()
     for term, value in zip(structure.terms, params.coefficients, strict=True):
         unit = unit_string(units[term.coefficient])
         variables.append(
-            FmuVariable(term.coefficient, len(variables), "parameter", "fixed", float(value),
-                        None if unit == "1" else unit,
-                        f"coefficient of {term.regressor} ({structure.name})")
+            FmuVariable(
+                term.coefficient,
+                len(variables),
+                "parameter",
+                "fixed",
+                float(value),
+                None if unit == "1" else unit,
+                f"coefficient of {term.regressor} ({structure.name})",
+            )
         )
     return tuple(variables)

@@ -24,9 +24,9 @@ import sympy as sp
 from fmu_model.structure import (
     INPUT_SYMBOLS,
     KINEMATICS,
+    STATE_SYMBOLS,
     VELOCITY_SYMBOLS,
     L,
-    STATE_SYMBOLS,
     ModelStructure,
 )
 from fmu_model.variants import get_model

@@ -55,6 +55,7 @@ class ModelParameters:
         Covariance of θ (p, p).
     identification : mapping
         Provenance: method, logs with sha256, settings, creation time.
+
     """
 
     model: str
@@ -99,12 +100,16 @@ class ModelParameters:
         """Coefficient vector θ (a read-only view)."""
         return self.coefficients
 
-    def with_vector(self, theta: np.ndarray, covariance: np.ndarray | None = None) -> ModelParameters:
-        """Same vessel and model with new coefficients (and covariance)."""
+    def with_vector(
+        self, theta: np.ndarray, covariance: np.ndarray | None = None
+    ) -> ModelParameters:
+        """Return the same vessel and model with new coefficients (and covariance)."""
         return replace(self, coefficients=theta, covariance=covariance)
 
     @classmethod
-    def from_vector(cls, model: str, theta: Sequence[float] | np.ndarray, **kwargs: Any) -> ModelParameters:
+    def from_vector(
+        cls, model: str, theta: Sequence[float] | np.ndarray, **kwargs: Any
+    ) -> ModelParameters:
         """Build from a coefficient vector in the structure's order."""
         return cls(model=model, coefficients=np.asarray(theta, dtype=float), **kwargs)
 
@@ -119,7 +124,7 @@ class ModelParameters:
         return {k: unit_string(d) for k, d in get_model(self.model).coefficient_units().items()}
 
     def to_json_dict(self) -> dict[str, Any]:
-        """The params.json document (DESIGN.md)."""
+        """Return the params.json document (DESIGN.md) as a dict."""
         std = self.std
         return {
             "format": PARAMS_FORMAT,
@@ -135,7 +140,9 @@ class ModelParameters:
         }
 
 
-def _require(doc: Mapping[str, Any], key: str, kind: type | tuple[type, ...], path: str | None) -> Any:
+def _require(
+    doc: Mapping[str, Any], key: str, kind: type | tuple[type, ...], path: str | None
+) -> Any:
     if key not in doc:
         raise ParamsFormatError(path, f"missing key {key!r}")
     value = doc[key]
@@ -159,6 +166,7 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
         Wrong format or version, unknown model, missing or extra coefficients, a
         non-finite number, a negative length, a covariance that is not a symmetric
         p × p matrix of finite numbers with a non-negative diagonal.
+
     """
     if not isinstance(doc, Mapping):
         raise ParamsFormatError(path, "expected a JSON object")

@@ -18,7 +18,7 @@ from fmu_model.params import ModelParameters
 
 
 def n_substeps(step_s: float, max_step_s: float | None) -> int:
-    """Number of equal internal steps for a communication step (same rule as the C FMU).
+    """Return the number of equal internal steps of a communication step (as the C FMU).
 
     ``ceil(step / max_step)`` with a 1e-12 relative guard so that, e.g., 0.3 / 0.1
     gives 3 and not 4.
@@ -55,6 +55,7 @@ def rk4_step(
         Propeller speed [rev/s], held over the step.
     step_s : float
         Step [s].
+
     """
     half = 0.5 * step_s
     k1 = model.rhs(state, rudder_rad, n_rps, theta, length_m)
@@ -110,6 +111,7 @@ def simulate(
     -------
     numpy.ndarray
         States at the sample times, shape (N, 6).
+
     """
     t = np.asarray(time_s, dtype=float)
     rudder = np.asarray(rudder_rad, dtype=float)

@@ -1,13 +1,13 @@
-"""Symbolic definition of manoeuvring-model structures: the one place the equations live.
+r"""Symbolic definition of manoeuvring-model structures: the one place the equations live.
 
 Every model variant in this project is *linear in its coefficients*: each body-frame
 acceleration is a sum of coefficient × regressor,
 
 .. math::
 
-    \\dot u = \\sum_i a_i \\, \\phi^u_i(u, v, r, \\delta, n), \\quad
-    \\dot v = \\sum_j b_j \\, \\phi^v_j(\\ldots), \\quad
-    \\dot r = \\sum_k c_k \\, \\phi^r_k(\\ldots),
+    \dot u = \sum_i a_i \, \phi^u_i(u, v, r, \delta, n), \quad
+    \dot v = \sum_j b_j \, \phi^v_j(\ldots), \quad
+    \dot r = \sum_k c_k \, \phi^r_k(\ldots),
 
 with masses and inertias absorbed into the coefficients (Shi et al. 2009, eq. (2)).
 A structure is therefore just three tuples of :class:`Term` (a coefficient name and its
@@ -71,6 +71,7 @@ class Term:
         Coefficient name, unique within the structure (e.g. ``"a1"``).
     regressor : sympy.Expr
         Regressor in the module's symbols (e.g. ``u**2``).
+
     """
 
     coefficient: str
@@ -91,6 +92,7 @@ class ModelStructure:
         Where the equations come from.
     surge, sway, yaw : tuple of Term
         Terms of u', v' and r'.
+
     """
 
     name: str

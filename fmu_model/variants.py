@@ -27,6 +27,7 @@ def get_model(name: str) -> ModelStructure:
     ------
     KeyError
         With the list of known names when ``name`` is not registered.
+
     """
     try:
         return _REGISTRY[name]
