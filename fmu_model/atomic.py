@@ -1,29 +1,116 @@
-"""Atomic file writing: a reader sees the old file or the new one, never half of one."""
+"""Atomic file writing, used by every writer in the project.
+
+A reader (or a crash, or a full disk) must never see a half-written params.json, log
+or report: the data go to a temporary file in the target's directory, are flushed to
+disk, and the temporary file is then renamed over the target with ``os.replace``,
+which is atomic on POSIX and Windows when both names are on the same file system.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import os
-import tempfile
-from pathlib import Path
+import secrets
+import stat
+
+__all__ = ["write_atomic"]
+
+_MAX_NAME_ATTEMPTS = 100
 
 
 def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same directory.
+    """Write ``data`` to ``path`` so that the file is either fully old or fully new.
 
-    The temporary file is flushed and fsynced, then renamed over the target with
-    ``os.replace`` (atomic on POSIX). On any failure the temporary file is removed and
-    a previous file at ``path`` is left untouched. Parent directories are created.
+    The data are written to a hidden temporary file in the same directory as
+    ``path``, flushed and ``fsync``-ed, then renamed over ``path`` with
+    ``os.replace``; the directory is ``fsync``-ed afterwards where the platform
+    allows it. If anything fails (or the write is interrupted) the temporary file is
+    removed, a previous file at ``path`` is left untouched, and the exception
+    propagates.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file. Missing parent directories are created. An existing file's
+        permission bits are kept; a new file gets the usual ``0o666 & ~umask``. If
+        ``path`` is a symbolic link, the link itself is replaced by a regular file.
+    data : bytes or str
+        File content. ``str`` is encoded as UTF-8 without a byte-order mark and
+        written as is (no newline translation, so line feeds stay LF on every
+        platform).
+
+    Raises
+    ------
+    TypeError
+        If ``data`` is neither ``bytes`` nor ``str``; nothing is written.
+    OSError
+        If the directory cannot be created or the file cannot be written or renamed.
+
     """
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    payload = data.encode("utf-8") if isinstance(data, str) else data
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    if isinstance(data, str):
+        payload = data.encode("utf-8")
+    elif isinstance(data, bytes | bytearray | memoryview):
+        payload = bytes(data)
+    else:
+        raise TypeError(f"data must be bytes or str, got {type(data).__name__}")
+
+    target = os.path.abspath(os.fspath(path))
+    directory, name = os.path.split(target)
+    os.makedirs(directory, exist_ok=True)
+    mode = _existing_mode(target)
+
+    temporary = _create_temporary(directory, name)
     try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp_name, target)
+        with open(temporary, "wb") as file:
+            file.write(payload)
+            file.flush()
+            os.fsync(file.fileno())
+        if mode is not None:
+            os.chmod(temporary, mode)
+        os.replace(temporary, target)
     except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
         raise
+    _fsync_directory(directory)
+
+
+def _existing_mode(target: str) -> int | None:
+    """Return the permission bits of an existing regular file at ``target``, or None."""
+    try:
+        status = os.stat(target)
+    except OSError:
+        return None
+    return stat.S_IMODE(status.st_mode) if stat.S_ISREG(status.st_mode) else None
+
+
+def _create_temporary(directory: str, name: str) -> str:
+    """Create a new, empty, uniquely named file next to the target and return its path.
+
+    ``os.open`` with ``O_CREAT | O_EXCL`` and mode ``0o666`` lets the operating
+    system apply the process umask, as for an ordinary new file (``tempfile.mkstemp``
+    would create it with mode ``0o600``).
+    """
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    for _ in range(_MAX_NAME_ATTEMPTS):
+        candidate = os.path.join(directory, f".{name}.{secrets.token_hex(6)}.tmp")
+        try:
+            fd = os.open(candidate, flags, 0o666)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return candidate
+    raise FileExistsError(f"could not create a temporary file for {name!r} in {directory!r}")
+
+
+def _fsync_directory(directory: str) -> None:
+    """Flush the directory entry of the renamed file to disk, where supported."""
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:  # e.g. Windows cannot open a directory
+        return
+    try:
+        with contextlib.suppress(OSError):
+            os.fsync(fd)
+    finally:
+        os.close(fd)

@@ -14,12 +14,15 @@ All functions broadcast over trailing sample dimensions.
 from __future__ import annotations
 
 from collections.abc import Callable
+import math
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, cached_property
 from typing import Any
 
+import numba
 import numpy as np
 import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
 
 from fmu_model.structure import (
     INPUT_SYMBOLS,
@@ -55,6 +58,17 @@ class NumericModel:
     def n_coefficients(self) -> int:
         """Number of coefficients p."""
         return self.structure.n_coefficients
+
+    @cached_property
+    def kernels(self) -> tuple[Any, Any]:
+        """Numba-compiled ``phi(u, v, r, δ, n, L, out)`` and ``grad(…, out)`` for hot loops.
+
+        ``phi`` fills out (p,) with the regressors; ``grad`` fills out (3p,) with
+        ∂φ_i/∂(u, v, r) row-major. Generated from the same symbolic structure.
+        """
+        regressors = [t.regressor for t in self.structure.terms]
+        gradients = [sp.diff(e, s) for e in regressors for s in VELOCITY_SYMBOLS]
+        return _jit_filler("phi", regressors), _jit_filler("grad", gradients)
 
     def regressors(
         self, u: Any, v: Any, r: Any, rudder_rad: Any, n_rps: Any, length_m: float
@@ -114,6 +128,19 @@ class NumericModel:
             np.shape(state)[1:], np.shape(theta)[1:], np.shape(rudder_rad), np.shape(n_rps)
         )
         return _stack(self._rhs(*state, rudder_rad, n_rps, length_m, theta), shape)
+
+
+def _jit_filler(name: str, exprs: list[sp.Expr]) -> Any:
+    """Compile ``def name(u, v, r, delta, n, L, out)`` filling ``out[i] = exprs[i]``."""
+    temporaries, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_t"))
+    printer = PythonCodePrinter({"fully_qualified_modules": True})
+    args = ", ".join(str(a) for a in _ARGS)
+    lines = [f"def {name}({args}, out):"]
+    lines += [f"    {sym} = {printer.doprint(expr)}" for sym, expr in temporaries]
+    lines += [f"    out[{i}] = {printer.doprint(expr)}" for i, expr in enumerate(reduced)]
+    namespace: dict[str, Any] = {"math": math}
+    exec(compile("\n".join(lines), f"<fmu_model {name}>", "exec"), namespace)
+    return numba.njit(cache=False)(namespace[name])
 
 
 def _weight(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:

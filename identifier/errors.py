@@ -50,6 +50,7 @@ class LogFormatError(ValueError):
     ----------
     message, path, line, column, expected
         The parameters above (``path`` converted to ``str``).
+
     """
 
     def __init__(
@@ -101,6 +102,7 @@ class IdentificationError(RuntimeError):
     ----------
     message, log, sample
         The parameters above (``log`` converted to ``str``).
+
     """
 
     def __init__(

@@ -1,0 +1,99 @@
+"""Equation-error least squares: the EKF's initial guess and the identifiability check.
+
+Because every structure is linear in its coefficients, the forward-Euler model of
+Shi et al. (2009), eq. (4), written for the smoothed data,
+
+    (s_j(k+1) − s_j(k)) / T_k = Σ_i θ_i φ_i(s(k), s̄(k)) + e_j(k),   j ∈ {u, v, r},
+
+is an ordinary linear regression per equation. Each equation is solved separately
+(its coefficients enter no other equation) with columns scaled to unit RMS and a tiny
+ridge term so that an unexcited regressor (e.g. rudder terms in a straight run) gets a
+zero estimate with a huge standard deviation instead of a singular matrix. The
+covariance is σ²_e (XᵀX + λI)⁻¹ with σ_e the residual standard deviation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from fmu_model import numeric_model
+from identifier.ekf import EkfSegment
+
+# Ridge weight relative to the number of samples, in unit-RMS column scaling.
+_RIDGE = 1e-9
+
+
+@dataclass(frozen=True)
+class EquationErrorFit:
+    """Least-squares estimate of θ.
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        Coefficients (p,).
+    covariance : numpy.ndarray
+        Their covariance (p, p), block-diagonal by equation.
+    residual_std : numpy.ndarray
+        Residual standard deviation of (u̇, v̇, ṙ) [m/s², m/s², rad/s²].
+    regressor_rms : numpy.ndarray
+        RMS of every regressor over the data (p,); 0 means not excited at all.
+    contribution : numpy.ndarray
+        RMS(θ_i φ_i) / RMS(fitted acceleration of its equation) (p,).
+    """
+
+    theta: np.ndarray
+    covariance: np.ndarray
+    residual_std: np.ndarray
+    regressor_rms: np.ndarray
+    contribution: np.ndarray
+
+
+def regression_data(
+    model_name: str, segments: Sequence[EkfSegment], length_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return the regressors Φ (p, M) and the finite-difference accelerations (3, M)."""
+    model = numeric_model(model_name)
+    phis, accs = [], []
+    for seg in segments:
+        mean_rudder, mean_n = seg.mean_inputs()
+        s = seg.velocities
+        phis.append(
+            model.regressors(s[:-1, 0], s[:-1, 1], s[:-1, 2], mean_rudder, mean_n, length_m)
+        )
+        accs.append((np.diff(s, axis=0) / np.diff(seg.time_s)[:, None]).T)
+    return np.concatenate(phis, axis=1), np.concatenate(accs, axis=1)
+
+
+def equation_error_fit(
+    model_name: str, segments: Sequence[EkfSegment], length_m: float
+) -> EquationErrorFit:
+    """Fit θ by equation-error least squares on the smoothed segments (module docstring)."""
+    model = numeric_model(model_name)
+    phi, acc = regression_data(model_name, segments, length_m)
+    p, m = phi.shape
+    theta = np.zeros(p)
+    cov = np.zeros((p, p))
+    residual_std = np.zeros(3)
+    rms = np.sqrt(np.mean(phi**2, axis=1))
+    eq_index = np.asarray(model.structure.equation_index)
+    fitted = np.zeros_like(acc)
+    for j in range(3):
+        cols = np.flatnonzero(eq_index == j)
+        scale = np.where(rms[cols] > 0.0, rms[cols], 1.0)
+        X = (phi[cols] / scale[:, None]).T  # (M, p_j), unit-RMS columns
+        A = X.T @ X + _RIDGE * m * np.eye(cols.size)
+        beta = np.linalg.solve(A, X.T @ acc[j])
+        residual = acc[j] - X @ beta
+        dof = max(m - cols.size, 1)
+        sigma2 = float(residual @ residual) / dof
+        theta[cols] = beta / scale
+        cov[np.ix_(cols, cols)] = sigma2 * np.linalg.inv(A) / np.outer(scale, scale)
+        residual_std[j] = np.sqrt(sigma2)
+        fitted[j] = X @ beta
+    signal = np.sqrt(np.mean(fitted**2, axis=1))
+    term_rms = np.sqrt(np.mean((theta[:, None] * phi) ** 2, axis=1))
+    contribution = term_rms / np.where(signal[eq_index] > 0.0, signal[eq_index], 1.0)
+    return EquationErrorFit(theta, cov, residual_std, rms, contribution)

@@ -1,0 +1,658 @@
+"""Read, validate and write trial logs (DESIGN.md, "Trial-log CSV").
+
+A trial log is one manoeuvre in a UTF-8 text file::
+
+    # vessel: kvlcc2
+    # length_m: 320.0
+    # source: scenarios.synthesize zigzag-10, seed 1
+    time_s,x_m,y_m,heading_deg,rudder_deg,rpm
+    0.0,0.0,0.0,0.0,0.0,46.2
+    0.5,3.9,0.0,0.0,1.1,46.2
+    ...
+
+Rules, applied by :func:`read_log` and :func:`parse_log`:
+
+- Before the header, blank lines and lines starting with ``#`` are allowed. A line
+  ``# key: value`` (key: a letter or ``_`` followed by letters, digits, ``_``, ``.``
+  or ``-``) becomes ``metadata[key] = value`` with surrounding whitespace removed;
+  other ``#`` lines are free comments and are ignored. A key may appear only once.
+  ``length_m``, if present, must be a positive finite number of metres.
+- The header names the columns; ``time_s, x_m, y_m, heading_deg, rudder_deg, rpm``
+  must all be present, in any order; other columns are ignored (their cells are
+  not checked). Names are case-sensitive; whitespace around names is ignored.
+- The separator is ``,`` only. A semicolon-, tab- or space-separated file (as some
+  spreadsheets write with a decimal comma) is rejected with an error that names
+  the expected ``','`` separator: guessing the separator would also mean guessing
+  the decimal mark.
+- Every data row has as many fields as the header. Each cell of a required column
+  is a plain decimal number (``12``, ``-0.5``, ``1.5e-3``; whitespace around it is
+  ignored) and finite: ``nan``, ``inf``, empty cells, text and values that overflow
+  (``1e999``) are rejected.
+- ``time_s`` increases strictly (irregular sampling is fine); at least
+  :data:`MIN_SAMPLES` rows.
+- Blank lines are allowed at the end only; ``#`` lines only before the header.
+- UTF-8 with or without a byte-order mark, LF or CRLF line endings. Anything that
+  is not UTF-8 text (NUL bytes, invalid UTF-8, UTF-16) is "not a text file".
+- ``heading_deg`` may be wrapped (0..360) or continuous: it is unwrapped on reading
+  with ``np.unwrap``, so a heading change of half a turn or more between two
+  consecutive samples cannot be represented.
+
+Every violation raises :class:`~identifier.errors.LogFormatError` with the file,
+the 1-based line number (None for whole-file problems), the column where one
+applies and what was expected. Inside the program all quantities are SI and
+radians; degrees and rpm exist only in the file.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Final
+
+import numpy as np
+import numpy.typing as npt
+
+from fmu_model.atomic import write_atomic
+from identifier.errors import LogFormatError
+
+__all__ = [
+    "LOG_COLUMNS",
+    "MIN_SAMPLES",
+    "ManeuverLog",
+    "format_log",
+    "parse_log",
+    "read_log",
+    "write_log",
+]
+
+MIN_SAMPLES: Final = 10
+"""Fewest data rows a log may have.
+
+The smoother fits a constant-acceleration model (three states per axis) and the
+EKF then estimates velocities and several model coefficients from its output: with
+fewer than about ten samples there is no redundancy left to tell signal from noise,
+and no room for an approach, a rudder execute and a response. A shorter file is
+almost always a truncated or mis-exported one, so it is rejected at reading with a
+clear message rather than failing obscurely later. Passing this floor does not mean
+a log is informative enough; the identification judges that.
+"""
+
+LOG_COLUMNS: Final = ("time_s", "x_m", "y_m", "heading_deg", "rudder_deg", "rpm")
+"""The required columns of a trial log, in the order :func:`format_log` writes them."""
+
+_SEPARATOR: Final = ","
+_OTHER_SEPARATORS: Final = ((";", "';'"), ("\t", "a tab"), ("|", "'|'"))
+_NUMBER: Final = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+_METADATA_KEY: Final = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*", re.ASCII)
+_METADATA_LINE: Final = re.compile(r"#\s*([A-Za-z_][A-Za-z0-9_.\-]*)\s*:(.*)", re.ASCII)
+_MAX_SHOWN_CHARS: Final = 40
+_MAX_SHOWN_HEADER_CHARS: Final = 160
+_SECONDS_PER_MINUTE: Final = 60.0
+
+_FloatArray = npt.NDArray[np.float64]
+
+
+def _empty_metadata() -> Mapping[str, str]:
+    return MappingProxyType({})
+
+
+@dataclass(frozen=True, eq=False)
+class ManeuverLog:
+    """One manoeuvre's trial log, in SI units and radians.
+
+    The arrays are stored as read-only float64 copies; compare logs with numpy
+    (``np.array_equal``), not ``==`` (which is identity).
+
+    Parameters
+    ----------
+    time_s : numpy.ndarray
+        Sample times [s], float64, finite and strictly increasing.
+    x_m : numpy.ndarray
+        Position North of the origin [m].
+    y_m : numpy.ndarray
+        Position East of the origin [m].
+    heading_rad : numpy.ndarray
+        Heading ψ, clockwise from North [rad], continuous (unwrapped on reading).
+    rudder_rad : numpy.ndarray
+        Actual rudder angle [rad], positive turns the ship to starboard.
+    n_rps : numpy.ndarray
+        Propeller speed [rev/s] (the file holds rpm).
+    metadata : Mapping[str, str]
+        The file's ``# key: value`` lines, in file order, e.g. ``{"vessel":
+        "kvlcc2", "length_m": "320.0", "source": "..."}``. Stored as a read-only
+        mapping. Keys as described in the module docstring; values single-line,
+        without NUL and without leading or trailing whitespace, so that
+        :func:`format_log` can write them back unchanged.
+    path : str or None
+        File the log was read from, used in error messages; None if built in memory.
+
+    Raises
+    ------
+    ValueError
+        If an array is not one-dimensional, not real-valued, not finite, the arrays
+        differ in length, time does not increase strictly, or the metadata cannot be
+        written back (internal invariant: a log read from a file always satisfies it).
+
+    """
+
+    time_s: _FloatArray
+    x_m: _FloatArray
+    y_m: _FloatArray
+    heading_rad: _FloatArray
+    rudder_rad: _FloatArray
+    n_rps: _FloatArray
+    metadata: Mapping[str, str] = field(default_factory=_empty_metadata)
+    path: str | None = None
+
+    def __post_init__(self) -> None:
+        names = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
+        for name in names:
+            object.__setattr__(self, name, _frozen_float_array(name, getattr(self, name)))
+        lengths = {name: len(getattr(self, name)) for name in names}
+        if len(set(lengths.values())) > 1:
+            raise ValueError(f"ManeuverLog arrays differ in length: {lengths}")
+        steps = np.diff(self.time_s)
+        if np.any(steps <= 0.0):
+            index = int(np.flatnonzero(steps <= 0.0)[0]) + 1
+            raise ValueError(
+                f"ManeuverLog time_s must increase strictly; sample {index} "
+                f"({float(self.time_s[index])!r} s) follows {float(self.time_s[index - 1])!r} s"
+            )
+        object.__setattr__(self, "metadata", _frozen_metadata(self.metadata))
+        if self.path is not None:
+            object.__setattr__(self, "path", os.fspath(self.path))
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples (rows) in the log."""
+        return len(self.time_s)
+
+    @property
+    def length_m(self) -> float | None:
+        """Ship length from the ``length_m`` metadata [m], or None when absent.
+
+        Raises
+        ------
+        LogFormatError
+            If ``length_m`` is present but not a positive finite number.
+
+        """
+        text = self.metadata.get("length_m")
+        if text is None:
+            return None
+        return _parse_length_m(text, path=self.path, line=None)
+
+
+def read_log(path: str | os.PathLike[str]) -> ManeuverLog:
+    """Read and validate a trial-log CSV file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The trial log, in the format described in this module's docstring.
+
+    Returns
+    -------
+    ManeuverLog
+        Times [s], positions [m], unwrapped heading [rad], rudder angle [rad],
+        propeller speed [rev/s], the ``# key: value`` metadata, and ``path``.
+
+    Raises
+    ------
+    LogFormatError
+        If the file cannot be read, is not UTF-8 text, or breaks any rule of the
+        format; the message names the file, the line and, where one applies, the
+        column.
+
+    """
+    name = os.fspath(path)
+    try:
+        with open(name, "rb") as file:
+            raw = file.read()
+    except FileNotFoundError:
+        raise LogFormatError(
+            "no such file; expected an existing trial log",
+            path=name,
+            expected="an existing file",
+        ) from None
+    except IsADirectoryError:
+        raise LogFormatError(
+            "is a directory; expected a trial-log file", path=name, expected="a file"
+        ) from None
+    except OSError as error:
+        reason = error.strerror or type(error).__name__
+        raise LogFormatError(
+            f"cannot read the file ({reason})", path=name, expected="a readable file"
+        ) from None
+    return parse_log(_decode(raw, name), path=name)
+
+
+def parse_log(text: str, path: str | os.PathLike[str] | None = None) -> ManeuverLog:
+    """Parse and validate the text of a trial log.
+
+    :func:`read_log` without the file access; the inverse of :func:`format_log`.
+
+    Parameters
+    ----------
+    text : str
+        The whole log (a leading byte-order mark, if any, already removed).
+    path : str or os.PathLike or None
+        Name used in error messages and stored in the result.
+
+    Returns
+    -------
+    ManeuverLog
+        As for :func:`read_log`.
+
+    Raises
+    ------
+    LogFormatError
+        If the text breaks any rule of the format.
+
+    """
+    name = None if path is None else os.fspath(path)
+    parser = _Parser(name)
+    for number, line in enumerate(text.split("\n"), start=1):
+        parser.feed(number, line.removesuffix("\r"))
+    return parser.finish()
+
+
+def format_log(log: ManeuverLog) -> str:
+    """Return the CSV text of a trial log: metadata lines, header, one row per sample.
+
+    Columns are written in the order of :data:`LOG_COLUMNS`, with degrees and rpm,
+    and every value with Python's shortest round-trip ``repr``, so that
+    ``parse_log(format_log(log))`` gives back time and positions exactly and
+    heading, rudder and propeller speed to within a few units in the last place
+    (the degree and rpm conversions round). Lines end with LF.
+
+    Parameters
+    ----------
+    log : ManeuverLog
+        The log to write. Its heading is written as is (continuous); a heading
+        change of π or more between consecutive samples does not survive reading,
+        which unwraps the heading.
+
+    Returns
+    -------
+    str
+        The file content, ending with a newline.
+
+    Raises
+    ------
+    ValueError
+        If a value overflows when converted to degrees or rpm (|value| ~ 1e306).
+
+    """
+    with np.errstate(over="ignore"):  # reported below as a ValueError
+        columns = {
+            "time_s": log.time_s,
+            "x_m": log.x_m,
+            "y_m": log.y_m,
+            "heading_deg": np.rad2deg(log.heading_rad),
+            "rudder_deg": np.rad2deg(log.rudder_rad),
+            "rpm": log.n_rps * _SECONDS_PER_MINUTE,
+        }
+    for column, values in columns.items():
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"column {column!r} overflows when converted to file units")
+    lines = [f"# {key}: {value}".rstrip() for key, value in log.metadata.items()]
+    lines.append(_SEPARATOR.join(LOG_COLUMNS))
+    rows = zip(*(columns[column].tolist() for column in LOG_COLUMNS), strict=True)
+    lines.extend(_SEPARATOR.join(map(repr, row)) for row in rows)
+    return "\n".join(lines) + "\n"
+
+
+def write_log(path: str | os.PathLike[str], log: ManeuverLog) -> None:
+    """Write a trial log atomically (:func:`format_log` + :func:`write_atomic`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file; parent directories are created, a previous file is replaced
+        only once the new one is completely on disk.
+    log : ManeuverLog
+        The log to write.
+
+    Raises
+    ------
+    ValueError
+        As for :func:`format_log`; nothing is written.
+    OSError
+        If the file cannot be written; a previous file is left untouched.
+
+    """
+    write_atomic(path, format_log(log))
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _frozen_float_array(name: str, values: object) -> _FloatArray:
+    """Validate one ManeuverLog array and return it as a read-only float64 copy."""
+    array = np.asarray(values)
+    if array.ndim != 1:
+        raise ValueError(f"ManeuverLog.{name} must be one-dimensional, got shape {array.shape}")
+    if array.dtype.kind not in "iuf":
+        raise ValueError(f"ManeuverLog.{name} must be real-valued, got dtype {array.dtype}")
+    result = np.array(array, dtype=np.float64, copy=True)
+    if not np.all(np.isfinite(result)):
+        index = int(np.flatnonzero(~np.isfinite(result))[0])
+        raise ValueError(f"ManeuverLog.{name}[{index}] is not finite: {result[index]!r}")
+    result.setflags(write=False)
+    return result
+
+
+def _frozen_metadata(metadata: Mapping[str, str]) -> Mapping[str, str]:
+    """Check that metadata can be written and read back unchanged; return it read-only."""
+    copy = dict(metadata)
+    for key, value in copy.items():
+        if not isinstance(key, str) or not _METADATA_KEY.fullmatch(key):
+            raise ValueError(
+                f"ManeuverLog metadata key {key!r} must be a letter or '_' followed by "
+                "letters, digits, '_', '.' or '-'"
+            )
+        if not isinstance(value, str):
+            raise ValueError(f"ManeuverLog metadata {key!r} must be a str, got {value!r}")
+        if any(c in value for c in "\n\r\0") or value != value.strip():
+            raise ValueError(
+                f"ManeuverLog metadata {key!r} must be one line without NUL and without "
+                f"leading or trailing whitespace, got {value!r}"
+            )
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            raise ValueError(
+                f"ManeuverLog metadata {key!r} cannot be encoded as UTF-8: {value!r}"
+            ) from None
+    return MappingProxyType(copy)
+
+
+def _show(text: str, limit: int = _MAX_SHOWN_CHARS) -> str:
+    """Quote a file excerpt for an error message: repr, shortened if long."""
+    if len(text) > limit:
+        return repr(text[: limit - 3]) + "..."
+    return repr(text)
+
+
+def _decode(raw: bytes, path: str) -> str:
+    """Decode a file's bytes as UTF-8 (optional BOM), or explain why it is not text."""
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise LogFormatError(
+            "not a text file in UTF-8: it starts with a UTF-16 byte-order mark; "
+            "expected UTF-8 text (save it as UTF-8)",
+            path=path,
+            line=1,
+            expected="UTF-8 text",
+        )
+    nul = raw.find(b"\0")
+    if nul >= 0:
+        raise LogFormatError(
+            f"not a text file: NUL byte at offset {nul}; expected UTF-8 text",
+            path=path,
+            line=raw.count(b"\n", 0, nul) + 1,
+            expected="UTF-8 text",
+        )
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise LogFormatError(
+            f"not a text file: invalid UTF-8 byte 0x{raw[error.start]:02x} at offset "
+            f"{error.start}; expected UTF-8 text",
+            path=path,
+            line=raw.count(b"\n", 0, error.start) + 1,
+            expected="UTF-8 text",
+        ) from None
+
+
+def _split_fields(line: str) -> list[str] | None:
+    """Split one CSV line on ','; quoted fields (rare) go through the csv module.
+
+    Returns None if the quoting is malformed.
+    """
+    if '"' not in line:
+        return line.split(_SEPARATOR)
+    try:
+        return next(csv.reader([line], strict=True))
+    except csv.Error:
+        return None
+
+
+def _parse_length_m(text: str, path: str | None, line: int | None) -> float:
+    """Return the ``length_m`` metadata value [m], or raise LogFormatError."""
+    value = float(text) if _NUMBER.fullmatch(text) else math.nan
+    if not (math.isfinite(value) and value > 0.0):
+        raise LogFormatError(
+            f"metadata 'length_m': expected a positive finite number of metres, got {_show(text)}",
+            path=path,
+            line=line,
+            expected="a positive finite number",
+        )
+    return value
+
+
+class _Parser:
+    """Line-by-line state machine behind :func:`parse_log` (one instance per text)."""
+
+    def __init__(self, path: str | None) -> None:
+        self.path = path
+        self.metadata: dict[str, str] = {}
+        self.metadata_lines: dict[str, int] = {}
+        self.header_line: int | None = None
+        self.n_fields = 0
+        self.column_index: list[int] = []
+        self.first_blank_line: int | None = None
+        self.seen_text = False
+        self.row_lines: list[int] = []
+        self.values: list[list[float]] = [[] for _ in LOG_COLUMNS]
+
+    def error(
+        self, message: str, line: int | None, expected: str, column: str | None = None
+    ) -> LogFormatError:
+        """Build a LogFormatError for this file (the caller raises it)."""
+        return LogFormatError(message, path=self.path, line=line, column=column, expected=expected)
+
+    def feed(self, number: int, line: str) -> None:
+        """Consume line ``number`` (1-based), its line ending already removed."""
+        if "\r" in line:
+            raise self.error(
+                "expected LF or CRLF line endings, got a bare carriage return (CR)",
+                number,
+                expected="LF or CRLF line endings",
+            )
+        stripped = line.strip()
+        if self.header_line is None:
+            if not stripped:
+                return
+            self.seen_text = True
+            if stripped.startswith("#"):
+                self.comment(number, stripped)
+            else:
+                self.header(number, line)
+            return
+        if not stripped:
+            if self.first_blank_line is None:
+                self.first_blank_line = number
+            return
+        if stripped.startswith("#"):
+            raise self.error(
+                "expected a data row, got a comment line "
+                f"(comments are allowed only before the header on line {self.header_line})",
+                number,
+                expected="a data row",
+            )
+        if self.first_blank_line is not None:
+            raise self.error(
+                "expected a data row, got a blank line (blank lines are allowed only at the "
+                "end of the file)",
+                self.first_blank_line,
+                expected="a data row",
+            )
+        self.row(number, line)
+
+    def comment(self, number: int, stripped: str) -> None:
+        """Record a ``# key: value`` line; other comments are ignored."""
+        match = _METADATA_LINE.fullmatch(stripped)
+        if match is None:
+            return
+        key, value = match.group(1), match.group(2).strip()
+        if key in self.metadata:
+            raise self.error(
+                f"expected each metadata key once, got {key!r} again "
+                f"(first on line {self.metadata_lines[key]})",
+                number,
+                expected="unique metadata keys",
+            )
+        if key == "length_m":
+            _parse_length_m(value, path=self.path, line=number)
+        self.metadata[key] = value
+        self.metadata_lines[key] = number
+
+    def header(self, number: int, line: str) -> None:
+        """Check the header line and map the required columns to field positions."""
+        fields = _split_fields(line)
+        expected_header = _SEPARATOR.join(LOG_COLUMNS)
+        if fields is None:
+            raise self.error(
+                f"expected a header line like {expected_header!r}, got malformed quoting "
+                f"in {_show(line)}",
+                number,
+                expected="a header line",
+            )
+        names = [name.strip() for name in fields]
+        if len(names) == 1:
+            self.check_separator(number, line, expected_header)
+        if all(_NUMBER.fullmatch(name) for name in names):
+            raise self.error(
+                f"expected a header line like {expected_header!r}, got a data row {_show(line)}",
+                number,
+                expected="a header line",
+            )
+        missing = [column for column in LOG_COLUMNS if column not in names]
+        if missing:
+            plural = "s" if len(missing) > 1 else ""
+            shown = _show(line.strip(), _MAX_SHOWN_HEADER_CHARS)
+            raise self.error(
+                f"missing column{plural} {', '.join(map(repr, missing))}; expected a header "
+                f"with {', '.join(LOG_COLUMNS)} (in any order), got {shown}",
+                number,
+                expected=f"columns {', '.join(LOG_COLUMNS)}",
+            )
+        for column in LOG_COLUMNS:
+            positions = [i + 1 for i, name in enumerate(names) if name == column]
+            if len(positions) > 1:
+                raise self.error(
+                    f"expected each column once, got {column!r} in fields "
+                    f"{', '.join(map(str, positions))}",
+                    number,
+                    column=column,
+                    expected="unique column names",
+                )
+        self.header_line = number
+        self.n_fields = len(names)
+        self.column_index = [names.index(column) for column in LOG_COLUMNS]
+
+    def check_separator(self, number: int, line: str, expected_header: str) -> None:
+        """Reject a header that uses another separator than ','."""
+        candidates = [*_OTHER_SEPARATORS, (None, "spaces")]
+        for separator, described in candidates:
+            parts = line.split(separator)
+            if len(parts) > 1 and set(LOG_COLUMNS) & {part.strip() for part in parts}:
+                shown = _show(line.strip(), _MAX_SHOWN_HEADER_CHARS)
+                raise self.error(
+                    f"expected ',' as the field separator, got {described} "
+                    f"(header {shown}; expected {expected_header!r})",
+                    number,
+                    expected="',' as the field separator",
+                )
+
+    def row(self, number: int, line: str) -> None:
+        """Parse one data row into the column value lists."""
+        fields = _split_fields(line)
+        if fields is None:
+            raise self.error(
+                f"expected {self.n_fields} fields separated by ',', got malformed quoting "
+                f"in {_show(line)}",
+                number,
+                expected=f"{self.n_fields} fields",
+            )
+        if len(fields) != self.n_fields:
+            hint = ""
+            if len(fields) == 1 and any(sep in line for sep, _ in _OTHER_SEPARATORS):
+                hint = " (only ',' is accepted as the field separator)"
+            raise self.error(
+                f"expected {self.n_fields} fields separated by ',' as in the header on line "
+                f"{self.header_line}, got {len(fields)}{hint}",
+                number,
+                expected=f"{self.n_fields} fields",
+            )
+        for column, index, values in zip(LOG_COLUMNS, self.column_index, self.values, strict=True):
+            cell = fields[index].strip()
+            value = float(cell) if _NUMBER.fullmatch(cell) else math.nan
+            if not math.isfinite(value):
+                if not cell:
+                    got = "an empty field"
+                elif math.isinf(value):
+                    got = f"{_show(cell)} (beyond the floating-point range)"
+                else:
+                    got = _show(cell)
+                raise self.error(
+                    f"expected a finite number, got {got}",
+                    number,
+                    column=column,
+                    expected="a finite number",
+                )
+            values.append(value)
+        self.row_lines.append(number)
+
+    def finish(self) -> ManeuverLog:
+        """Check the whole-file rules and build the log."""
+        expected_header = _SEPARATOR.join(LOG_COLUMNS)
+        if self.header_line is None:
+            what = "no header line" if self.seen_text else "empty file"
+            raise self.error(
+                f"{what}; expected a header line like {expected_header!r} and at least "
+                f"{MIN_SAMPLES} data rows",
+                None,
+                expected="a header line",
+            )
+        n_rows = len(self.row_lines)
+        if n_rows < MIN_SAMPLES:
+            raise self.error(
+                f"expected at least {MIN_SAMPLES} data rows after the header on line "
+                f"{self.header_line}, got {n_rows}",
+                None,
+                expected=f"at least {MIN_SAMPLES} data rows",
+            )
+        time_s, x_m, y_m, heading_deg, rudder_deg, rpm = (
+            np.array(values, dtype=np.float64) for values in self.values
+        )
+        steps = np.diff(time_s)
+        if np.any(steps <= 0.0):
+            k = int(np.flatnonzero(steps <= 0.0)[0]) + 1
+            previous = self.row_lines[k - 1]
+            if steps[k - 1] == 0.0:
+                got = f"the same time {float(time_s[k])!r} as line {previous}"
+            else:
+                got = f"{float(time_s[k])!r} after {float(time_s[k - 1])!r} on line {previous}"
+            raise self.error(
+                f"expected strictly increasing time, got {got}",
+                self.row_lines[k],
+                column="time_s",
+                expected="strictly increasing time",
+            )
+        return ManeuverLog(
+            time_s=time_s,
+            x_m=x_m,
+            y_m=y_m,
+            heading_rad=np.unwrap(np.deg2rad(heading_deg)),
+            rudder_rad=np.deg2rad(rudder_deg),
+            n_rps=rpm / _SECONDS_PER_MINUTE,
+            metadata=self.metadata,
+            path=self.path,
+        )

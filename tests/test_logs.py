@@ -1,0 +1,806 @@
+"""Trial-log reading, validation and writing (identifier.logs, .errors, .atomic)."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import re
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import fmu_model.atomic
+from fmu_model.atomic import write_atomic
+from identifier.errors import IdentificationError, LogFormatError
+from identifier.logs import (
+    LOG_COLUMNS,
+    MIN_SAMPLES,
+    ManeuverLog,
+    format_log,
+    parse_log,
+    read_log,
+    write_log,
+)
+
+HEADER = ",".join(LOG_COLUMNS)
+METADATA = ["# vessel: kvlcc2", "# length_m: 320.0", "# source: test fixture"]
+HEADER_LINE = len(METADATA) + 1  # 1-based line number of the header in _valid_lines()
+N_ROWS = 12
+
+
+def _row_line(row: int) -> int:
+    """1-based file line of data row ``row`` (0-based) in _valid_lines()."""
+    return HEADER_LINE + 1 + row
+
+
+def _valid_lines(n_rows: int = N_ROWS) -> list[str]:
+    """A valid log: a port-to-starboard heading wrap (355 -> 6 deg), 0.5 s sampling."""
+    rows = [f"{0.5 * i},{4.0 * i},{0.25 * i},{(355 + i) % 360},{5.0},{60.0}" for i in range(n_rows)]
+    return [*METADATA, HEADER, *rows]
+
+
+def _text(lines: list[str]) -> str:
+    return "\n".join(lines) + "\n"
+
+
+def _with_cell(row: int, column: str, value: str) -> str:
+    lines = _valid_lines()
+    fields = lines[_row_line(row) - 1].split(",")
+    fields[LOG_COLUMNS.index(column)] = value
+    lines[_row_line(row) - 1] = ",".join(fields)
+    return _text(lines)
+
+
+def _with_line(line: int, new: str | None) -> str:
+    """Replace (or with None delete) 1-based ``line`` of the valid log."""
+    lines = _valid_lines()
+    if new is None:
+        del lines[line - 1]
+    else:
+        lines[line - 1] = new
+    return _text(lines)
+
+
+def _inserted(line: int, new: str) -> str:
+    """Insert ``new`` so that it becomes 1-based ``line``."""
+    lines = _valid_lines()
+    lines.insert(line - 1, new)
+    return _text(lines)
+
+
+def _without_columns(*columns: str) -> str:
+    keep = [i for i, name in enumerate(LOG_COLUMNS) if name not in columns]
+    lines = _valid_lines()
+    for index in range(HEADER_LINE - 1, len(lines)):
+        fields = lines[index].split(",")
+        lines[index] = ",".join(fields[i] for i in keep)
+    return _text(lines)
+
+
+def _write(tmp_path: Path, content: str | bytes, name: str = "trial.csv") -> Path:
+    path = tmp_path / name
+    if isinstance(content, str):
+        path.write_bytes(content.encode("utf-8"))
+    else:
+        path.write_bytes(content)
+    return path
+
+
+def _example_log(n: int = 15, **metadata: str) -> ManeuverLog:
+    t = np.linspace(0.0, 7.0, n) ** 1.3  # irregular sampling
+    return ManeuverLog(
+        time_s=t,
+        x_m=7.7 * t + 0.1,
+        y_m=0.03 * t**2,
+        heading_rad=0.9 * t - 1.0,  # passes through 0 and 2π: continuous, never wrapped
+        rudder_rad=np.deg2rad(35.0) * np.sin(t),
+        n_rps=np.full(n, 1.6),
+        metadata=metadata or {"vessel": "kvlcc2", "length_m": "320.0", "source": "unit test"},
+    )
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def test_read_valid_log_converts_units_and_unwraps_heading(tmp_path: Path) -> None:
+    log = read_log(_write(tmp_path, _text(_valid_lines())))
+
+    assert log.n_samples == N_ROWS
+    assert log.path == str(tmp_path / "trial.csv")
+    assert dict(log.metadata) == {"vessel": "kvlcc2", "length_m": "320.0", "source": "test fixture"}
+    assert log.length_m == 320.0
+    np.testing.assert_array_equal(log.time_s, 0.5 * np.arange(N_ROWS))
+    np.testing.assert_array_equal(log.x_m, 4.0 * np.arange(N_ROWS))
+    np.testing.assert_array_equal(log.y_m, 0.25 * np.arange(N_ROWS))
+    # 355, 356, ..., 359, 0, 1, ... deg in the file -> 355 ... 366 deg, continuous
+    np.testing.assert_allclose(log.heading_rad, np.deg2rad(355.0 + np.arange(N_ROWS)), rtol=1e-14)
+    np.testing.assert_allclose(log.rudder_rad, np.deg2rad(5.0), rtol=1e-15)
+    np.testing.assert_allclose(log.n_rps, 1.0, rtol=1e-15)  # 60 rpm = 1 rev/s
+    for array in (log.time_s, log.x_m, log.heading_rad, log.rudder_rad, log.n_rps):
+        assert array.dtype == np.float64
+
+
+def test_heading_wrapping_to_port_and_continuous_headings() -> None:
+    port = [2.0, 1.0, 0.0, 359.0, 358.0, 357.0, 356.0, 355.0, 354.0, 353.0]
+    many_turns = [700.0 + 20.0 * i for i in range(10)]  # continuous, beyond 360
+    for headings, expected in ((port, 2.0 - np.arange(10)), (many_turns, many_turns)):
+        lines = [HEADER] + [f"{i},0,0,{h},0,0" for i, h in enumerate(headings)]
+        log = parse_log(_text(lines))
+        np.testing.assert_allclose(log.heading_rad, np.deg2rad(expected), rtol=1e-14, atol=1e-15)
+
+
+def test_read_accepts_bom_crlf_and_blank_trailing_lines(tmp_path: Path) -> None:
+    plain = read_log(_write(tmp_path, _text(_valid_lines()), "plain.csv"))
+    windows = "\ufeff" + "\r\n".join(_valid_lines()) + "\r\n\r\n  \r\n\n"
+    log = read_log(_write(tmp_path, windows, "windows.csv"))
+
+    assert dict(log.metadata) == dict(plain.metadata)
+    for name in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps"):
+        np.testing.assert_array_equal(getattr(log, name), getattr(plain, name))
+
+
+def test_read_accepts_columns_in_any_order_extra_columns_and_spaces() -> None:
+    plain = parse_log(_text(_valid_lines()))
+    order = ["rpm", "comment", "heading_deg", "time_s", "rudder_deg", "y_m", "x_m", "speed_kn"]
+    lines = [" " + " , ".join(order)]
+    for row in _valid_lines()[HEADER_LINE:]:
+        values = dict(zip(LOG_COLUMNS, row.split(","), strict=True))
+        values.update(comment="nan or text: not checked", speed_kn="")
+        lines.append(", ".join(values[name] for name in order))
+
+    log = parse_log(_text(lines))
+
+    for name in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps"):
+        np.testing.assert_array_equal(getattr(log, name), getattr(plain, name))
+    assert dict(log.metadata) == {}
+    assert log.length_m is None
+    assert log.path is None
+
+
+def test_metadata_lines_and_free_comments() -> None:
+    lines = [
+        "",
+        "# Trial 7, calm water",  # free comment: no 'key:' form
+        "#vessel:kvlcc2",
+        "#   operator :  A. N. Other  ",
+        "# 12:30 start",  # a key cannot start with a digit: free comment
+        "# note: see http://example.org/a:b",
+        "# source:",
+        "",
+        *_valid_lines()[HEADER_LINE - 1 :],
+    ]
+    log = parse_log(_text(lines))
+    assert dict(log.metadata) == {
+        "vessel": "kvlcc2",
+        "operator": "A. N. Other",
+        "note": "see http://example.org/a:b",
+        "source": "",
+    }
+
+
+def test_quoted_header_and_cells_are_read() -> None:
+    lines = ['"time_s","x_m",y_m,heading_deg,rudder_deg,"rpm"']
+    lines += [f'{i},"{i}.5",0,0,0,60' for i in range(MIN_SAMPLES)]
+    log = parse_log(_text(lines))
+    np.testing.assert_array_equal(log.x_m, np.arange(MIN_SAMPLES) + 0.5)
+
+
+def test_exactly_min_samples_rows_is_enough() -> None:
+    assert parse_log(_text(_valid_lines(MIN_SAMPLES))).n_samples == MIN_SAMPLES
+
+
+# --------------------------------------------------------------------------- bad logs
+
+BAD_LOGS: list[tuple[str, Callable[[], str], int | None, str | None, str]] = [
+    (
+        "text in a number column",
+        lambda: _with_cell(3, "rudder_deg", "abc"),
+        _row_line(3),
+        "rudder_deg",
+        r"column 'rudder_deg': expected a finite number, got 'abc'$",
+    ),
+    (
+        "nan",
+        lambda: _with_cell(2, "x_m", "nan"),
+        _row_line(2),
+        "x_m",
+        r"column 'x_m': expected a finite number, got 'nan'$",
+    ),
+    (
+        "NaN upper case",
+        lambda: _with_cell(0, "y_m", "NaN"),
+        _row_line(0),
+        "y_m",
+        r"column 'y_m': expected a finite number, got 'NaN'$",
+    ),
+    (
+        "inf",
+        lambda: _with_cell(5, "heading_deg", "-inf"),
+        _row_line(5),
+        "heading_deg",
+        r"column 'heading_deg': expected a finite number, got '-inf'$",
+    ),
+    (
+        "overflow",
+        lambda: _with_cell(4, "rpm", "1e999"),
+        _row_line(4),
+        "rpm",
+        r"column 'rpm': expected a finite number, got '1e999' \(beyond the floating-point range\)$",
+    ),
+    (
+        "empty cell",
+        lambda: _with_cell(6, "time_s", " "),
+        _row_line(6),
+        "time_s",
+        r"column 'time_s': expected a finite number, got an empty field$",
+    ),
+    (
+        "python-only number syntax",
+        lambda: _with_cell(1, "x_m", "1_000"),
+        _row_line(1),
+        "x_m",
+        r"column 'x_m': expected a finite number, got '1_000'$",
+    ),
+    (
+        "decimal comma in a quoted cell",
+        lambda: _with_cell(1, "x_m", '"4,5"'),
+        _row_line(1),
+        "x_m",
+        r"column 'x_m': expected a finite number, got '4,5'$",
+    ),
+    (
+        "duplicate time",
+        lambda: _with_cell(5, "time_s", "2.0"),  # row 4 is at 2.0 s
+        _row_line(5),
+        "time_s",
+        rf"column 'time_s': expected strictly increasing time, got the same time 2\.0 as "
+        rf"line {_row_line(4)}$",
+    ),
+    (
+        "decreasing time",
+        lambda: _with_cell(7, "time_s", "1.25"),  # row 6 is at 3.0 s
+        _row_line(7),
+        "time_s",
+        rf"column 'time_s': expected strictly increasing time, got 1\.25 after 3\.0 on "
+        rf"line {_row_line(6)}$",
+    ),
+    (
+        "too many fields",
+        lambda: _with_line(_row_line(2), "1.0,8.0,0.5,357,5.0,60.0,9"),
+        _row_line(2),
+        None,
+        rf"expected 6 fields separated by ',' as in the header on line {HEADER_LINE}, got 7$",
+    ),
+    (
+        "too few fields",
+        lambda: _with_line(_row_line(9), "4.5,36.0"),
+        _row_line(9),
+        None,
+        rf"expected 6 fields separated by ',' as in the header on line {HEADER_LINE}, got 2$",
+    ),
+    (
+        "semicolon row",
+        lambda: _with_line(_row_line(1), "0.5;4.0;0.25;356;5.0;60.0"),
+        _row_line(1),
+        None,
+        rf"expected 6 fields separated by ',' as in the header on line {HEADER_LINE}, got 1 "
+        r"\(only ',' is accepted as the field separator\)$",
+    ),
+    (
+        "unterminated quote",
+        lambda: _with_line(_row_line(1), '0.5,"4.0,0.25,356,5.0,60.0'),
+        _row_line(1),
+        None,
+        r"expected 6 fields separated by ',', got malformed quoting",
+    ),
+    (
+        "missing column",
+        lambda: _without_columns("rudder_deg"),
+        HEADER_LINE,
+        None,
+        r"missing column 'rudder_deg'; expected a header with time_s, x_m, y_m, heading_deg, "
+        r"rudder_deg, rpm \(in any order\), got 'time_s,x_m,y_m,heading_deg,rpm'$",
+    ),
+    (
+        "missing columns",
+        lambda: _without_columns("time_s", "rpm"),
+        HEADER_LINE,
+        None,
+        r"missing columns 'time_s', 'rpm'; expected a header with",
+    ),
+    (
+        "column with another unit",
+        lambda: _with_line(HEADER_LINE, HEADER.replace("heading_deg", "heading_rad")),
+        HEADER_LINE,
+        None,
+        r"missing column 'heading_deg'; .* got 'time_s,x_m,y_m,heading_rad,rudder_deg,rpm'$",
+    ),
+    (
+        "semicolon separator",
+        lambda: _text(METADATA + [line.replace(",", ";") for line in _valid_lines()[3:]]),
+        HEADER_LINE,
+        None,
+        r"expected ',' as the field separator, got ';' \(header "
+        r"'time_s;x_m;y_m;heading_deg;rudder_deg;rpm'; expected "
+        r"'time_s,x_m,y_m,heading_deg,rudder_deg,rpm'\)$",
+    ),
+    (
+        "tab separator",
+        lambda: _with_line(HEADER_LINE, HEADER.replace(",", "\t")),
+        HEADER_LINE,
+        None,
+        r"expected ',' as the field separator, got a tab",
+    ),
+    (
+        "duplicate column",
+        lambda: _with_line(HEADER_LINE, HEADER + ",x_m"),
+        HEADER_LINE,
+        "x_m",
+        r"column 'x_m': expected each column once, got 'x_m' in fields 2, 7$",
+    ),
+    (
+        "no header",
+        lambda: _with_line(HEADER_LINE, None),
+        HEADER_LINE,
+        None,
+        r"expected a header line like 'time_s,x_m,y_m,heading_deg,rudder_deg,rpm', got a data "
+        r"row '0\.0,0\.0,0\.0,355,5\.0,60\.0'$",
+    ),
+    (
+        "length_m not a number",
+        lambda: _with_line(2, "# length_m: abc"),
+        2,
+        None,
+        r"metadata 'length_m': expected a positive finite number of metres, got 'abc'$",
+    ),
+    (
+        "length_m with a unit",
+        lambda: _with_line(2, "# length_m: 320 m"),
+        2,
+        None,
+        r"metadata 'length_m': expected a positive finite number of metres, got '320 m'$",
+    ),
+    (
+        "length_m zero",
+        lambda: _with_line(2, "# length_m: 0"),
+        2,
+        None,
+        r"metadata 'length_m': expected a positive finite number of metres, got '0'$",
+    ),
+    (
+        "length_m empty",
+        lambda: _with_line(2, "# length_m:"),
+        2,
+        None,
+        r"metadata 'length_m': expected a positive finite number of metres, got ''$",
+    ),
+    (
+        "duplicate metadata key",
+        lambda: _with_line(3, "# vessel: other"),
+        3,
+        None,
+        r"expected each metadata key once, got 'vessel' again \(first on line 1\)$",
+    ),
+    (
+        "comment after the header",
+        lambda: _inserted(_row_line(4), "# a late comment"),
+        _row_line(4),
+        None,
+        rf"expected a data row, got a comment line \(comments are allowed only before the "
+        rf"header on line {HEADER_LINE}\)$",
+    ),
+    (
+        "blank line inside the data",
+        lambda: _inserted(_row_line(4), ""),
+        _row_line(4),
+        None,
+        r"expected a data row, got a blank line \(blank lines are allowed only at the end of "
+        r"the file\)$",
+    ),
+    (
+        "old Mac line endings",
+        lambda: "\r".join(_valid_lines()),
+        1,
+        None,
+        r"expected LF or CRLF line endings, got a bare carriage return \(CR\)$",
+    ),
+    (
+        "fewer than MIN_SAMPLES rows",
+        lambda: _text(_valid_lines(MIN_SAMPLES - 1)),
+        None,
+        None,
+        rf"expected at least {MIN_SAMPLES} data rows after the header on line {HEADER_LINE}, "
+        rf"got {MIN_SAMPLES - 1}$",
+    ),
+    (
+        "header only",
+        lambda: _text(_valid_lines(0)),
+        None,
+        None,
+        rf"expected at least {MIN_SAMPLES} data rows after the header on line {HEADER_LINE}, "
+        r"got 0$",
+    ),
+    (
+        "empty file",
+        lambda: "",
+        None,
+        None,
+        r"empty file; expected a header line like 'time_s,x_m,y_m,heading_deg,rudder_deg,rpm' "
+        rf"and at least {MIN_SAMPLES} data rows$",
+    ),
+    (
+        "blank lines only",
+        lambda: "\n \r\n\t\n",
+        None,
+        None,
+        r"empty file; expected a header line",
+    ),
+    (
+        "comments only",
+        lambda: _text(METADATA),
+        None,
+        None,
+        r"no header line; expected a header line like",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("make_text", "line", "column", "message"),
+    [pytest.param(*case[1:], id=case[0]) for case in BAD_LOGS],
+)
+def test_bad_log_is_rejected_with_file_line_and_column(
+    tmp_path: Path,
+    make_text: Callable[[], str],
+    line: int | None,
+    column: str | None,
+    message: str,
+) -> None:
+    path = _write(tmp_path, make_text())
+    location = re.escape(str(path)) + ("" if line is None else f":{line}")
+
+    with pytest.raises(LogFormatError, match=f"^{location}: {message}") as info:
+        read_log(path)
+
+    error = info.value
+    assert (error.path, error.line, error.column) == (str(path), line, column)
+    assert error.expected
+    assert "\n" not in str(error)
+
+
+@pytest.mark.parametrize(
+    ("content", "line", "message"),
+    [
+        pytest.param(
+            _text(_valid_lines()).replace("0.5,4.0", "0.5,\x004.0").encode(),
+            _row_line(1),
+            r"not a text file: NUL byte at offset \d+; expected UTF-8 text$",
+            id="NUL byte",
+        ),
+        pytest.param(
+            _text(_valid_lines()).replace("test fixture", "Trøndelag").encode("latin-1"),
+            3,
+            r"not a text file: invalid UTF-8 byte 0xf8 at offset \d+; expected UTF-8 text$",
+            id="latin-1",
+        ),
+        pytest.param(
+            b"\x89PNG\r\n\x1a\n" + bytes(range(128, 256)),
+            1,
+            r"not a text file: invalid UTF-8 byte 0x89 at offset 0; expected UTF-8 text$",
+            id="binary data",
+        ),
+        pytest.param(
+            _text(_valid_lines()).encode("utf-16"),
+            1,
+            r"not a text file in UTF-8: it starts with a UTF-16 byte-order mark",
+            id="UTF-16",
+        ),
+    ],
+)
+def test_binary_file_is_not_a_text_file(
+    tmp_path: Path, content: bytes, line: int, message: str
+) -> None:
+    path = _write(tmp_path, content)
+    with pytest.raises(LogFormatError, match=f"^{re.escape(str(path))}:{line}: {message}") as info:
+        read_log(path)
+    assert info.value.expected == "UTF-8 text"
+
+
+def test_missing_file_and_directory(tmp_path: Path) -> None:
+    missing = tmp_path / "no_such_log.csv"
+    with pytest.raises(LogFormatError, match=r"no_such_log\.csv: no such file; expected") as info:
+        read_log(missing)
+    assert info.value.line is None
+    assert info.value.path == str(missing)
+
+    with pytest.raises(LogFormatError, match=r": is a directory; expected a trial-log file$"):
+        read_log(tmp_path)
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def test_write_then_read_round_trips(tmp_path: Path) -> None:
+    log = _example_log()
+    path = tmp_path / "out" / "trial.csv"
+
+    write_log(path, log)
+    back = read_log(path)
+
+    np.testing.assert_array_equal(back.time_s, log.time_s)
+    np.testing.assert_array_equal(back.x_m, log.x_m)
+    np.testing.assert_array_equal(back.y_m, log.y_m)
+    for name in ("heading_rad", "rudder_rad", "n_rps"):
+        np.testing.assert_allclose(getattr(back, name), getattr(log, name), rtol=1e-12, atol=0)
+    assert dict(back.metadata) == dict(log.metadata)
+    assert list(back.metadata) == list(log.metadata)  # order kept
+    assert back.path == str(path)
+    assert os.listdir(path.parent) == ["trial.csv"]
+
+
+def test_format_log_layout() -> None:
+    log = ManeuverLog(
+        time_s=np.array([0.0, 0.1]),
+        x_m=np.array([1.0, 2.5]),
+        y_m=np.array([-0.0, 1e-5]),
+        heading_rad=np.array([0.0, np.pi]),
+        rudder_rad=np.array([0.0, -np.pi / 2]),
+        n_rps=np.array([1.5, 0.5]),
+        metadata={"vessel": "test ship", "length_m": "10.0", "source": ""},
+    )
+    assert format_log(log) == (
+        "# vessel: test ship\n"
+        "# length_m: 10.0\n"
+        "# source:\n"
+        "time_s,x_m,y_m,heading_deg,rudder_deg,rpm\n"
+        "0.0,1.0,-0.0,0.0,0.0,90.0\n"
+        "0.1,2.5,1e-05,180.0,-90.0,30.0\n"
+    )
+
+
+def test_format_log_rejects_values_that_overflow_in_file_units(tmp_path: Path) -> None:
+    log = _example_log()
+    huge = ManeuverLog(
+        log.time_s, log.x_m, log.y_m, log.heading_rad, log.rudder_rad, np.full(15, 1e308)
+    )
+    target = _write(tmp_path, "previous content")
+    with pytest.raises(ValueError, match=r"column 'rpm' overflows"):
+        write_log(target, huge)
+    assert target.read_text() == "previous content"
+
+
+# --------------------------------------------------------------------------- ManeuverLog
+
+
+def test_maneuver_log_stores_read_only_float_copies() -> None:
+    time_s = np.arange(12)  # integers are accepted and converted
+    x_m = np.zeros(12)
+    metadata = {"vessel": "a"}
+    log = ManeuverLog(time_s, x_m, x_m, x_m, x_m, x_m, metadata)  # type: ignore[arg-type]
+
+    x_m[0] = 99.0
+    metadata["vessel"] = "b"
+    assert log.x_m[0] == 0.0
+    assert log.metadata["vessel"] == "a"
+    assert log.time_s.dtype == np.float64
+    assert log.n_samples == 12
+    with pytest.raises(ValueError, match="read-only"):
+        log.heading_rad[0] = 1.0
+    with pytest.raises(TypeError):
+        log.metadata["vessel"] = "c"  # type: ignore[index]
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"x_m": np.zeros(11)}, r"arrays differ in length"),
+        ({"y_m": np.zeros((12, 1))}, r"y_m must be one-dimensional"),
+        ({"n_rps": np.array(["1"] * 12)}, r"n_rps must be real-valued"),
+        ({"n_rps": np.zeros(12, dtype=complex)}, r"n_rps must be real-valued"),
+        ({"rudder_rad": np.where(np.arange(12) == 3, np.nan, 0.0)}, r"rudder_rad\[3\] is not"),
+        ({"time_s": np.r_[0.0, 1.0, 1.0, np.arange(3.0, 12.0)]}, r"sample 2 \(1\.0 s\) follows"),
+        ({"metadata": {"bad key": "v"}}, r"metadata key 'bad key'"),
+        ({"metadata": {"source": "two\nlines"}}, r"metadata 'source' must be one line"),
+        ({"metadata": {"source": " padded"}}, r"metadata 'source' must be one line"),
+        ({"metadata": {"length_m": 320.0}}, r"metadata 'length_m' must be a str"),
+    ],
+)
+def test_maneuver_log_invariants(change: dict[str, object], message: str) -> None:
+    arrays: dict[str, object] = {
+        name: np.arange(12.0)
+        for name in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
+    }
+    with pytest.raises(ValueError, match=message):
+        ManeuverLog(**(arrays | change))  # type: ignore[arg-type]
+
+
+def test_length_m_property() -> None:
+    assert _example_log(vessel="x").length_m is None
+    assert _example_log(length_m="1.75e2").length_m == 175.0
+    bad = _example_log(length_m="-3")
+    with pytest.raises(LogFormatError, match=r"^metadata 'length_m': expected a positive") as info:
+        _ = bad.length_m
+    assert info.value.line is None
+
+
+# --------------------------------------------------------------------------- errors
+
+
+def test_error_messages_are_one_line_with_optional_parts() -> None:
+    full = LogFormatError("expected x, got y", path="a.csv", line=3, column="x_m", expected="x")
+    assert str(full) == "a.csv:3: column 'x_m': expected x, got y"
+    assert str(LogFormatError("m", path=Path("a.csv"), line=3)) == "a.csv:3: m"
+    assert str(LogFormatError("m", path="a.csv")) == "a.csv: m"
+    assert str(LogFormatError("m", line=3)) == "line 3: m"
+    assert str(LogFormatError("bad\nthing", path="x\ny.csv")) == "x\\ny.csv: bad\\nthing"
+    assert isinstance(full, ValueError)
+
+    copy = pickle.loads(pickle.dumps(full))
+    assert (copy.path, copy.line, copy.column, copy.expected) == ("a.csv", 3, "x_m", "x")
+    assert str(copy) == str(full)
+
+    ident = IdentificationError("covariance lost positive definiteness", log="z.csv", sample=12)
+    assert str(ident) == "z.csv: sample 12: covariance lost positive definiteness"
+    assert str(IdentificationError("diverged")) == "diverged"
+    assert isinstance(ident, RuntimeError)
+    assert str(pickle.loads(pickle.dumps(ident))) == str(ident)
+
+
+# --------------------------------------------------------------------------- write_atomic
+
+
+def test_write_atomic_writes_text_and_bytes_creating_parents(tmp_path: Path) -> None:
+    target = tmp_path / "a" / "b" / "params.json"
+    write_atomic(target, "héllo\nworld\n")
+    assert target.read_bytes() == "héllo\nworld\n".encode()
+    write_atomic(str(target), b"\x00\x01")
+    assert target.read_bytes() == b"\x00\x01"
+    assert os.listdir(target.parent) == ["params.json"]
+
+
+def test_write_atomic_rejects_other_types_before_touching_disk(tmp_path: Path) -> None:
+    with pytest.raises(TypeError, match="bytes or str"):
+        write_atomic(tmp_path / "x" / "out.txt", 3)  # type: ignore[arg-type]
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permission bits")
+def test_write_atomic_keeps_permissions_of_existing_file(tmp_path: Path) -> None:
+    target = _write(tmp_path, "old", "out.txt")
+    target.chmod(0o640)
+    write_atomic(target, "new")
+    assert target.stat().st_mode & 0o777 == 0o640
+
+    umask = os.umask(0o022)
+    os.umask(umask)
+    fresh = tmp_path / "fresh.txt"
+    write_atomic(fresh, "new")
+    assert fresh.stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+class _HalfWrite:
+    """Stand-in for ``open``: writes half of the data, then fails like a full disk."""
+
+    def __init__(self, path: str, mode: str) -> None:
+        self.file = open(path, mode)
+
+    def __enter__(self) -> _HalfWrite:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.file.close()
+
+    def write(self, data: bytes) -> None:
+        self.file.write(data[: len(data) // 2])
+        raise OSError(28, "No space left on device")
+
+
+@pytest.mark.parametrize(
+    ("failing", "exception"),
+    [
+        ("write", OSError(28, "No space left on device")),
+        ("fsync", OSError(5, "Input/output error")),
+        ("fsync", KeyboardInterrupt()),
+        ("replace", OSError(18, "Invalid cross-device link")),
+        ("replace", KeyboardInterrupt()),
+    ],
+)
+def test_write_atomic_failure_leaves_previous_file_and_no_temporary(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, failing: str, exception: BaseException
+) -> None:
+    target = _write(tmp_path, "previous content", "params.json")
+
+    def fail(*args: object, **kwargs: object) -> None:
+        raise exception
+
+    if failing == "write":
+        monkeypatch.setattr(fmu_model.atomic, "open", _HalfWrite, raising=False)
+    else:
+        monkeypatch.setattr(os, failing, fail)
+
+    with pytest.raises(type(exception)):
+        write_atomic(target, "new content " * 1000)
+
+    monkeypatch.undo()
+    assert target.read_text() == "previous content"
+    assert os.listdir(tmp_path) == ["params.json"]
+
+
+# --------------------------------------------------------------------------- properties
+
+
+@st.composite
+def maneuver_logs(draw: st.DrawFn) -> ManeuverLog:
+    """Random valid logs: any finite positions, heading steps below π (survives unwrap)."""
+    n = draw(st.integers(MIN_SAMPLES, 30))
+
+    def floats(low: float, high: float, size: int) -> np.ndarray:
+        element = st.floats(low, high, allow_subnormal=False)
+        return np.array(draw(st.lists(element, min_size=size, max_size=size)))
+
+    t0 = draw(st.floats(-1e6, 1e6))
+    time_s = t0 + np.concatenate([[0.0], np.cumsum(floats(1e-3, 100.0, n - 1))])
+    anything = st.floats(allow_nan=False, allow_infinity=False)
+    x_m, y_m = (np.array(draw(st.lists(anything, min_size=n, max_size=n))) for _ in "xy")
+    heading_rad = draw(st.floats(-50.0, 50.0)) + np.cumsum(floats(-3.0, 3.0, n))
+    keys = st.from_regex(r"\A[A-Za-z_][A-Za-z0-9_.\-]{0,12}\Z").filter(lambda k: k != "length_m")
+    values = st.text(st.characters(exclude_categories=("Cs", "Cc")), max_size=20).map(str.strip)
+    metadata = draw(st.dictionaries(keys, values, max_size=4))
+    if draw(st.booleans()):
+        metadata["length_m"] = repr(draw(st.floats(1.0, 500.0)))
+    return ManeuverLog(
+        time_s=time_s,
+        x_m=x_m,
+        y_m=y_m,
+        heading_rad=heading_rad,
+        rudder_rad=floats(-0.7, 0.7, n),
+        n_rps=floats(-5.0, 5.0, n),
+        metadata=metadata,
+    )
+
+
+@settings(max_examples=60, deadline=None)
+@given(log=maneuver_logs())
+def test_random_logs_round_trip_through_a_file(log: ManeuverLog) -> None:
+    with tempfile.TemporaryDirectory() as directory:
+        path = os.path.join(directory, "trial.csv")
+        write_log(path, log)
+        back = read_log(path)
+
+    np.testing.assert_array_equal(back.time_s, log.time_s)
+    np.testing.assert_array_equal(back.x_m, log.x_m)
+    np.testing.assert_array_equal(back.y_m, log.y_m)
+    for name in ("heading_rad", "rudder_rad", "n_rps"):
+        np.testing.assert_allclose(getattr(back, name), getattr(log, name), rtol=1e-12, atol=0)
+    assert dict(back.metadata) == dict(log.metadata)
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    log=maneuver_logs(),
+    data=st.data(),
+    bad=st.sampled_from(["nan", "inf", "-inf", "", "x", "1e999", "NaN"]),
+)
+def test_single_cell_corruption_names_line_and_column(
+    log: ManeuverLog, data: st.DataObject, bad: str
+) -> None:
+    lines = format_log(log).split("\n")
+    header_index = len(log.metadata)  # 0-based: the metadata lines come first
+    assert lines[header_index] == HEADER
+    row = data.draw(st.integers(0, log.n_samples - 1), label="row")
+    column = data.draw(st.sampled_from(LOG_COLUMNS), label="column")
+    fields = lines[header_index + 1 + row].split(",")
+    fields[LOG_COLUMNS.index(column)] = bad
+    lines[header_index + 1 + row] = ",".join(fields)
+    line = header_index + 2 + row  # 1-based
+
+    with pytest.raises(
+        LogFormatError, match=rf"^corrupt\.csv:{line}: column '{column}': expected a finite number"
+    ) as info:
+        parse_log("\n".join(lines), path="corrupt.csv")
+    assert (info.value.line, info.value.column) == (line, column)
