@@ -13,13 +13,12 @@ All functions broadcast over trailing sample dimensions.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache, cached_property
 from typing import Any
 
-import numba
 import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
@@ -31,6 +30,7 @@ from fmu_model.structure import (
     VELOCITY_SYMBOLS,
     L,
     ModelStructure,
+    psi,
 )
 from fmu_model.variants import get_model
 
@@ -60,15 +60,24 @@ class NumericModel:
         return self.structure.n_coefficients
 
     @cached_property
-    def kernels(self) -> tuple[Any, Any]:
-        """Numba-compiled ``phi(u, v, r, δ, n, L, out)`` and ``grad(…, out)`` for hot loops.
+    def kernels(self) -> tuple[Any, Any, Any, Any]:
+        """Numba-compiled fillers for hot loops, generated from the symbolic structure.
 
-        ``phi`` fills out (p,) with the regressors; ``grad`` fills out (3p,) with
-        ∂φ_i/∂(u, v, r) row-major. Generated from the same symbolic structure.
+        ``phi(u, v, r, δ, n, L, out)`` fills out (p,) with the regressors;
+        ``grad(u, v, r, δ, n, L, out)`` fills out (3p,) with ∂φ_i/∂(u, v, r) row-major;
+        ``kin(u, v, r, ψ, out)`` fills (3,) with the kinematics (ẋ, ẏ, ψ̇);
+        ``kin_grad(u, v, r, ψ, out)`` fills (18,) with ∂(ẋ, ẏ, ψ̇)/∂(u, v, r, x, y, ψ).
         """
         regressors = [t.regressor for t in self.structure.terms]
         gradients = [sp.diff(e, s) for e in regressors for s in VELOCITY_SYMBOLS]
-        return _jit_filler("phi", regressors), _jit_filler("grad", gradients)
+        kin_args = (*VELOCITY_SYMBOLS, psi)
+        kin_grad = [sp.diff(e, s) for e in KINEMATICS for s in STATE_SYMBOLS]
+        return (
+            _jit_filler("phi", regressors, _ARGS),
+            _jit_filler("grad", gradients, _ARGS),
+            _jit_filler("kin", list(KINEMATICS), kin_args),
+            _jit_filler("kin_grad", kin_grad, kin_args),
+        )
 
     def regressors(
         self, u: Any, v: Any, r: Any, rudder_rad: Any, n_rps: Any, length_m: float
@@ -130,14 +139,15 @@ class NumericModel:
         return _stack(self._rhs(*state, rudder_rad, n_rps, length_m, theta), shape)
 
 
-def _jit_filler(name: str, exprs: list[sp.Expr]) -> Any:
-    """Compile ``def name(u, v, r, delta, n, L, out)`` filling ``out[i] = exprs[i]``."""
+def _jit_filler(name: str, exprs: list[sp.Expr], args: tuple[sp.Symbol, ...]) -> Any:
+    """Compile ``def name(*args, out)`` filling ``out[i] = exprs[i]`` with numba."""
     temporaries, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_t"))
     printer = PythonCodePrinter({"fully_qualified_modules": True})
-    args = ", ".join(str(a) for a in _ARGS)
-    lines = [f"def {name}({args}, out):"]
+    lines = [f"def {name}({', '.join(str(a) for a in args)}, out):"]
     lines += [f"    {sym} = {printer.doprint(expr)}" for sym, expr in temporaries]
     lines += [f"    out[{i}] = {printer.doprint(expr)}" for i, expr in enumerate(reduced)]
+    import numba  # only the identifier's hot loops need it, not the FMU runtime
+
     namespace: dict[str, Any] = {"math": math}
     exec(compile("\n".join(lines), f"<fmu_model {name}>", "exec"), namespace)
     return numba.njit(cache=False)(namespace[name])

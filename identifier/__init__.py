@@ -1,0 +1,1 @@
+"""Identification of manoeuvring models from trial logs: reading, smoothing, EKF."""

@@ -1,11 +1,13 @@
 """Equation-error least squares: the EKF's initial guess and the identifiability check.
 
-Because every structure is linear in its coefficients, the forward-Euler model of
-Shi et al. (2009), eq. (4), written for the smoothed data,
+Because every structure is linear in its coefficients, the model written for the
+smoothed data with central-difference accelerations (second-order accurate, unlike the
+forward difference of the paper's eq. (4), whose O(T) bias at T = 1 s reaches several
+per cent on the yaw coefficients),
 
-    (s_j(k+1) − s_j(k)) / T_k = Σ_i θ_i φ_i(s(k), s̄(k)) + e_j(k),   j ∈ {u, v, r},
+    (s_j(k+1) − s_j(k−1)) / (t(k+1) − t(k−1)) = Σ_i θ_i φ_i(s(k), δ(k), n(k)) + e_j(k),
 
-is an ordinary linear regression per equation. Each equation is solved separately
+j ∈ {u, v, r}, is an ordinary linear regression per equation. Each equation is solved separately
 (its coefficients enter no other equation) with columns scaled to unit RMS and a tiny
 ridge term so that an unexcited regressor (e.g. rudder terms in a straight run) gets a
 zero estimate with a huge standard deviation instead of a singular matrix. The
@@ -42,6 +44,7 @@ class EquationErrorFit:
         RMS of every regressor over the data (p,); 0 means not excited at all.
     contribution : numpy.ndarray
         RMS(θ_i φ_i) / RMS(fitted acceleration of its equation) (p,).
+
     """
 
     theta: np.ndarray
@@ -54,16 +57,18 @@ class EquationErrorFit:
 def regression_data(
     model_name: str, segments: Sequence[EkfSegment], length_m: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Return the regressors Φ (p, M) and the finite-difference accelerations (3, M)."""
+    """Return the regressors Φ (p, M) and the central-difference accelerations (3, M)."""
     model = numeric_model(model_name)
     phis, accs = [], []
     for seg in segments:
-        mean_rudder, mean_n = seg.mean_inputs()
         s = seg.velocities
         phis.append(
-            model.regressors(s[:-1, 0], s[:-1, 1], s[:-1, 2], mean_rudder, mean_n, length_m)
+            model.regressors(
+                s[1:-1, 0], s[1:-1, 1], s[1:-1, 2], seg.rudder_rad[1:-1], seg.n_rps[1:-1], length_m
+            )
         )
-        accs.append((np.diff(s, axis=0) / np.diff(seg.time_s)[:, None]).T)
+        span = (seg.time_s[2:] - seg.time_s[:-2])[:, None]
+        accs.append(((s[2:] - s[:-2]) / span).T)
     return np.concatenate(phis, axis=1), np.concatenate(accs, axis=1)
 
 

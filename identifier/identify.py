@@ -1,0 +1,317 @@
+"""From trial logs to identified coefficients: smoothing → equation error → EKF.
+
+This is the seed paper's procedure (Shi et al. 2009, section 4): the raw track and
+heading are smoothed with a constant-acceleration Kalman filter and the RTS
+fixed-interval smoother (``identifier.smoothing``), u, v, r are derived from the
+smoothed states (eq. (9)), and the coefficients are estimated by the augmented-state
+EKF (``identifier.ekf``). Where the paper starts the EKF from zero coefficients with
+P(0) = α I, the default here starts from the equation-error least-squares fit on the
+same smoothed data (``identifier.equation_error``), with its covariance inflated as
+prior; ``initial="zero"`` gives the paper's start.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fmu_model import ModelParameters, get_model
+from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify
+from identifier.equation_error import EquationErrorFit, equation_error_fit
+from identifier.errors import IdentificationError
+from identifier.logs import ManeuverLog
+from identifier.smoothing import SmoothedTrack, smooth_track
+
+# Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
+MAX_SAMPLE_INTERVAL_S = 5.0
+# Above these estimated noise levels the logger is suspect (warning) [m], [rad].
+MAX_POSITION_NOISE_M = 20.0
+MAX_HEADING_NOISE_RAD = math.radians(3.0)
+# Rudder angle that marks the end of the approach (execute) [rad].
+EXECUTE_RUDDER_RAD = math.radians(0.5)
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """Settings of one identification.
+
+    Parameters
+    ----------
+    model : str
+        Registered model structure.
+    initial : {"equation-error", "zero"}
+        EKF start: least-squares fit with its covariance × ``prior_inflation``², or
+        the paper's θ(0) = 0, P(0) = α I.
+    alpha : float
+        α of the paper's start.
+    prior_inflation : float
+        Standard-deviation multiplier of the least-squares covariance used as prior.
+    param_random_walk : float
+        Relative random walk of the coefficients per step (see ``EkfSettings``).
+    position_noise_m, heading_noise_rad : float, optional
+        Measurement noise of the logs; estimated from the data when None.
+    measurements : {"track", "velocities"}
+        EKF measurements: the logged track (default) or the smoothed u, v, r (paper).
+    max_substep_s : float
+        Largest Euler substep of the EKF's discretisation [s] (``math.inf``: the paper's
+        one step per sample).
+    max_relative_std : float
+        A coefficient whose posterior σ exceeds this fraction of its magnitude is
+        reported as not identifiable from the logs.
+    """
+
+    model: str = "shi2009"
+    initial: str = "equation-error"
+    alpha: float = 1.0
+    prior_inflation: float = 10.0
+    param_random_walk: float = 1e-4
+    position_noise_m: float | None = None
+    heading_noise_rad: float | None = None
+    measurements: str = "track"
+    max_substep_s: float = 0.1
+    max_relative_std: float = 0.5
+
+
+@dataclass(frozen=True)
+class CoefficientReport:
+    """Estimate and identifiability of one coefficient."""
+
+    name: str
+    value: float
+    std: float
+    relative_std: float
+    contribution: float
+    excited: bool
+    identifiable: bool
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """Everything an identification produced (the CLI writes ``params``)."""
+
+    params: ModelParameters
+    logs: tuple[ManeuverLog, ...]
+    tracks: tuple[SmoothedTrack, ...]
+    equation_error: EquationErrorFit
+    ekf: EkfResult
+    coefficients: tuple[CoefficientReport, ...]
+    warnings: tuple[str, ...]
+    settings: FitSettings
+
+    @property
+    def not_identifiable(self) -> tuple[str, ...]:
+        """Names of the coefficients the logs do not determine."""
+        return tuple(c.name for c in self.coefficients if not c.identifiable)
+
+
+def _log_name(log: ManeuverLog, index: int) -> str:
+    return log.path or f"log {index + 1}"
+
+
+def _sha256(log: ManeuverLog) -> str | None:
+    if log.path is None or not Path(log.path).is_file():
+        return None
+    return hashlib.sha256(Path(log.path).read_bytes()).hexdigest()
+
+
+def _execute_index(log: ManeuverLog) -> int:
+    """First sample where the rudder leaves midship (end of the approach)."""
+    moved = np.flatnonzero(np.abs(log.rudder_rad) > EXECUTE_RUDDER_RAD)
+    return int(moved[0]) if moved.size else log.n_samples
+
+
+def _check_sampling(log: ManeuverLog, name: str) -> None:
+    interval = float(np.median(np.diff(log.time_s)))
+    if interval > MAX_SAMPLE_INTERVAL_S:
+        raise IdentificationError(
+            f"median sampling interval {interval:g} s is too coarse to resolve manoeuvring "
+            f"(expected at most {MAX_SAMPLE_INTERVAL_S:g} s)",
+            log=name,
+        )
+
+
+def vessel_length(logs: Sequence[ManeuverLog], length_m: float | None) -> float:
+    """Return the ship length: given, or from the logs' ``# length_m:`` (which must agree)."""
+    if length_m is not None:
+        if not (math.isfinite(length_m) and length_m > 0.0):
+            raise IdentificationError(f"ship length must be positive, got {length_m}")
+        return float(length_m)
+    lengths = {log.length_m for log in logs if log.length_m is not None}
+    if not lengths:
+        raise IdentificationError(
+            "no ship length: pass --length-m or add '# length_m:' to the logs"
+        )
+    if len(lengths) > 1:
+        raise IdentificationError(f"the logs disagree on the ship length: {sorted(lengths)} m")
+    return lengths.pop()
+
+
+def identify(
+    logs: Sequence[ManeuverLog],
+    settings: FitSettings | None = None,
+    *,
+    length_m: float | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> IdentificationResult:
+    """Identify the coefficients of ``settings.model`` from trial logs.
+
+    Parameters
+    ----------
+    logs : sequence of ManeuverLog
+        One manoeuvre each; processed in the given order.
+    settings : FitSettings, optional
+        Defaults when omitted.
+    length_m : float, optional
+        Ship length [m]; read from the logs' metadata when omitted.
+    progress : callable, optional
+        Called with numbers of samples processed (smoothing and EKF).
+
+    Raises
+    ------
+    IdentificationError
+        No logs, no ship length, coarse sampling, or a diverging EKF.
+
+    """
+    settings = settings or FitSettings()
+    if not logs:
+        raise IdentificationError("no logs given")
+    if settings.initial not in ("equation-error", "zero"):
+        raise ValueError(f"unknown initial guess {settings.initial!r}")
+    structure = get_model(settings.model)
+    length = vessel_length(logs, length_m)
+    warnings: list[str] = []
+    tracks: list[SmoothedTrack] = []
+    segments: list[EkfSegment] = []
+    for i, log in enumerate(logs):
+        name = _log_name(log, i)
+        _check_sampling(log, name)
+        track = smooth_track(
+            log.time_s,
+            log.x_m,
+            log.y_m,
+            log.heading_rad,
+            position_noise_m=settings.position_noise_m,
+            heading_noise_rad=settings.heading_noise_rad,
+        )
+        if track.position_noise_m > MAX_POSITION_NOISE_M:
+            warnings.append(
+                f"{name}: position noise {track.position_noise_m:.1f} m is unusually high"
+            )
+        if track.heading_noise_rad > MAX_HEADING_NOISE_RAD:
+            warnings.append(
+                f"{name}: heading noise {math.degrees(track.heading_noise_rad):.2f} deg "
+                "is unusually high"
+            )
+        tracks.append(track)
+        segments.append(
+            EkfSegment(
+                name=name,
+                time_s=log.time_s,
+                velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
+                velocity_std=np.column_stack([track.u_std_mps, track.v_std_mps, track.r_std_radps]),
+                track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
+                track_std=np.array(
+                    [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]
+                ),
+                initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
+                rudder_rad=log.rudder_rad,
+                n_rps=log.n_rps,
+            )
+        )
+        if progress is not None:
+            progress(log.n_samples)
+
+    ls = equation_error_fit(settings.model, segments, length)
+    if settings.initial == "equation-error":
+        theta0 = ls.theta
+        cov0 = ls.covariance * settings.prior_inflation**2
+    else:
+        theta0 = np.zeros(structure.n_coefficients)
+        cov0 = settings.alpha * np.eye(structure.n_coefficients)
+    ekf = ekf_identify(
+        settings.model,
+        segments,
+        theta0,
+        cov0,
+        length,
+        EkfSettings(
+            state_process_std=(
+                float(ls.residual_std[0]),
+                float(ls.residual_std[1]),
+                float(ls.residual_std[2]),
+            ),
+            param_random_walk=settings.param_random_walk,
+            measurements=settings.measurements,
+            max_substep_s=settings.max_substep_s,
+        ),
+        progress=progress,
+    )
+    std = np.sqrt(np.diag(ekf.covariance))
+    reports = tuple(
+        CoefficientReport(
+            name=name,
+            value=float(value),
+            std=float(s),
+            relative_std=float(s / abs(value)) if value != 0.0 else math.inf,
+            contribution=float(c),
+            excited=bool(rms > 0.0),
+            identifiable=bool(rms > 0.0 and s <= settings.max_relative_std * abs(value)),
+        )
+        for name, value, s, c, rms in zip(
+            structure.coefficient_names,
+            ekf.theta,
+            std,
+            ls.contribution,
+            ls.regressor_rms,
+            strict=True,
+        )
+    )
+    speeds, revs = [], []
+    for log, track in zip(logs, tracks, strict=True):
+        end = max(_execute_index(log), 3)
+        speeds.append(float(np.mean(track.u_mps[:end])))
+        revs.append(float(np.mean(log.n_rps[:end])))
+    vessel = next((log.metadata["vessel"] for log in logs if "vessel" in log.metadata), "ship")
+    params = ModelParameters(
+        model=settings.model,
+        coefficients=ekf.theta,
+        length_m=length,
+        vessel_name=vessel,
+        nominal_speed_mps=float(np.mean(speeds)),
+        nominal_n_rps=float(np.mean(revs)),
+        covariance=ekf.covariance,
+        identification={
+            "method": "smoothing (CA Kalman + RTS) -> augmented-state EKF (Shi et al. 2009)",
+            "logs": [
+                {"path": _log_name(log, i), "sha256": _sha256(log)} for i, log in enumerate(logs)
+            ],
+            "settings": asdict(settings),
+            "noise": [
+                {"position_m": t.position_noise_m, "heading_deg": math.degrees(t.heading_noise_rad)}
+                for t in tracks
+            ],
+            "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        },
+    )
+    weak = [c.name for c in reports if not c.identifiable]
+    if weak:
+        warnings.append(
+            "not identifiable from these logs (posterior std above "
+            f"{settings.max_relative_std:.0%} of the value, or not excited): " + ", ".join(weak)
+        )
+    return IdentificationResult(
+        params=params,
+        logs=tuple(logs),
+        tracks=tuple(tracks),
+        equation_error=ls,
+        ekf=ekf,
+        coefficients=reports,
+        warnings=tuple(warnings),
+        settings=settings,
+    )
