@@ -64,6 +64,7 @@ class FitSettings:
     max_relative_std : float
         A coefficient whose posterior σ exceeds this fraction of its magnitude is
         reported as not identifiable from the logs.
+
     """
 
     model: str = "shi2009"

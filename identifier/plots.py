@@ -1,0 +1,126 @@
+"""Figures of an identification: smoothed track, derived velocities, convergence.
+
+The equivalents of Shi et al. (2009), Fig. 2–6: raw vs smoothed data and the
+convergence of every coefficient with its ±2σ band. Matplotlib with the Agg backend;
+each figure is written atomically as PNG.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.figure import Figure
+
+from fmu_model.atomic import write_atomic
+from identifier.identify import IdentificationResult
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    plt.close(fig)
+    write_atomic(path, buffer.getvalue())
+    return path
+
+
+def track_figure(result: IdentificationResult) -> Figure:
+    """Raw and smoothed track (North up) and heading of every log."""
+    n = len(result.logs)
+    fig, axes = plt.subplots(2, n, figsize=(4.5 * n, 8), squeeze=False)
+    for i, (log, track) in enumerate(zip(result.logs, result.tracks, strict=True)):
+        ax = axes[0, i]
+        ax.plot(log.y_m, log.x_m, ".", ms=2, color="0.6", label="logged")
+        ax.plot(track.y_m, track.x_m, "-", lw=1.2, color="C0", label="smoothed")
+        ax.set_xlabel("y East [m]")
+        ax.set_ylabel("x North [m]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(Path(log.path).name if log.path else f"log {i + 1}", fontsize=9)
+        ax.legend(fontsize=8)
+        ax = axes[1, i]
+        ax.plot(log.time_s, np.degrees(log.heading_rad), ".", ms=2, color="0.6", label="logged")
+        ax.plot(track.time_s, np.degrees(track.heading_rad), "-", color="C0", label="smoothed")
+        ax.plot(log.time_s, np.degrees(log.rudder_rad), "-", color="C3", lw=0.8, label="rudder")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("heading, rudder [deg]")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def velocity_figure(result: IdentificationResult) -> Figure:
+    """Derived u, v, r (smoothed, ±2σ) and the EKF's filtered motion states."""
+    n = len(result.logs)
+    fig, axes = plt.subplots(3, n, figsize=(4.5 * n, 8), squeeze=False, sharex="col")
+    labels = ("u [m/s]", "v [m/s]", "r [deg/s]")
+    for i, (track, states) in enumerate(zip(result.tracks, result.ekf.filtered, strict=True)):
+        series = (
+            (track.u_mps, track.u_std_mps, 1.0),
+            (track.v_mps, track.v_std_mps, 1.0),
+            (track.r_radps, track.r_std_radps, math.degrees(1.0)),
+        )
+        for j, (value, std, scale) in enumerate(series):
+            ax = axes[j, i]
+            ax.fill_between(
+                track.time_s,
+                (value - 2 * std) * scale,
+                (value + 2 * std) * scale,
+                color="C0",
+                alpha=0.25,
+                lw=0,
+            )
+            ax.plot(track.time_s, value * scale, color="C0", lw=1, label="smoothed ±2σ")
+            ax.plot(track.time_s, states[:, j] * scale, "--", color="C1", lw=1, label="EKF")
+            ax.set_ylabel(labels[j])
+        axes[0, i].legend(fontsize=8)
+        axes[-1, i].set_xlabel("time [s]")
+    fig.tight_layout()
+    return fig
+
+
+def convergence_figure(result: IdentificationResult) -> Figure:
+    """Every coefficient's EKF history with its ±2σ band (logs separated by lines)."""
+    names = result.params.names
+    cols = 4
+    rows = math.ceil(len(names) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(14, 2.4 * rows), squeeze=False)
+    history, std = result.ekf.theta_history, result.ekf.std_history
+    steps = np.arange(history.shape[0])
+    for i, name in enumerate(names):
+        ax = axes[i // cols, i % cols]
+        ax.fill_between(
+            steps,
+            history[:, i] - 2 * std[:, i],
+            history[:, i] + 2 * std[:, i],
+            color="C0",
+            alpha=0.25,
+            lw=0,
+        )
+        ax.plot(steps, history[:, i], color="C0", lw=1)
+        for end in result.ekf.segment_ends[:-1]:
+            ax.axvline(end, color="0.5", lw=0.6, ls=":")
+        ident = next(c.identifiable for c in result.coefficients if c.name == name)
+        ax.set_title(f"{name}" + ("" if ident else " (not identifiable)"), fontsize=9)
+        ax.tick_params(labelsize=7)
+    for j in range(len(names), rows * cols):
+        axes[j // cols, j % cols].axis("off")
+    fig.supxlabel("EKF step (all logs)")
+    fig.tight_layout()
+    return fig
+
+
+def write_plots(result: IdentificationResult, directory: str | os.PathLike[str]) -> list[Path]:
+    """Write track.png, velocities.png and convergence.png into ``directory``."""
+    out = Path(directory)
+    return [
+        _save(track_figure(result), out / "track.png"),
+        _save(velocity_figure(result), out / "velocities.png"),
+        _save(convergence_figure(result), out / "convergence.png"),
+    ]
