@@ -52,6 +52,7 @@ class EquationErrorFit:
     residual_std: np.ndarray
     regressor_rms: np.ndarray
     contribution: np.ndarray
+    variance_inflation: np.ndarray
 
 
 def regression_data(
@@ -85,6 +86,7 @@ def equation_error_fit(
     rms = np.sqrt(np.mean(phi**2, axis=1))
     eq_index = np.asarray(model.structure.equation_index)
     fitted = np.zeros_like(acc)
+    vif = np.ones(p)
     for j in range(3):
         cols = np.flatnonzero(eq_index == j)
         scale = np.where(rms[cols] > 0.0, rms[cols], 1.0)
@@ -97,8 +99,10 @@ def equation_error_fit(
         theta[cols] = beta / scale
         cov[np.ix_(cols, cols)] = sigma2 * np.linalg.inv(A) / np.outer(scale, scale)
         residual_std[j] = np.sqrt(sigma2)
+        # Uncentred VIF in unit-RMS scaling: diag((XᵀX/M)⁻¹).
+        vif[cols] = np.diag(np.linalg.inv(A / m))
         fitted[j] = X @ beta
     signal = np.sqrt(np.mean(fitted**2, axis=1))
     term_rms = np.sqrt(np.mean((theta[:, None] * phi) ** 2, axis=1))
     contribution = term_rms / np.where(signal[eq_index] > 0.0, signal[eq_index], 1.0)
-    return EquationErrorFit(theta, cov, residual_std, rms, contribution)
+    return EquationErrorFit(theta, cov, residual_std, rms, contribution, vif)

@@ -64,6 +64,9 @@ class FitSettings:
     max_relative_std : float
         A coefficient whose posterior σ exceeds this fraction of its magnitude is
         reported as not identifiable from the logs.
+    max_variance_inflation : float
+        ... and so is one whose regressor is this collinear with the others in the data
+        (variance inflation factor, ``EquationErrorFit.variance_inflation``).
 
     """
 
@@ -77,6 +80,7 @@ class FitSettings:
     measurements: str = "track"
     max_substep_s: float = 0.1
     max_relative_std: float = 0.5
+    max_variance_inflation: float = 1e4
 
 
 @dataclass(frozen=True)
@@ -88,6 +92,7 @@ class CoefficientReport:
     std: float
     relative_std: float
     contribution: float
+    variance_inflation: float
     excited: bool
     identifiable: bool
 
@@ -261,15 +266,21 @@ def identify(
             std=float(s),
             relative_std=float(s / abs(value)) if value != 0.0 else math.inf,
             contribution=float(c),
+            variance_inflation=float(vif),
             excited=bool(rms > 0.0),
-            identifiable=bool(rms > 0.0 and s <= settings.max_relative_std * abs(value)),
+            identifiable=bool(
+                rms > 0.0
+                and vif <= settings.max_variance_inflation
+                and s <= settings.max_relative_std * abs(value)
+            ),
         )
-        for name, value, s, c, rms in zip(
+        for name, value, s, c, rms, vif in zip(
             structure.coefficient_names,
             ekf.theta,
             std,
             ls.contribution,
             ls.regressor_rms,
+            ls.variance_inflation,
             strict=True,
         )
     )
@@ -303,8 +314,8 @@ def identify(
     weak = [c.name for c in reports if not c.identifiable]
     if weak:
         warnings.append(
-            "not identifiable from these logs (posterior std above "
-            f"{settings.max_relative_std:.0%} of the value, or not excited): " + ", ".join(weak)
+            "not identifiable from these logs (not excited, collinear with other terms, or "
+            f"posterior std above {settings.max_relative_std:.0%} of the value): " + ", ".join(weak)
         )
     return IdentificationResult(
         params=params,

@@ -32,7 +32,7 @@ def _save(fig: Figure, path: Path) -> Path:
 
 
 def track_figure(result: IdentificationResult) -> Figure:
-    """Raw and smoothed track (North up) and heading of every log."""
+    """Plot the raw and smoothed track (North up) and heading of every log."""
     n = len(result.logs)
     fig, axes = plt.subplots(2, n, figsize=(4.5 * n, 8), squeeze=False)
     for i, (log, track) in enumerate(zip(result.logs, result.tracks, strict=True)):
@@ -56,7 +56,7 @@ def track_figure(result: IdentificationResult) -> Figure:
 
 
 def velocity_figure(result: IdentificationResult) -> Figure:
-    """Derived u, v, r (smoothed, ±2σ) and the EKF's filtered motion states."""
+    """Plot the derived u, v, r (smoothed, ±2σ) and the EKF's filtered motion states."""
     n = len(result.logs)
     fig, axes = plt.subplots(3, n, figsize=(4.5 * n, 8), squeeze=False, sharex="col")
     labels = ("u [m/s]", "v [m/s]", "r [deg/s]")
@@ -86,7 +86,7 @@ def velocity_figure(result: IdentificationResult) -> Figure:
 
 
 def convergence_figure(result: IdentificationResult) -> Figure:
-    """Every coefficient's EKF history with its ±2σ band (logs separated by lines)."""
+    """Plot every coefficient's EKF history with its ±2σ band (logs separated by lines)."""
     names = result.params.names
     cols = 4
     rows = math.ceil(len(names) / cols)

@@ -28,6 +28,7 @@ class Until:
         Time spent in this leg [s].
     heading_above_rad, heading_below_rad : float, optional
         Heading change since execute crosses above / below this value [rad].
+
     """
 
     time_s: float | None = None
@@ -61,6 +62,7 @@ class Program:
         Straight run with rudder at 0 before execute [s].
     rudder_rad, heading_rad : float
         The nominal rudder (and zig-zag heading) angle, for the metrics.
+
     """
 
     name: str
@@ -82,7 +84,8 @@ def turning_circle(
     max_time_s: float = 3600.0,
 ) -> Program:
     """Turning circle: rudder to ``rudder_rad`` (sign = side) until the heading changed
-    by ``heading_change_rad`` or ``max_time_s`` passed."""
+    by ``heading_change_rad`` or ``max_time_s`` passed.
+    """
     sign = 1.0 if rudder_rad >= 0.0 else -1.0
     until = (
         Until(time_s=max_time_s, heading_above_rad=heading_change_rad)
@@ -102,7 +105,8 @@ def zigzag(
 ) -> Program:
     """Zig-zag δ/ψ, first to the side of ``rudder_rad``'s sign; ``n_reversals`` rudder
     reversals (the 4th completes the third overshoot), then held until the heading
-    passes back through the check angle once more."""
+    passes back through the check angle once more.
+    """
     sign = 1.0 if rudder_rad >= 0.0 else -1.0
     delta, psi = abs(rudder_rad), abs(heading_rad)
     legs = []

@@ -15,7 +15,6 @@ import shutil
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from types import TracebackType
 from typing import Protocol
 
@@ -204,6 +203,7 @@ def run_program(
     numpy.ndarray
         Rows at every communication point; time 0 is the execute point (the approach
         has negative times).
+
     """
     if dt_s <= 0.0:
         raise ValueError("dt_s must be positive")

@@ -105,6 +105,7 @@ def synthesize_log(
     truth_dt_s : float, optional
         Simulation step [s]; defaults to the largest divisor of the logging interval
         not above 0.1 s · √(L / 320 m) (0.1 s at full scale KVLCC2).
+
     """
     if rate_hz <= 0.0 or position_noise_m < 0.0 or heading_noise_deg < 0.0:
         raise ValueError("rate_hz must be positive and noise levels non-negative")

@@ -1,0 +1,162 @@
+"""Cost of one fmi2DoStep and of a 1-hour manoeuvre, per FMU backend.
+
+    python benchmarks/fmu_step.py [--params build/params.json] [--steps 20000]
+
+For every backend in :func:`backends` (a list of (label, FMU path); adding a backend is
+one line there) it reports
+
+* µs per step in an fmpy loop (setReal inputs, doStep, getReal outputs, h = 0.1 s),
+* µs per step in the C host ``tests/c_host/host.c`` (same loop without Python),
+* seconds for a 1-hour run at 0.1 s with ``fmpy.simulate_fmu``.
+
+Without ``--params`` (or when the file does not exist) a built-in demo ship is used.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from fmpy import extract, read_model_description, simulate_fmu
+from fmpy.fmi2 import FMU2Slave
+
+from fmu_model import ModelParameters, load_params
+from fmu_model.export_native import build_native_fmu, fmi_headers_dir
+
+ROOT = Path(__file__).resolve().parents[1]
+HOST_SOURCE = ROOT / "tests" / "c_host" / "host.c"
+STEP_S = 0.1
+HOUR_S = 3600.0
+VR_INPUTS = [0, 1]  # rudder_angle [rad], propeller_rpm [rpm]
+VR_OUTPUTS = [2, 3, 4, 5, 6, 7]  # u, v, r, x, y, psi
+
+# A stable ~100 m ship in equilibrium at 5 m/s and 2 rev/s (as in tests/test_fmu_native.py).
+DEMO_COEFFICIENTS = (
+    *(-0.01, -0.005, -2.0, -0.05, 0.1, 0.0, 0.0, 0.0, 0.0625),
+    *(-0.5, 0.0, 0.05, -0.2),
+    *(0.001, -0.5, 0.02),
+)
+
+
+def demo_params() -> ModelParameters:
+    """Parameters of the built-in demo ship."""
+    return ModelParameters(
+        model="shi2009",
+        coefficients=np.array(DEMO_COEFFICIENTS),
+        length_m=100.0,
+        vessel_name="Benchmark Ship",
+        nominal_speed_mps=5.0,
+        nominal_n_rps=2.0,
+    )
+
+
+def backends(params: ModelParameters, workdir: Path) -> list[tuple[str, Path]]:
+    """(label, FMU path) of every backend to compare; one line per backend."""
+    return [
+        ("native C", build_native_fmu(params, workdir / "native" / "ship.fmu")),
+        # ("pythonfmu", build_pythonfmu_fmu(params, workdir / "pythonfmu" / "ship.fmu")),
+    ]
+
+
+def fmpy_loop_us(fmu_path: Path, steps: int) -> float:
+    """µs per step of set inputs / doStep / get outputs driven from Python by fmpy."""
+    unzipped = extract(fmu_path)
+    try:
+        md = read_model_description(unzipped)
+        fmu = FMU2Slave(
+            guid=md.guid,
+            unzipDirectory=unzipped,
+            modelIdentifier=md.coSimulation.modelIdentifier,
+            instanceName="bench",
+        )
+        fmu.instantiate()
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        rudder = np.radians(20.0) * np.sin(2.0 * np.pi * np.arange(steps) * STEP_S / 200.0)
+        start = time.perf_counter()
+        for k in range(steps):
+            fmu.setReal(VR_INPUTS, [float(rudder[k]), 120.0])
+            fmu.doStep(k * STEP_S, STEP_S)
+            fmu.getReal(VR_OUTPUTS)
+        elapsed = time.perf_counter() - start
+        fmu.terminate()
+        fmu.freeInstance()
+    finally:
+        shutil.rmtree(unzipped, ignore_errors=True)
+    return 1e6 * elapsed / steps
+
+
+def compile_host(workdir: Path) -> Path | None:
+    """Compile the C host; None when there is no C compiler."""
+    compiler = shutil.which("gcc") or shutil.which("cc")
+    if compiler is None:
+        return None
+    exe = workdir / "host"
+    command = [compiler, "-std=c99", "-O2", "-I", str(fmi_headers_dir()), str(HOST_SOURCE)]
+    subprocess.run([*command, "-o", str(exe), "-ldl", "-lm"], check=True)
+    return exe
+
+
+def host_us(host: Path | None, fmu_path: Path, steps: int, workdir: Path) -> float | None:
+    """µs per step in the C host, or None when it cannot run this FMU."""
+    if host is None:
+        return None
+    unzipped = Path(extract(fmu_path, unzipdir=tempfile.mkdtemp(dir=workdir)))
+    identifier = read_model_description(unzipped).coSimulation.modelIdentifier
+    libraries = list((unzipped / "binaries").glob(f"*/{identifier}.*"))
+    if not libraries:
+        return None
+    result = subprocess.run(
+        [str(host), str(libraries[0]), str(steps), "--bench"], capture_output=True, text=True
+    )
+    if result.returncode != 0:
+        return None
+    for line in result.stdout.splitlines():
+        if line.startswith("us_per_step "):
+            return float(line.split()[1])
+    return None
+
+
+def hour_s(fmu_path: Path) -> float:
+    """Seconds for a 1-hour turning run at 0.1 s with fmpy.simulate_fmu."""
+    start = time.perf_counter()
+    simulate_fmu(
+        str(fmu_path),
+        stop_time=HOUR_S,
+        step_size=STEP_S,
+        output_interval=STEP_S,
+        start_values={"rudder_angle": np.radians(10.0)},
+    )
+    return time.perf_counter() - start
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--params", type=Path, default=Path("build") / "params.json")
+    parser.add_argument("--steps", type=int, default=20000, help="steps per timing loop")
+    args = parser.parse_args()
+    params = load_params(args.params) if args.params.is_file() else demo_params()
+    print(f"vessel {params.vessel_name!r}, model {params.model}, h = {STEP_S} s")
+    with tempfile.TemporaryDirectory(prefix="fmu-bench-") as tmp:
+        workdir = Path(tmp)
+        host = compile_host(workdir)
+        rows = []
+        for label, path in backends(params, workdir):
+            in_host = host_us(host, path, 10 * args.steps, workdir)
+            rows.append((label, fmpy_loop_us(path, args.steps), in_host, hour_s(path)))
+    print(f"{'backend':<12} {'fmpy µs/step':>13} {'C host µs/step':>15} {'1 h simulate_fmu s':>19}")
+    for label, fmpy_us, c_us, hour in rows:
+        c_text = "n/a" if c_us is None else f"{c_us:.3f}"
+        print(f"{label:<12} {fmpy_us:>13.2f} {c_text:>15} {hour:>19.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

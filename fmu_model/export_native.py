@@ -1,0 +1,456 @@
+"""Native FMI 2.0 co-simulation FMU: the shared C layer over a generated model part.
+
+The FMU is the hand-written FMI layer ``fmu_model/c/fmi2_cosimulation.c`` (with its
+contract ``ship_fmu.h``) compiled together with two generated headers:
+
+* ``model_equations.h`` - the right-hand side from :func:`fmu_model.codegen.generate_model_c`;
+* ``model_config.h`` - GUID, value-reference layout and the variable table (start, min,
+  max, causality) from :func:`fmu_model.interface.fmu_variables`.
+
+All four files go into the FMU's ``sources/`` (``fmi2_cosimulation.c`` is the one file
+listed in ``<SourceFiles>``; the FMI headers come from the importing tool, e.g. fmpy), so
+``fmpy compile`` rebuilds the binary for another platform.
+
+Behaviour of the FMU (details in the header comment of ``fmi2_cosimulation.c``): the
+state u, v, r, x, y, ψ follows the parameters u0 ... ψ0 until
+``fmi2ExitInitializationMode`` and then evolves by ``fmi2DoStep`` with RK4 in
+``n_substeps(h, max_step)`` equal steps, inputs held (as ``fmu_model.simulate``).
+Non-finite or out-of-range values, fixed parameters set after initialisation, bad step
+sizes and unsupported calls give ``fmi2Error`` and leave the instance unchanged; a
+diverging state gives ``fmi2Discard``. Messages go to the logger callback.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import zipfile
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from fmu_model.atomic import write_atomic
+from fmu_model.codegen import generate_model_c
+from fmu_model.errors import FmuBuildError
+from fmu_model.interface import DEFAULT_MAX_STEP_S, FmuVariable, fmu_variables
+from fmu_model.model_description import (
+    GUID_PLACEHOLDER,
+    content_guid,
+    generation_time,
+    model_description_xml,
+    osp_model_description_xml,
+)
+from fmu_model.params import ModelParameters
+from fmu_model.structure import STATE_NAMES, ModelStructure
+from fmu_model.variants import get_model
+
+__all__ = [
+    "C_DIR",
+    "LAYER_SOURCE",
+    "NativeFmuText",
+    "build_native_fmu",
+    "fmi_headers_dir",
+    "generate_sources",
+    "model_identifier",
+    "osp_sidecar_path",
+    "render_native_fmu",
+]
+
+C_DIR = Path(__file__).with_name("c")
+LAYER_SOURCE = "fmi2_cosimulation.c"
+LAYER_HEADER = "ship_fmu.h"
+CONFIG_HEADER = "model_config.h"
+EQUATIONS_HEADER = "model_equations.h"
+# -ffp-contract=off: no fused multiply-add, so the RK4 rounds as numpy does.
+CFLAGS = ("-shared", "-fPIC", "-O2", "-std=c99", "-ffp-contract=off", "-fvisibility=hidden")
+# Smallest max_step the FMU accepts [s] (the variable's declared min).
+MIN_MAX_STEP_S = 1e-6
+# Binary folder and library suffix of FMI 2.0 per sys.platform.
+_PLATFORMS = {"linux": ("linux64", ".so"), "darwin": ("darwin64", ".dylib")}
+
+
+def model_identifier(vessel_name: str) -> str:
+    """C-safe model identifier (and library name) for a vessel name.
+
+    ASCII letters, digits and ``_`` are kept, everything else becomes ``_``; runs of
+    ``_`` collapse; a leading digit gets the prefix ``ship_``; an empty result is ``ship``.
+    """
+    identifier = re.sub(r"[^A-Za-z0-9_]", "_", vessel_name.strip())
+    identifier = re.sub(r"_+", "_", identifier).strip("_")
+    if not identifier:
+        return "ship"
+    if identifier[0].isdigit():
+        identifier = "ship_" + identifier
+    return identifier
+
+
+def osp_sidecar_path(fmu_path: str | os.PathLike[str]) -> Path:
+    """``<stem>_OspModelDescription.xml`` next to the FMU (the OSP-IS convention)."""
+    path = Path(fmu_path)
+    return path.with_name(f"{path.stem}_OspModelDescription.xml")
+
+
+def fmi_headers_dir() -> Path:
+    """Directory of the FMI 2.0 headers shipped with fmpy (``fmi2Functions.h`` ...)."""
+    import fmpy
+
+    directory = Path(fmpy.__file__).parent / "c-code"
+    if not (directory / "fmi2Functions.h").is_file():
+        raise FmuBuildError(f"FMI 2.0 headers not found in {directory} (is fmpy installed?)")
+    return directory
+
+
+def _c_string(text: str) -> str:
+    """C string literal of ASCII text (anything else escaped in octal)."""
+    out = []
+    for char in text:
+        code = ord(char)
+        if char in '"\\':
+            out.append("\\" + char)
+        elif 32 <= code < 127:
+            out.append(char)
+        else:
+            out.extend(f"\\{byte:03o}" for byte in char.encode("utf-8"))
+    return '"' + "".join(out) + '"'
+
+
+def _c_double(value: float) -> str:
+    if not math.isfinite(value):
+        raise FmuBuildError(f"non-finite value {value!r} in the FMU interface")
+    return repr(float(value))
+
+
+def _layout(variables: tuple[FmuVariable, ...], structure: ModelStructure) -> dict[str, int]:
+    """Value references the C layer needs, checking the layout it relies on."""
+    if [v.value_reference for v in variables] != list(range(len(variables))):
+        raise FmuBuildError("FMU variables must have value references 0, 1, ... in order")
+    position = {v.name: v.value_reference for v in variables}
+
+    def block(names: tuple[str, ...], what: str) -> int:
+        try:
+            refs = [position[name] for name in names]
+        except KeyError as exc:
+            raise FmuBuildError(f"FMU interface lacks variable {exc.args[0]!r}") from None
+        if refs != list(range(refs[0], refs[0] + len(refs))):
+            raise FmuBuildError(f"FMU variables of the {what} must be consecutive in {names}")
+        return refs[0]
+
+    layout = {
+        "VR_RUDDER_ANGLE": block(("rudder_angle",), "rudder angle"),
+        "VR_PROPELLER_RPM": block(("propeller_rpm",), "propeller speed"),
+        "VR_STATE": block(STATE_NAMES, "state"),
+        "VR_LENGTH": block(("length",), "length"),
+        "VR_MAX_STEP": block(("max_step",), "max step"),
+        "VR_INITIAL_STATE": block(tuple(f"{name}0" for name in STATE_NAMES), "initial state"),
+        "VR_COEFFICIENTS": block(structure.coefficient_names, "coefficients"),
+    }
+    expected = {"VR_RUDDER_ANGLE": "input", "VR_PROPELLER_RPM": "input", "VR_STATE": "output"}
+    for key, causality in expected.items():
+        if variables[layout[key]].causality != causality:
+            raise FmuBuildError(f"{key}: variable must have causality {causality!r}")
+    return layout
+
+
+def _config_header(
+    identifier: str, guid: str, variables: tuple[FmuVariable, ...], layout: dict[str, int]
+) -> str:
+    causality = {"input": "SHIP_INPUT", "output": "SHIP_OUTPUT", "parameter": "SHIP_PARAMETER"}
+    lines = [
+        "/* Generated by fmu_model.export_native from fmu_model.interface.fmu_variables. */",
+        "/* Do not edit: rebuild the FMU with build_fmu.py. See ship_fmu.h for the contract. */",
+        "#ifndef MODEL_CONFIG_H",
+        "#define MODEL_CONFIG_H",
+        "",
+        f'#include "{LAYER_HEADER}"',
+        "",
+        f"#define MODEL_GUID {_c_string(guid)}",
+        f"#define MODEL_IDENTIFIER_NAME {_c_string(identifier)}",
+        f"#define MODEL_N_VARIABLES {len(variables)}",
+        *(f"#define {key} {value}" for key, value in layout.items()),
+        "",
+        "/* name, causality, start, has_min, min, has_max, max; index = value reference */",
+        "static const ShipVariable MODEL_VARIABLES[MODEL_N_VARIABLES] = {",
+    ]
+    for var in variables:
+        if var.causality not in causality:
+            raise FmuBuildError(f"variable {var.name!r}: unsupported causality {var.causality!r}")
+        start = 0.0 if var.start is None or var.causality == "output" else var.start
+        fields = [
+            _c_string(var.name),
+            causality[var.causality],
+            _c_double(start),
+            "1" if var.min is not None else "0",
+            _c_double(var.min if var.min is not None else 0.0),
+            "1" if var.max is not None else "0",
+            _c_double(var.max if var.max is not None else 0.0),
+        ]
+        lines.append(f"    {{{', '.join(fields)}}}, /* vr {var.value_reference} */")
+    lines += ["};", "", "#endif /* MODEL_CONFIG_H */", ""]
+    return "\n".join(lines)
+
+
+def _interface(params: ModelParameters, max_step_s: float) -> tuple[FmuVariable, ...]:
+    """``fmu_variables(params)`` with the start value of ``max_step`` set."""
+    return tuple(
+        replace(v, start=max_step_s) if v.name == "max_step" else v for v in fmu_variables(params)
+    )
+
+
+def generate_sources(
+    params: ModelParameters, *, max_step_s: float = DEFAULT_MAX_STEP_S, guid: str = GUID_PLACEHOLDER
+) -> dict[str, str]:
+    """Return the files of the FMU's ``sources/`` folder, by name.
+
+    Raises
+    ------
+    FmuBuildError
+        For an unknown model or an interface the C layer cannot serve.
+
+    """
+    try:
+        structure = get_model(params.model)
+    except KeyError as exc:
+        raise FmuBuildError(str(exc.args[0])) from None
+    variables = _interface(params, max_step_s)
+    identifier = model_identifier(params.vessel_name)
+    layout = _layout(variables, structure)
+    return {
+        LAYER_SOURCE: (C_DIR / LAYER_SOURCE).read_text(encoding="utf-8"),
+        LAYER_HEADER: (C_DIR / LAYER_HEADER).read_text(encoding="utf-8"),
+        CONFIG_HEADER: _config_header(identifier, guid, variables, layout),
+        EQUATIONS_HEADER: generate_model_c(structure),
+    }
+
+
+def _compiler(cc: str | None) -> list[str]:
+    """Command of the C compiler: ``cc`` argument, else ``$CC``, else cc / gcc / clang."""
+    spec = cc if cc is not None else os.environ.get("CC")
+    if spec:
+        argv = shlex.split(spec)
+        if not argv or shutil.which(argv[0]) is None:
+            origin = "cc argument" if cc is not None else "$CC"
+            raise FmuBuildError(f"C compiler {spec!r} not found ({origin})")
+        return argv
+    for name in ("cc", "gcc", "clang"):
+        if shutil.which(name):
+            return [name]
+    raise FmuBuildError("no C compiler found (install gcc or clang, or set $CC)")
+
+
+def _first_error_line(output: str) -> str:
+    lines = [line.strip() for line in output.splitlines() if line.strip()]
+    for line in lines:
+        if "error" in line.lower():
+            return line
+    return lines[0] if lines else "no compiler output"
+
+
+def _compile(sources: Path, library: Path, compiler: list[str]) -> None:
+    command = [
+        *compiler,
+        *CFLAGS,
+        "-I",
+        str(fmi_headers_dir()),
+        "-I",
+        ".",
+        LAYER_SOURCE,
+        "-o",
+        str(library),
+        "-lm",
+    ]
+    try:
+        result = subprocess.run(
+            command, cwd=sources, capture_output=True, text=True, timeout=300, check=False
+        )
+    except OSError as exc:
+        raise FmuBuildError(f"cannot run C compiler {compiler[0]!r}: {exc.strerror}") from None
+    except subprocess.TimeoutExpired:
+        raise FmuBuildError(f"C compiler {compiler[0]!r} timed out") from None
+    if result.returncode != 0:
+        line = _first_error_line(result.stderr or result.stdout)
+        raise FmuBuildError(f"C compilation failed ({compiler[0]}): {line}")
+
+
+def _zip(entries: list[tuple[str, bytes]], stamp: datetime) -> bytes:
+    """Zip archive with fixed time stamps and permissions (reproducible bytes)."""
+    stamp = max(stamp.astimezone(UTC), datetime(1980, 1, 1, tzinfo=UTC))
+    date_time = stamp.timetuple()[:6]
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        for name, data in entries:
+            info = zipfile.ZipInfo(name, date_time=date_time)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = (0o755 if name.startswith("binaries/") else 0o644) << 16
+            archive.writestr(info, data)
+    return buffer.getvalue()
+
+
+def _check_params(params: ModelParameters) -> None:
+    theta = np.asarray(params.coefficients, dtype=float)
+    bad = [name for name, value in zip(params.names, theta, strict=True) if not np.isfinite(value)]
+    if bad:
+        raise FmuBuildError(f"coefficients {bad} are not finite")
+    for what, value in (
+        ("length_m", params.length_m),
+        ("nominal_speed_mps", params.nominal_speed_mps),
+        ("nominal_n_rps", params.nominal_n_rps),
+    ):
+        if not math.isfinite(value):
+            raise FmuBuildError(f"{what} must be finite, got {value!r}")
+    if params.length_m <= 0.0:
+        raise FmuBuildError(f"length_m must be positive, got {params.length_m!r}")
+
+
+@dataclass(frozen=True)
+class NativeFmuText:
+    """Everything of a native FMU except its binary (see :func:`render_native_fmu`).
+
+    Attributes
+    ----------
+    model_identifier : str
+        C-safe identifier; the library is ``binaries/<platform>/<model_identifier>.so``.
+    guid : str
+        Content-derived GUID, in ``model_description`` and ``model_config.h``.
+    model_description : str
+        ``modelDescription.xml``.
+    osp_model_description : str
+        The OSP-IS sidecar ``<stem>_OspModelDescription.xml``.
+    sources : dict of str to str
+        Files of ``sources/`` by name.
+    created : datetime
+        ``generationDateAndTime``, also the time stamp of the zip entries.
+
+    """
+
+    model_identifier: str
+    guid: str
+    model_description: str
+    osp_model_description: str
+    sources: dict[str, str]
+    created: datetime
+
+
+def render_native_fmu(params: ModelParameters, *, max_step_s: float | None = None) -> NativeFmuText:
+    """Generate the texts of the native FMU (no compiler needed).
+
+    The GUID is a hash of the model description and the sources (rendered with a
+    placeholder GUID), so any change of coefficients, interface or C layer changes it.
+
+    Raises
+    ------
+    FmuBuildError
+        Unknown model, non-finite coefficients or vessel data, a bad ``max_step_s``.
+
+    """
+    try:
+        get_model(params.model)
+    except KeyError as exc:
+        raise FmuBuildError(str(exc.args[0])) from None
+    _check_params(params)
+    max_step = DEFAULT_MAX_STEP_S if max_step_s is None else float(max_step_s)
+    if not (math.isfinite(max_step) and max_step >= MIN_MAX_STEP_S):
+        raise FmuBuildError(
+            f"max_step_s must be a finite number >= {MIN_MAX_STEP_S}, got {max_step}"
+        )
+    identifier = model_identifier(params.vessel_name)
+    variables = _interface(params, max_step)
+    created = generation_time(params)
+    sources = generate_sources(params, max_step_s=max_step)
+    try:
+        description = model_description_xml(
+            params,
+            variables,
+            model_identifier=identifier,
+            source_files=(LAYER_SOURCE,),
+            created=created,
+        )
+        sidecar = osp_model_description_xml(params, variables)
+    except ValueError as exc:
+        raise FmuBuildError(str(exc)) from None
+    guid = content_guid(
+        [("modelDescription.xml", description.encode("utf-8"))]
+        + [(f"sources/{name}", sources[name].encode("utf-8")) for name in sorted(sources)]
+    )
+    sources[CONFIG_HEADER] = sources[CONFIG_HEADER].replace(GUID_PLACEHOLDER, guid)
+    return NativeFmuText(
+        model_identifier=identifier,
+        guid=guid,
+        model_description=description.replace(GUID_PLACEHOLDER, guid),
+        osp_model_description=sidecar,
+        sources=sources,
+        created=created,
+    )
+
+
+def build_native_fmu(
+    params: ModelParameters,
+    output: str | os.PathLike[str],
+    *,
+    max_step_s: float | None = None,
+    cc: str | None = None,
+) -> Path:
+    """Generate, compile and pack the native FMI 2.0 co-simulation FMU.
+
+    Writes ``output`` (atomically: a reader never sees half an FMU) and the OSP-IS
+    sidecar ``<stem>_OspModelDescription.xml`` next to it. A rebuild from the same
+    parameters with the same compiler gives the same bytes (time stamps come from the
+    identification's ``created`` time when it is present).
+
+    Parameters
+    ----------
+    params : ModelParameters
+        Identified model: variant, coefficients, vessel.
+    output : path-like
+        The ``.fmu`` file to write; parent folders are created.
+    max_step_s : float, optional
+        Start value of the FMU's ``max_step`` parameter, the largest internal RK4 step
+        [s]; default ``fmu_model.interface.DEFAULT_MAX_STEP_S``.
+    cc : str, optional
+        C compiler command (may include options); default ``$CC``, else cc, gcc, clang.
+
+    Returns
+    -------
+    pathlib.Path
+        ``output``.
+
+    Raises
+    ------
+    FmuBuildError
+        Unknown model, non-finite coefficients, a bad ``max_step_s``, no C compiler, a
+        compile failure (with the compiler's first error line), an unsupported platform.
+        Nothing is written then.
+
+    """
+    output = Path(output)
+    platform = next((v for k, v in _PLATFORMS.items() if sys.platform.startswith(k)), None)
+    if platform is None:
+        raise FmuBuildError(f"native FMU build is not supported on {sys.platform!r}")
+    binary_dir, suffix = platform
+    text = render_native_fmu(params, max_step_s=max_step_s)
+    compiler = _compiler(cc)
+    with tempfile.TemporaryDirectory(prefix="shipid-fmu-") as tmp:
+        source_dir = Path(tmp) / "sources"
+        source_dir.mkdir()
+        for name, content in text.sources.items():
+            (source_dir / name).write_text(content, encoding="utf-8")
+        library = Path(tmp) / f"{text.model_identifier}{suffix}"
+        _compile(source_dir, library, compiler)
+        binary = library.read_bytes()
+
+    entries = [
+        ("modelDescription.xml", text.model_description.encode("utf-8")),
+        (f"binaries/{binary_dir}/{text.model_identifier}{suffix}", binary),
+        *((f"sources/{name}", text.sources[name].encode("utf-8")) for name in sorted(text.sources)),
+    ]
+    write_atomic(output, _zip(entries, text.created))
+    write_atomic(osp_sidecar_path(output), text.osp_model_description)
+    return output

@@ -1,0 +1,383 @@
+"""FMI 2.0 ``modelDescription.xml`` and the OSP-IS sidecar, from the shared FMU interface.
+
+Backend-neutral: everything is derived from :func:`fmu_model.interface.fmu_variables`
+(the variables in value-reference order) and the model structure; the exporter only
+adds what is specific to it (model identifier, GUID, source files). Units are declared
+with FMI ``BaseUnit`` exponents derived from the (metre, second) dimension tuples of
+``fmu_model.structure``; angles carry ``rad`` (display unit ``deg``), the propeller
+speed ``rpm`` = 1/60 s⁻¹.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import uuid
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from importlib import metadata
+
+from fmu_model.interface import FmuVariable
+from fmu_model.params import ModelParameters
+from fmu_model.structure import unit_string
+from fmu_model.variants import get_model
+
+# Log categories of the native FMU, in the order of fmu_model/c/fmi2_cosimulation.c.
+LOG_CATEGORIES: tuple[tuple[str, str], ...] = (
+    ("logStatusWarning", "Warnings"),
+    ("logStatusDiscard", "fmi2DoStep discarded: the state diverged"),
+    ("logStatusError", "Errors: rejected values, calls in the wrong state, unsupported calls"),
+    ("logStatusFatal", "Fatal errors (never raised by this FMU)"),
+    ("logAll", "Trace of every FMI call"),
+)
+
+# CoSimulation flags of the native FMU (the defaults of model_description_xml).
+NATIVE_CAPABILITIES: Mapping[str, bool] = {
+    "canHandleVariableCommunicationStepSize": True,
+    "canInterpolateInputs": False,
+    "canRunAsynchronuously": False,
+    "canBeInstantiatedOnlyOncePerProcess": False,
+    "canNotUseMemoryManagementFunctions": False,
+    "canGetAndSetFMUstate": True,
+    "canSerializeFMUstate": True,
+    "providesDirectionalDerivative": False,
+}
+
+# Default experiment of the FMU [s].
+DEFAULT_START_TIME_S = 0.0
+DEFAULT_STOP_TIME_S = 1000.0
+DEFAULT_STEP_SIZE_S = 0.1
+
+_GUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://shipid.invalid/fmu")
+_GUID_PLACEHOLDER = "{00000000-0000-0000-0000-000000000000}"
+OSP_NAMESPACE = "https://open-simulation-platform.com/OspModelDescription/1.0.0"
+
+
+@dataclass(frozen=True)
+class FmiUnit:
+    """An FMI 2.0 unit: SI base-unit exponents, factor, and display units.
+
+    A value v in this unit is ``factor * v`` in the base units m^m s^s rad^rad.
+    ``display_units`` are (name, factor) pairs with display value = factor * v.
+    """
+
+    name: str
+    m: int = 0
+    s: int = 0
+    rad: int = 0
+    factor: float = 1.0
+    display_units: tuple[tuple[str, float], ...] = ()
+
+
+def _si_unit(dimension: tuple[int, int]) -> FmiUnit:
+    """Return the unit of a (metre, second) dimension tuple, named by ``unit_string``."""
+    return FmiUnit(unit_string(dimension), m=dimension[0], s=dimension[1])
+
+
+# Angular units: angles and revolutions are dimensionless in ``fmu_model.structure``.
+_DEG_PER_RAD = math.degrees(1.0)
+_ANGULAR_UNITS = (
+    FmiUnit("rad", rad=1, display_units=(("deg", _DEG_PER_RAD),)),
+    FmiUnit("rad/s", rad=1, s=-1, display_units=(("deg/s", _DEG_PER_RAD),)),
+    FmiUnit("rpm", s=-1, factor=1.0 / 60.0),
+)
+# Dimensions of the state and parameter units: m, s, m/s.
+_STATE_DIMENSIONS = ((1, 0), (0, 1), (1, -1))
+
+
+def unit_table(model: str) -> dict[str, FmiUnit]:
+    """All units an FMU of ``model`` may use, by name.
+
+    The SI units come from the dimension tuples of the states and of the model's
+    coefficients (``ModelStructure.coefficient_units``); the angular ones are fixed.
+    """
+    table = {unit.name: unit for unit in _ANGULAR_UNITS}
+    dimensions = [*_STATE_DIMENSIONS, *get_model(model).coefficient_units().values()]
+    for dimension in dimensions:
+        if dimension != (0, 0):
+            unit = _si_unit(dimension)
+            table.setdefault(unit.name, unit)
+    return table
+
+
+def units_of(variables: Iterable[FmuVariable], model: str) -> tuple[FmiUnit, ...]:
+    """Return the units the variables use, in order of first use.
+
+    Raises
+    ------
+    ValueError
+        When a variable has a unit (or display unit) that :func:`unit_table` does not know.
+
+    """
+    table = unit_table(model)
+    used: dict[str, FmiUnit] = {}
+    for var in variables:
+        if var.unit is None:
+            continue
+        if var.unit not in table:
+            raise ValueError(f"variable {var.name!r}: unknown unit {var.unit!r}")
+        unit = table[var.unit]
+        if var.display_unit is not None and var.display_unit not in dict(unit.display_units):
+            raise ValueError(
+                f"variable {var.name!r}: unit {var.unit!r} has no display unit {var.display_unit!r}"
+            )
+        used.setdefault(unit.name, unit)
+    return tuple(used.values())
+
+
+def generation_time(params: ModelParameters) -> datetime:
+    """Time stamp of the FMU: the identification's ``created`` time, else now (UTC).
+
+    Using the identification time makes a rebuild from the same params.json byte-identical.
+    """
+    created = params.identification.get("created") if params.identification else None
+    if isinstance(created, str):
+        try:
+            stamp = datetime.fromisoformat(created)
+        except ValueError:
+            stamp = None
+        if stamp is not None:
+            if stamp.tzinfo is None:
+                stamp = stamp.replace(tzinfo=UTC)
+            return stamp.astimezone(UTC).replace(microsecond=0)
+    return datetime.now(UTC).replace(microsecond=0)
+
+
+def generation_tool() -> str:
+    """``"shipid <version>"`` of the installed package."""
+    try:
+        version = metadata.version("shipid")
+    except metadata.PackageNotFoundError:
+        version = "unknown"
+    return f"shipid {version}"
+
+
+def content_guid(parts: Iterable[tuple[str, bytes]]) -> str:
+    """GUID derived from named contents: the same contents give the same GUID.
+
+    ``parts`` are (name, bytes) pairs, e.g. the model description rendered with
+    :data:`GUID_PLACEHOLDER` and every source file.
+    """
+    digest = hashlib.sha256()
+    for name, data in parts:
+        digest.update(name.encode("utf-8") + b"\0")
+        digest.update(len(data).to_bytes(8, "little"))
+        digest.update(data)
+    return "{" + str(uuid.uuid5(_GUID_NAMESPACE, digest.hexdigest())) + "}"
+
+
+GUID_PLACEHOLDER = _GUID_PLACEHOLDER
+
+
+def _number(value: float) -> str:
+    """Shortest text that parses back to the same double (XML and C)."""
+    if not math.isfinite(value):
+        raise ValueError(f"non-finite value {value!r} cannot be written")
+    return repr(float(value))
+
+
+def _base_unit_attributes(unit: FmiUnit, *, all_exponents: bool) -> dict[str, str]:
+    exponents = {"kg": 0, "m": unit.m, "s": unit.s, "A": 0, "K": 0, "mol": 0, "cd": 0}
+    exponents["rad"] = unit.rad
+    attributes = {
+        key: str(value) for key, value in exponents.items() if all_exponents or value != 0
+    }
+    if all_exponents or unit.factor != 1.0:
+        attributes["factor"] = _number(unit.factor)
+    if all_exponents:
+        attributes["offset"] = "0.0"
+    return attributes
+
+
+def _unit_definitions(parent: ET.Element, units: Sequence[FmiUnit], *, osp: bool) -> None:
+    definitions = ET.SubElement(parent, "UnitDefinitions")
+    for unit in units:
+        element = ET.SubElement(definitions, "Unit", name=unit.name)
+        ET.SubElement(element, "BaseUnit", _base_unit_attributes(unit, all_exponents=osp))
+        for name, factor in unit.display_units:
+            ET.SubElement(element, "DisplayUnit", name=name, factor=_number(factor))
+
+
+def _to_text(root: ET.Element) -> str:
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def model_description_xml(
+    params: ModelParameters,
+    variables: Sequence[FmuVariable],
+    *,
+    model_identifier: str,
+    guid: str = GUID_PLACEHOLDER,
+    source_files: Sequence[str] = (),
+    needs_execution_tool: bool = False,
+    created: datetime | None = None,
+    tool: str | None = None,
+    capabilities: Mapping[str, bool] | None = None,
+    log_categories: Sequence[tuple[str, str]] = LOG_CATEGORIES,
+) -> str:
+    """Render the FMI 2.0 co-simulation ``modelDescription.xml``.
+
+    Parameters
+    ----------
+    params : ModelParameters
+        Vessel, model variant and provenance (description, generation time).
+    variables : sequence of FmuVariable
+        The FMU's variables in value-reference order (``fmu_variables``).
+    model_identifier : str
+        C-safe identifier: the shared-library name.
+    guid : str
+        The FMU's GUID (see :func:`content_guid`).
+    source_files : sequence of str
+        C files under ``sources/`` to compile (``<SourceFiles>``); empty for none.
+    needs_execution_tool : bool
+        False for a self-contained binary.
+    created : datetime, optional
+        ``generationDateAndTime``; default :func:`generation_time`.
+    tool : str, optional
+        ``generationTool``; default :func:`generation_tool`.
+    capabilities : mapping of str to bool, optional
+        Overrides of the ``CoSimulation`` flags (default :data:`NATIVE_CAPABILITIES`),
+        e.g. ``{"canSerializeFMUstate": False}`` for a backend without it.
+    log_categories : sequence of (name, description)
+        ``LogCategories``; default those of the native C layer.
+
+    Returns
+    -------
+    str
+        The XML document.
+
+    Raises
+    ------
+    ValueError
+        For a unit this module cannot declare or a non-finite start value.
+
+    """
+    structure = get_model(params.model)
+    units = units_of(variables, params.model)
+    stamp = created if created is not None else generation_time(params)
+    method = params.identification.get("method") if params.identification else None
+    description = f"{params.vessel_name}: {structure.description}"
+    if method:
+        description += f", identified by {method}"
+
+    root = ET.Element(
+        "fmiModelDescription",
+        {
+            "fmiVersion": "2.0",
+            "modelName": params.vessel_name,
+            "guid": guid,
+            "description": description,
+            "generationTool": tool if tool is not None else generation_tool(),
+            "generationDateAndTime": stamp.astimezone(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "variableNamingConvention": "flat",
+            "numberOfEventIndicators": "0",
+        },
+    )
+    flags = {**NATIVE_CAPABILITIES, **(capabilities or {})}
+    unknown = set(flags) - set(NATIVE_CAPABILITIES)
+    if unknown:
+        raise ValueError(f"unknown CoSimulation capabilities {sorted(unknown)}")
+    attributes = {
+        "modelIdentifier": model_identifier,
+        "needsExecutionTool": "true" if needs_execution_tool else "false",
+    }
+    attributes.update({name: "true" if value else "false" for name, value in flags.items()})
+    attributes["maxOutputDerivativeOrder"] = "0"
+    cosim = ET.SubElement(root, "CoSimulation", attributes)
+    if source_files:
+        files = ET.SubElement(cosim, "SourceFiles")
+        for name in source_files:
+            ET.SubElement(files, "File", name=name)
+    _unit_definitions(root, units, osp=False)
+    categories = ET.SubElement(root, "LogCategories")
+    for name, text in log_categories:
+        ET.SubElement(categories, "Category", name=name, description=text)
+    ET.SubElement(
+        root,
+        "DefaultExperiment",
+        startTime=_number(DEFAULT_START_TIME_S),
+        stopTime=_number(DEFAULT_STOP_TIME_S),
+        stepSize=_number(DEFAULT_STEP_SIZE_S),
+    )
+    model_variables = ET.SubElement(root, "ModelVariables")
+    index: dict[str, int] = {}
+    for position, var in enumerate(variables, start=1):
+        index[var.name] = position
+        attributes = {
+            "name": var.name,
+            "valueReference": str(var.value_reference),
+            "description": var.description,
+            "causality": var.causality,
+            "variability": var.variability,
+        }
+        if var.causality == "parameter":
+            attributes["initial"] = "exact"
+        scalar = ET.SubElement(model_variables, "ScalarVariable", attributes)
+        real: dict[str, str] = {}
+        if var.unit is not None:
+            real["unit"] = var.unit
+        if var.display_unit is not None:
+            real["displayUnit"] = var.display_unit
+        if var.min is not None:
+            real["min"] = _number(var.min)
+        if var.max is not None:
+            real["max"] = _number(var.max)
+        if var.causality != "output" and var.start is not None:
+            real["start"] = _number(var.start)
+        ET.SubElement(scalar, "Real", real)
+
+    outputs = [v for v in variables if v.causality == "output"]
+    structure_element = ET.SubElement(root, "ModelStructure")
+    outputs_element = ET.SubElement(structure_element, "Outputs")
+    for var in outputs:
+        # A state at the communication point: no direct feed-through from the inputs.
+        ET.SubElement(outputs_element, "Unknown", index=str(index[var.name]), dependencies="")
+    initial_element = ET.SubElement(structure_element, "InitialUnknowns")
+    for var in outputs:
+        # At initialisation the output x equals its parameter x0.
+        source = index.get(f"{var.name}0")
+        attributes = {"index": str(index[var.name])}
+        if source is not None:
+            attributes["dependencies"] = str(source)
+            attributes["dependenciesKind"] = "dependent"
+        ET.SubElement(initial_element, "Unknown", attributes)
+    return _to_text(root)
+
+
+# OSP-IS variable groups: (element, group name, variable names). The VariableGroups
+# schema is a sequence, so Generic groups come first, then the typed groups in schema order.
+_OSP_GROUPS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("Generic", "rudder_angle", ("rudder_angle",)),
+    ("Generic", "propeller_speed", ("propeller_rpm",)),
+    ("Generic", "heading", ("psi",)),
+    ("LinearVelocity", "linear_velocity", ("u", "v")),
+    ("AngularVelocity", "angular_velocity", ("r",)),
+    ("LinearDisplacement", "position", ("x", "y")),
+)
+
+
+def osp_model_description_xml(params: ModelParameters, variables: Sequence[FmuVariable]) -> str:
+    """Render the OSP-IS ``<name>_OspModelDescription.xml`` sidecar (format 1.0.0).
+
+    Groups: body velocities (u, v) as ``LinearVelocity``, yaw rate as
+    ``AngularVelocity``, earth-fixed position (x, y) as ``LinearDisplacement``; heading,
+    rudder angle and propeller speed as ``Generic`` groups.
+    """
+    by_name: Mapping[str, FmuVariable] = {v.name: v for v in variables}
+    wanted = [by_name[name] for _, _, names in _OSP_GROUPS for name in names]
+    # Default namespace (as in the OSP and libcosim examples); every element is in it.
+    root = ET.Element("OspModelDescription", xmlns=OSP_NAMESPACE, version="1.0")
+    _unit_definitions(root, units_of(wanted, params.model), osp=True)
+    groups = ET.SubElement(root, "VariableGroups")
+    for element, group_name, names in _OSP_GROUPS:
+        group = ET.SubElement(groups, element, name=group_name)
+        for name in names:
+            var = by_name[name]
+            attributes = {"ref": var.name}
+            if var.unit is not None:
+                attributes["unit"] = var.unit
+            ET.SubElement(group, "Variable", attributes)
+    return _to_text(root)
