@@ -1,0 +1,1 @@
+"""Standard manoeuvres through FMUs, metrics, IMO criteria, reference ship, reports."""

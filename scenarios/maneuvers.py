@@ -83,8 +83,10 @@ def turning_circle(
     heading_change_rad: float = math.radians(540.0),
     max_time_s: float = 3600.0,
 ) -> Program:
-    """Turning circle: rudder to ``rudder_rad`` (sign = side) until the heading changed
-    by ``heading_change_rad`` or ``max_time_s`` passed.
+    """Return a turning circle: rudder to ``rudder_rad`` (sign = side), held.
+
+    The run ends when the heading changed by ``heading_change_rad`` or after
+    ``max_time_s``.
     """
     sign = 1.0 if rudder_rad >= 0.0 else -1.0
     until = (
@@ -103,9 +105,10 @@ def turning_circle(
 def zigzag(
     rudder_rad: float, heading_rad: float, *, n_reversals: int = 4, max_time_s: float = 3600.0
 ) -> Program:
-    """Zig-zag δ/ψ, first to the side of ``rudder_rad``'s sign; ``n_reversals`` rudder
-    reversals (the 4th completes the third overshoot), then held until the heading
-    passes back through the check angle once more.
+    """Return a zig-zag δ/ψ, first to the side of ``rudder_rad``'s sign.
+
+    ``n_reversals`` rudder reversals (the 4th completes the third overshoot), then the
+    rudder is held until the heading passes the check angle once more.
     """
     sign = 1.0 if rudder_rad >= 0.0 else -1.0
     delta, psi = abs(rudder_rad), abs(heading_rad)
@@ -129,7 +132,7 @@ def zigzag(
 
 
 def spiral(rudder_steps_rad: tuple[float, ...], *, hold_s: float = 600.0) -> Program:
-    """Dieudonné spiral: each rudder angle held ``hold_s`` so the yaw rate settles."""
+    """Return a Dieudonné spiral: each rudder angle held ``hold_s`` so the yaw rate settles."""
     legs = tuple(
         Leg(d, Until(time_s=hold_s), label=f"{math.degrees(d):+.1f} deg") for d in rudder_steps_rad
     )
@@ -137,7 +140,7 @@ def spiral(rudder_steps_rad: tuple[float, ...], *, hold_s: float = 600.0) -> Pro
 
 
 def pullout(rudder_rad: float, *, turn_s: float = 600.0, release_s: float = 600.0) -> Program:
-    """Pull-out: steady turn with ``rudder_rad`` for ``turn_s``, then midship rudder."""
+    """Return a pull-out: steady turn with ``rudder_rad`` for ``turn_s``, then midship rudder."""
     legs = (
         Leg(rudder_rad, Until(time_s=turn_s), label="turn"),
         Leg(0.0, Until(time_s=release_s), label="released"),
@@ -148,7 +151,7 @@ def pullout(rudder_rad: float, *, turn_s: float = 600.0, release_s: float = 600.
 
 
 def standard_set(length_m: float, speed_mps: float) -> tuple[Program, ...]:
-    """The validation set: 35° turning both ways, 10/10 and 20/20 zig-zags starboard first.
+    """Return the validation set: 35° turning both ways, 10/10 and 20/20 zig-zags starboard first.
 
     ``length_m`` and ``speed_mps`` scale the time limits (about 60 L/U).
     """

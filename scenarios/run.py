@@ -210,7 +210,7 @@ def run_program(
     state = np.array([speed_mps, 0.0, 0.0, 0.0, 0.0, 0.0])
     plant.reset(state)
     legs = program.legs
-    approach_steps = int(round(program.approach_s / dt_s))
+    approach_steps = round(program.approach_s / dt_s)
     max_steps = approach_steps + int(
         sum((leg.until.time_s or 0.0) for leg in legs) / dt_s + len(legs) + 1
     )

@@ -45,7 +45,7 @@ class TruthShip:
 
 
 def reference_ship(name: str = "kvlcc2", scale: str = "full") -> TruthShip:
-    """The MMG reference vessel (only ``kvlcc2`` today) at ``scale`` full or model."""
+    """Return the MMG reference vessel (only ``kvlcc2`` today) at ``scale`` full or model."""
     if name != "kvlcc2":
         raise ValueError(f"unknown reference vessel {name!r} (known: kvlcc2)")
     ship = kvlcc2(scale)
@@ -61,7 +61,7 @@ def reference_ship(name: str = "kvlcc2", scale: str = "full") -> TruthShip:
 
 
 def model_ship(params: ModelParameters, rudder_rate_radps: float = math.radians(2.34)) -> TruthShip:
-    """A ship that is itself an identified model (for recovery tests)."""
+    """Return a ship that is itself an identified model (for recovery tests)."""
     return TruthShip(
         name=params.vessel_name,
         plant=ModelPlant(params),
