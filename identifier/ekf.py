@@ -255,7 +255,7 @@ def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length, max_substep, offset,
     t, y, r_var, rudder, n_rps, x, P, q_state, q_theta, variance_limit,
     states, theta_hist, std_hist,
-):  # type: ignore[no-untyped-def]  # fmt: skip
+):  # fmt: skip
     """One segment of the EKF, eq. (4)-(5), in place on x and P; returns (status, sample).
 
     x = (u, v, r, x, y, ψ, θ); the measurement is states offset … offset+2.
