@@ -7,7 +7,9 @@ one line there) it reports
 
 * µs per step in an fmpy loop (setReal inputs, doStep, getReal outputs, h = 0.1 s),
 * µs per step in the C host ``tests/c_host/host.c`` (same loop without Python),
-* seconds for a 1-hour run at 0.1 s with ``fmpy.simulate_fmu``.
+* seconds for a 1-hour run at 0.1 s with ``fmpy.simulate_fmu``,
+
+and the fmpy-loop cost of every backend relative to the first one (native C).
 
 Without ``--params`` (or when the file does not exist) a built-in demo ship is used.
 """
@@ -28,6 +30,7 @@ from fmpy.fmi2 import FMU2Slave
 
 from fmu_model import ModelParameters, load_params
 from fmu_model.export_native import build_native_fmu, fmi_headers_dir
+from fmu_model.export_pythonfmu import build_pythonfmu_fmu
 
 ROOT = Path(__file__).resolve().parents[1]
 HOST_SOURCE = ROOT / "tests" / "c_host" / "host.c"
@@ -60,7 +63,7 @@ def backends(params: ModelParameters, workdir: Path) -> list[tuple[str, Path]]:
     """(label, FMU path) of every backend to compare; one line per backend."""
     return [
         ("native C", build_native_fmu(params, workdir / "native" / "ship.fmu")),
-        # ("pythonfmu", build_pythonfmu_fmu(params, workdir / "pythonfmu" / "ship.fmu")),
+        ("pythonfmu", build_pythonfmu_fmu(params, workdir / "pythonfmu" / "ship.fmu")),
     ]
 
 
@@ -151,10 +154,19 @@ def main() -> int:
         for label, path in backends(params, workdir):
             in_host = host_us(host, path, 10 * args.steps, workdir)
             rows.append((label, fmpy_loop_us(path, args.steps), in_host, hour_s(path)))
-    print(f"{'backend':<12} {'fmpy µs/step':>13} {'C host µs/step':>15} {'1 h simulate_fmu s':>19}")
+    base_label, base_us = rows[0][0], rows[0][1]
+    print(
+        f"{'backend':<12} {'fmpy µs/step':>13} {f'x {base_label}':>12} {'C host µs/step':>15} "
+        f"{'1 h simulate_fmu s':>19}"
+    )
     for label, fmpy_us, c_us, hour in rows:
         c_text = "n/a" if c_us is None else f"{c_us:.3f}"
-        print(f"{label:<12} {fmpy_us:>13.2f} {c_text:>15} {hour:>19.2f}")
+        print(f"{label:<12} {fmpy_us:>13.2f} {fmpy_us / base_us:>12.1f} {c_text:>15} {hour:>19.2f}")
+    print(
+        "fmpy loop, µs per doStep: "
+        + ", ".join(f"{label} {fmpy_us:.2f}" for label, fmpy_us, _, _ in rows)
+        + "".join(f"; {label}/{base_label} = {us / base_us:.1f}" for label, us, _, _ in rows[1:])
+    )
     return 0
 
 

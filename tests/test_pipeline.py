@@ -1,0 +1,58 @@
+"""The demo pipeline end to end (``python -m scenarios demo --quick``)."""
+
+from __future__ import annotations
+
+import json
+import zipfile
+
+import pytest
+
+from fmu_model import load_params
+from identifier.logs import read_log
+from scenarios.cli import main
+from scenarios.pipeline import DemoConfig, read_fmu_info
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def test_quick_demo_produces_logs_params_fmu_and_report(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--quick", "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert f"report: {out / 'report' / 'report.md'}" in printed
+
+    config = DemoConfig.quick()
+    logs = sorted((out / "logs").glob("*.csv"))
+    assert [p.stem for p in logs] == sorted(config.maneuvers)
+    for path in logs:
+        log = read_log(path)
+        assert log.length_m == 320.0 and log.metadata["vessel"] == "kvlcc2-full"
+
+    params = load_params(out / "params.json")
+    assert params.model == "shi2009" and params.length_m == 320.0
+    assert params.nominal_speed_mps == pytest.approx(7.9739, rel=1e-3)
+    used = sorted(entry["path"] for entry in params.identification["logs"])
+    assert used == sorted(str(p) for p in logs)
+
+    fmus = list(out.glob("*.fmu"))
+    assert len(fmus) == 1
+    with zipfile.ZipFile(fmus[0]) as archive:
+        names = archive.namelist()
+    assert any(n.startswith("binaries/") for n in names)  # native, not pythonfmu
+    assert any(n.startswith("sources/") for n in names)
+    assert read_fmu_info(fmus[0]).length_m == 320.0
+
+    report = out / "report"
+    text = (report / "report.md").read_text()
+    assert "| 35° port turn: tactical diameter |" in text
+    assert "IMO MSC.137(76)" in text
+    for png in ("turning-circles.png", "zigzag-10-10-stbd.png", "zigzag-20-20-stbd.png"):
+        assert (report / png).read_bytes().startswith(PNG_MAGIC), png
+    doc = json.loads((report / "validation.json").read_text())
+    assert doc["condition"]["dt_s"] == config.validation_dt_s
+    assert len(doc["comparison"]) == 10
+    assert all(isinstance(row["predicted"], float) for row in doc["comparison"])
+    reference = {(r["maneuver"], r["quantity"]): r["reference"] for r in doc["comparison"]}
+    # The reference side is the KVLCC2 MMG model (ref. §11, 35 deg starboard advance
+    # 985.3 m; looser here as the quick demo steps 0.5 s).
+    assert reference["turning-35-stbd", "advance_m"] == pytest.approx(985.3, rel=0.02)

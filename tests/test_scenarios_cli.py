@@ -1,0 +1,342 @@
+"""``python -m scenarios``: FMU runs against the Python model, the KVLCC2 reference
+against shared/reference/kvlcc2_mmg.md §11, JSON/CSV outputs, gates and bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fmu_model import ModelParameters
+from fmu_model.export_native import build_native_fmu
+from identifier.logs import read_log
+from scenarios.cli import main
+from scenarios.maneuvers import turning_circle, zigzag
+from scenarios.metrics import turning_metrics, zigzag_metrics
+from scenarios.pipeline import maneuver_seed, read_fmu_info, reference_runs
+from scenarios.run import FmuPlant, ModelPlant, run_program
+from tests.conftest import SEED_COEFFICIENTS
+
+ROOT = Path(__file__).resolve().parents[1]
+RUDDER_RATE_RADPS = math.radians(2.34)  # the CLI default
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+# A ship whose 35 deg turn is too wide for IMO MSC.137(76) 5.3.1 (tactical diameter
+# about 7.2 L, advance 5.6 L) and whose initial turning is too slow (3.7 L to 10 deg).
+WIDE_TURNING_C3 = 0.0008
+
+
+def _params(c3: float | None = None, name: str = "testship") -> ModelParameters:
+    coefficients = dict(SEED_COEFFICIENTS)
+    if c3 is not None:
+        coefficients["c3"] = c3
+    return ModelParameters.from_vector(
+        "shi2009",
+        np.array(list(coefficients.values())),
+        length_m=100.0,
+        vessel_name=name,
+        nominal_speed_mps=5.0,
+        nominal_n_rps=2.0,
+    )
+
+
+@pytest.fixture(scope="session")
+def params() -> ModelParameters:
+    return _params()
+
+
+@pytest.fixture(scope="session")
+def fmu(tmp_path_factory: pytest.TempPathFactory, params: ModelParameters) -> Path:
+    """One native FMU of the seed-structure test ship for the whole session."""
+    return build_native_fmu(params, tmp_path_factory.mktemp("fmu") / "testship.fmu")
+
+
+@pytest.fixture(scope="session")
+def wide_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    params = _params(WIDE_TURNING_C3, name="wideship")
+    return build_native_fmu(params, tmp_path_factory.mktemp("wide") / "wideship.fmu")
+
+
+def _one_line(text: str) -> str:
+    lines = text.strip("\n").split("\n")
+    assert len(lines) == 1, f"expected one line, got {text!r}"
+    assert "Traceback" not in text
+    return lines[0]
+
+
+# ----------------------------------------------------------------- the plants agree
+
+
+@pytest.mark.parametrize(
+    "program",
+    [
+        turning_circle(math.radians(35.0), heading_change_rad=math.radians(400.0)),
+        zigzag(math.radians(-20.0), math.radians(20.0)),
+    ],
+    ids=["turning", "zigzag-port"],
+)
+def test_fmu_run_equals_python_model_run(fmu, params, program):
+    info = read_fmu_info(fmu)
+    settings = {"speed_mps": 5.0, "n_rps": 2.0, "rudder_rate_radps": RUDDER_RATE_RADPS}
+    with FmuPlant(fmu) as plant:
+        got = run_program(plant, program, dt_s=0.1, **settings)
+    want = run_program(
+        ModelPlant(params, max_step_s=info.max_step_s), program, dt_s=0.1, **settings
+    )
+    assert got.shape == want.shape and got.size > 1000
+    for name in ("time_s", "rudder_rad", "n_rps"):
+        np.testing.assert_array_equal(got[name], want[name], err_msg=name)
+    for name in ("x_m", "y_m", "psi_rad", "u_mps", "v_mps", "r_radps"):
+        scale = max(1.0, float(np.max(np.abs(want[name]))))
+        np.testing.assert_allclose(got[name], want[name], rtol=0.0, atol=1e-9 * scale, err_msg=name)
+
+
+# ---------------------------------------------------------- the reference, ref. §11
+
+
+def test_kvlcc2_reference_metrics_match_reference_page():
+    """35 deg turns both ways and 10/10, 20/20 zig-zags at dt 0.1 s (ref. §10, §11)."""
+    name, _, length, condition, runs = reference_runs("kvlcc2", "full", 0.1)
+    assert name == "kvlcc2-full" and length == 320.0 and condition.dt_s == 0.1
+    m = {run.program.name: run.metrics for run in runs}
+    turning = {
+        "turning-35-stbd": (3.0789, 1.3253, 3.1107, 174.23),
+        "turning-35-port": (3.0901, 1.3255, 3.0964, 172.48),
+    }
+    for key, (advance_l, transfer_l, tactical_l, t90) in turning.items():
+        t = m[key]
+        assert t.advance_m / length == pytest.approx(advance_l, rel=0.01), key
+        assert t.transfer_m / length == pytest.approx(transfer_l, rel=0.01), key
+        assert t.tactical_diameter_m / length == pytest.approx(tactical_l, rel=0.01), key
+        assert t.time_to_90_s == pytest.approx(t90, rel=0.01), key
+    zigzags = {
+        "zigzag-10-10-stbd": (5.001, 13.937, 71.63),
+        "zigzag-20-20-stbd": (10.583, 15.823, 75.45),
+    }
+    for key, (first, second, reversal) in zigzags.items():
+        z = m[key]
+        assert z.first_overshoot_deg == pytest.approx(first, abs=max(0.01 * first, 0.1)), key
+        assert z.second_overshoot_deg == pytest.approx(second, abs=max(0.01 * second, 0.1)), key
+        assert z.reversal_times_s[0] == pytest.approx(reversal, rel=0.01), key
+
+
+# --------------------------------------------------------------- JSON, CSV, figures
+
+
+def test_turning_circle_json_csv_plot(fmu, tmp_path, capsys):
+    out = {k: tmp_path / f"turn.{k}" for k in ("json", "csv", "png")}
+    files = ["--json", str(out["json"]), "--csv", str(out["csv"]), "--plot", str(out["png"])]
+    status = main(["turning-circle", "--fmu", str(fmu), "--rudder-deg", "35", "--quiet", *files])
+    assert status == 0
+    assert "tactical diameter" in capsys.readouterr().out
+    record = json.loads(out["json"].read_text())
+    for key in (
+        "advance_m",
+        "transfer_m",
+        "tactical_diameter_m",
+        "advance_L",
+        "transfer_L",
+        "tactical_diameter_L",
+        "steady_diameter_m",  # the default run covers 540 deg
+        "time_to_90_s",
+    ):
+        assert isinstance(record[key], float), key
+    assert record["advance_L"] == pytest.approx(record["advance_m"] / 100.0, rel=1e-12)
+    assert record["run"]["speed_mps"] == 5.0 and record["run"]["rpm"] == pytest.approx(120.0)
+
+    # The same run, here: the CLI defaulted to the FMU's u0 and propeller_rpm starts.
+    program = turning_circle(math.radians(35.0), max_time_s=60.0 * 100.0 / 5.0)
+    with FmuPlant(fmu) as plant:
+        traj = run_program(
+            plant, program, speed_mps=5.0, n_rps=2.0, rudder_rate_radps=RUDDER_RATE_RADPS, dt_s=0.1
+        )
+    metrics = turning_metrics(traj)
+    assert record["advance_m"] == metrics.advance_m
+    assert record["tactical_diameter_m"] == metrics.tactical_diameter_m
+
+    log = read_log(out["csv"])
+    assert log.metadata["vessel"] == "testship" and log.length_m == 100.0
+    assert "turning-35-stbd" in log.metadata["source"]
+    np.testing.assert_array_equal(log.time_s, traj["time_s"])
+    np.testing.assert_array_equal(log.x_m, traj["x_m"])
+    np.testing.assert_array_equal(log.y_m, traj["y_m"])
+    np.testing.assert_allclose(log.heading_rad, traj["psi_rad"], rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(log.rudder_rad, traj["rudder_rad"], rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(log.n_rps, traj["n_rps"], rtol=1e-14)
+    assert out["png"].read_bytes().startswith(PNG_MAGIC)
+
+
+def test_zigzag_json_and_port_first_mirrors(fmu, tmp_path):
+    """The test ship is mirror-symmetric: port first gives the same overshoots."""
+    records = []
+    for side in ([], ["--port-first"]):
+        path = tmp_path / f"zz{len(side)}.json"
+        args = ["zigzag", "--fmu", str(fmu), "--rudder-deg", "20", "--heading-deg", "20"]
+        assert main([*args, *side, "--json", str(path), "--quiet"]) == 0
+        records.append(json.loads(path.read_text()))
+    stbd, port = records
+    for key in ("first_overshoot_deg", "second_overshoot_deg", "initial_turning_time_s"):
+        assert isinstance(stbd[key], float), key
+        assert port[key] == pytest.approx(stbd[key], rel=1e-9, abs=1e-9), key
+    assert stbd["rudder_deg"] == 20.0 and port["rudder_deg"] == -20.0
+    assert len(stbd["reversal_times_s"]) >= 3
+    with FmuPlant(fmu) as plant:
+        traj = run_program(
+            plant,
+            zigzag(math.radians(20.0), math.radians(20.0), max_time_s=1200.0),
+            speed_mps=5.0,
+            n_rps=2.0,
+            rudder_rate_radps=RUDDER_RATE_RADPS,
+            dt_s=0.1,
+        )
+    z = zigzag_metrics(traj, math.radians(20.0), math.radians(20.0))
+    assert stbd["first_overshoot_deg"] == z.first_overshoot_deg
+    assert stbd["second_overshoot_deg"] == z.second_overshoot_deg
+
+
+def test_spiral_and_pullout(fmu, tmp_path):
+    spiral_json = tmp_path / "spiral.json"
+    args = ["spiral", "--fmu", str(fmu), "--rudder-steps-deg", "10,0,-10,0,10"]
+    assert main([*args, "--hold-s", "200", "--json", str(spiral_json), "--quiet"]) == 0
+    spiral = json.loads(spiral_json.read_text())
+    rates = spiral["steady_yaw_rate_degps"]
+    assert spiral["rudder_deg"] == [10.0, 0.0, -10.0, 0.0, 10.0]
+    assert rates[0] > 0.5 and rates[2] == pytest.approx(-rates[0], rel=1e-3)
+    # Midship after a turn: the yaw rate decays (T about 28 s), symmetrically both ways.
+    assert abs(rates[1]) < 0.01 * rates[0] and rates[3] == pytest.approx(-rates[1], rel=1e-3)
+    assert spiral["stable"] is True and spiral["loop_width_deg"] == 0.0
+
+    pullout_json = tmp_path / "pullout.json"
+    args = ["pullout", "--fmu", str(fmu), "--rudder-deg", "20", "--turn-s", "300"]
+    assert main([*args, "--release-s", "400", "--json", str(pullout_json), "--quiet"]) == 0
+    pullout = json.loads(pullout_json.read_text())
+    assert pullout["initial_yaw_rate_degps"] > 1.0
+    assert abs(pullout["residual_yaw_rate_degps"]) < 0.01 * pullout["initial_yaw_rate_degps"]
+    assert pullout["time_constant_s"] > 0.0
+
+
+def test_synthesize_writes_logs_with_per_maneuver_seeds(tmp_path, capsys):
+    both, alone = tmp_path / "both", tmp_path / "alone"
+    common = ["--vessel", "kvlcc2", "--scale", "model", "--seed", "3", "--quiet"]
+    args = ["synthesize", "--maneuver", "zigzag-10", "--maneuver", "zigzag-20", *common]
+    assert main([*args, "-o", str(both)]) == 0
+    printed = capsys.readouterr().out.split()
+    assert printed == [str(both / "zigzag-10.csv"), str(both / "zigzag-20.csv")]
+    logs = [read_log(both / f"zigzag-{a}.csv") for a in (10, 20)]
+    for log, name in zip(logs, ("zigzag-10", "zigzag-20"), strict=True):
+        assert log.metadata["vessel"] == "kvlcc2-model" and log.length_m == pytest.approx(7.0)
+        assert log.metadata["source"].endswith(f"seed {maneuver_seed(3, name)}")
+    assert maneuver_seed(3, "zigzag-10") != maneuver_seed(3, "zigzag-20")
+    # A manoeuvre's noise does not depend on what else was synthesised with it.
+    assert main(["synthesize", "--maneuver", "zigzag-10", *common, "-o", str(alone)]) == 0
+    assert (alone / "zigzag-10.csv").read_bytes() == (both / "zigzag-10.csv").read_bytes()
+
+
+# ------------------------------------------------------------------------- gates
+
+
+def test_imo_strict_gate(fmu, wide_fmu, tmp_path, capsys):
+    report = tmp_path / "imo.json"
+    assert main(["imo", "--fmu", str(fmu), "--strict", "--quiet", "--json", str(report)]) == 0
+    captured = capsys.readouterr()
+    assert "verdict: PASS" in captured.out and captured.err == ""
+    doc = json.loads(report.read_text())
+    assert doc["passed"] is True and len(doc["criteria"]) == 8
+
+    assert main(["imo", "--fmu", str(wide_fmu), "--quiet"]) == 0  # not strict: report only
+    assert "verdict: FAIL" in capsys.readouterr().out
+    assert main(["imo", "--fmu", str(wide_fmu), "--strict", "--quiet"]) == 3
+    line = _one_line(capsys.readouterr().err)
+    assert "FAIL" in line and "tactical diameter" in line and "initial turning" in line
+
+
+def test_validate_report_and_error_gate(fmu, tmp_path, capsys):
+    report = tmp_path / "report"
+    args = ["validate", "--fmu", str(fmu), "--reference", "kvlcc2", "--report", str(report)]
+    assert main([*args, "--max-error-pct", "10", "--quiet"]) == 3
+    captured = capsys.readouterr()
+    assert "FAIL" in _one_line(captured.err) and "advance" in captured.err
+    assert f"report: {report / 'report.md'}" in captured.out
+    doc = json.loads((report / "validation.json").read_text())
+    assert doc["format"] == "ship-maneuvering-validation" and doc["gate"]["passed"] is False
+    rows = doc["comparison"]
+    assert len(rows) == 10  # advance, transfer, tactical x 2 turns; 2 overshoots x 2 zig-zags
+    for row in rows:
+        want = 100.0 * (row["predicted"] - row["reference"]) / row["reference"]
+        assert row["error_pct"] == pytest.approx(want, rel=1e-12)
+    assert {"turning-35-stbd", "zigzag-20-20-stbd"} <= set(doc["runs"]["predicted"])
+    assert len(doc["imo"]["criteria"]) == 8
+    assert any("length" in w for w in doc["warnings"])  # 100 m test ship vs 320 m KVLCC2
+    text = (report / "report.md").read_text()
+    assert "| 35° starboard turn: advance |" in text and "5.3.3.3" in text
+    for png in ("turning-circles.png", "zigzag-10-10-stbd.png", "zigzag-20-20-stbd.png"):
+        assert (report / png).read_bytes().startswith(PNG_MAGIC), png
+        assert f"]({png})" in text
+
+    limit = f"{doc['max_abs_error_pct'] + 1.0:.3f}"
+    assert main([*args, "--max-error-pct", limit, "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    assert json.loads((report / "validation.json").read_text())["gate"]["passed"] is True
+
+
+# -------------------------------------------------------------------- bad input
+
+
+def test_missing_fmu_is_one_line_exit_1(tmp_path):
+    missing = tmp_path / "missing.fmu"
+    result = subprocess.run(
+        [sys.executable, "-m", "scenarios", "turning-circle", "--fmu", str(missing)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert result.returncode == 1
+    assert "missing.fmu" in _one_line(result.stderr)
+    assert result.stdout == ""
+
+
+def test_rudder_beyond_the_fmus_limit(fmu, capsys):
+    assert main(["turning-circle", "--fmu", str(fmu), "--rudder-deg", "60"]) == 1
+    line = _one_line(capsys.readouterr().err)
+    assert "60 deg" in line and "45 deg" in line
+
+
+def test_turn_that_never_reaches_90_degrees(fmu, capsys):
+    assert main(["turning-circle", "--fmu", str(fmu), "--max-time-s", "20", "--quiet"]) == 1
+    line = _one_line(capsys.readouterr().err)
+    assert "turning-35-stbd" in line and "90 deg" in line
+
+
+def test_file_that_is_not_an_fmu(tmp_path, capsys):
+    fake = tmp_path / "fake.fmu"
+    fake.write_text("not a zip")
+    assert main(["zigzag", "--fmu", str(fake)]) == 1
+    assert "not a readable FMU" in _one_line(capsys.readouterr().err)
+    foreign = tmp_path / "foreign.fmu"
+    with zipfile.ZipFile(foreign, "w") as archive:
+        archive.writestr("modelDescription.xml", "<fmiModelDescription/>")
+    assert main(["imo", "--fmu", str(foreign)]) == 1
+    assert "foreign.fmu" in _one_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["synthesize", "--maneuver", "loop-the-loop", "-o", "x"],
+        ["turning-circle", "--fmu", "x.fmu", "--rudder-deg", "0"],
+        ["zigzag", "--fmu", "x.fmu", "--heading-deg", "nan"],
+        ["validate", "--fmu", "x.fmu"],  # --report missing
+    ],
+    ids=["unknown-maneuver", "zero-rudder", "nan-heading", "missing-option"],
+)
+def test_usage_errors_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as excinfo:
+        main(argv)
+    assert excinfo.value.code == 2
+    assert "error:" in capsys.readouterr().err
