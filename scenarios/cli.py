@@ -40,7 +40,14 @@ from fmu_model import ParamsFormatError
 from fmu_model.errors import FmuBuildError
 from identifier.errors import IdentificationError, LogFormatError
 from scenarios.imo import Criterion
-from scenarios.maneuvers import Program, pullout, spiral, turning_circle, zigzag
+from scenarios.maneuvers import (
+    DEFAULT_RUDDER_RATE_DEG_S,
+    Program,
+    pullout,
+    spiral,
+    turning_circle,
+    zigzag,
+)
 from scenarios.metrics import (
     MetricsError,
     pullout_metrics,
@@ -48,7 +55,6 @@ from scenarios.metrics import (
     steady_yaw_rate,
 )
 from scenarios.pipeline import (
-    DEFAULT_RUDDER_RATE_DEG_S,
     STANDARD_LIMIT_L_OVER_U,
     Bar,
     DemoConfig,
@@ -78,6 +84,7 @@ from scenarios.report import (
     write_report,
 )
 from scenarios.synthesize import MANEUVERS
+from scenarios.uncertainty import add_uncertainty_command, run_uncertainty_command
 
 PROG = "python -m scenarios"
 EXIT_DATA_ERROR = 1
@@ -278,6 +285,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="exit 3 when any |error| exceeds P %% (overshoot angles: relative error too)",
     )
     p.add_argument("--dt-s", type=_positive, default=0.1, metavar="S", help="step [s]")
+
+    add_uncertainty_command(sub)
 
     p = sub.add_parser("demo", parents=[common], help="the whole pipeline on KVLCC2")
     p.add_argument("--out", default="build/demo", metavar="DIR", help="output folder")
@@ -755,6 +764,7 @@ _COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "imo": _imo,
     "validate": _validate,
     "demo": _demo,
+    "uncertainty": run_uncertainty_command,
 }
 
 

@@ -17,6 +17,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+DEFAULT_RUDDER_RATE_DEG_S = 2.34
+"""Default steering-gear rate [deg/s]: KVLCC2 full scale (reference §7), a typical large ship's."""
+
 
 @dataclass(frozen=True)
 class Until:

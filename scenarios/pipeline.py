@@ -41,7 +41,6 @@ from scenarios.run import FmuPlant, Plant, run_program
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 
 __all__ = [
-    "DEFAULT_RUDDER_RATE_DEG_S",
     "STANDARD_LIMIT_L_OVER_U",
     "Bar",
     "BarFactory",
@@ -63,8 +62,6 @@ __all__ = [
     "validate",
 ]
 
-DEFAULT_RUDDER_RATE_DEG_S = 2.34
-"""Default steering-gear rate [deg/s]: KVLCC2 full scale (ref. §7), a typical large ship's."""
 
 STANDARD_LIMIT_L_OVER_U = 60.0
 """Time limit of every standard manoeuvre, in units of L/U (``standard_set``)."""
