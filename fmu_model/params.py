@@ -172,7 +172,8 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
         raise ParamsFormatError(path, "expected a JSON object")
     if doc.get("format") != PARAMS_FORMAT:
         raise ParamsFormatError(path, f"not a params file (format must be {PARAMS_FORMAT!r})")
-    if doc.get("version") != PARAMS_VERSION:
+    version = doc.get("version")
+    if not isinstance(version, int) or isinstance(version, bool) or version != PARAMS_VERSION:
         raise ParamsFormatError(
             path, f"unsupported version {doc.get('version')!r} (this tool reads {PARAMS_VERSION})"
         )
@@ -240,6 +241,8 @@ def load_params(path: str | os.PathLike[str]) -> ModelParameters:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ParamsFormatError(f"{name}:{exc.lineno}", f"invalid JSON: {exc.msg}") from None
+    except (ValueError, RecursionError) as exc:  # e.g. huge integers, absurd nesting
+        raise ParamsFormatError(name, f"invalid JSON: {str(exc).splitlines()[0]}") from None
     return params_from_json_dict(doc, name)
 
 

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from tqdm import tqdm
 
 from fmu_model import ParamsFormatError, model_names, save_params
+from identifier import batch, crossval, ingest
 from identifier.errors import IdentificationError, LogFormatError
 from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.logs import read_log
@@ -65,6 +66,12 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--heading-noise-deg", type=_positive, help="logger heading noise [deg]")
     fit.add_argument("--plot", metavar="DIR", help="write track, velocity, convergence PNGs")
     fit.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
+    fit.add_argument(
+        "--refine", action="store_true", help="output-error refinement after the EKF (guarded)"
+    )
+    batch.add_parser(sub)
+    ingest.add_parser(sub)
+    crossval.add_parser(sub)
     return parser
 
 
@@ -97,6 +104,7 @@ def _fit(args: argparse.Namespace) -> int:
         heading_noise_rad=(
             None if args.heading_noise_deg is None else math.radians(args.heading_noise_deg)
         ),
+        refine=args.refine,
     )
     total = 2 * sum(log.n_samples for log in logs)
     with tqdm(total=total, unit="sample", disable=args.quiet, file=sys.stderr) as bar:
@@ -112,6 +120,13 @@ def _fit(args: argparse.Namespace) -> int:
                 print(f"wrote {path}")
     if not args.quiet:
         print(_summary(result))
+        if result.refinement is not None:
+            r = result.refinement
+            print(
+                f"output error: kept {r.kept} estimate; cost {r.initial.cost:.4g} -> "
+                f"{r.refined.cost:.4g}, position RMS {r.initial.position_rms_L:.3f} -> "
+                f"{r.refined.position_rms_L:.3f} L"
+            )
         print(f"wrote {args.output}")
     return 0
 
@@ -119,6 +134,12 @@ def _fit(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; return the exit status."""
     args = build_parser().parse_args(argv)
+    if args.command == "batch":
+        return batch.main(args)
+    if args.command == "convert":
+        return ingest.main(args)
+    if args.command == "crossval":
+        return crossval.main(args)
     try:
         return _fit(args)
     except (LogFormatError, IdentificationError, ParamsFormatError) as exc:

@@ -250,7 +250,7 @@ _STATUS_MESSAGES = {
 }
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=False)  # first-class function arguments defeat the on-disk cache
 def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length, max_substep, offset,
     t, y, r_var, rudder, n_rps, x, P, q_state, q_theta, variance_limit,
