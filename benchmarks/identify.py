@@ -1,0 +1,338 @@
+"""Throughput of smoothing and of the EKF, and peak memory of a 1-million-sample log.
+
+    python benchmarks/identify.py [--rates-hz 10,1] [--samples 1000000]
+        [--large-rates-hz 1,10] [--no-large]
+
+The data are KVLCC2 full-scale trial logs (MMG reference ship, ``scenarios.synthesize``):
+turning circle 35°, zig-zag 10/10 and 20/20, about 32,000 samples at 10 Hz. The
+identified structure is the seed model ``shi2009`` (16 coefficients; the filter state
+is the 6 motion states plus the coefficients, 22 in all). Reported per logging rate:
+
+* smoothing (``identifier.smoothing.smooth_track``: x, y and heading, noise levels
+  estimated) in samples per second;
+* the augmented-state EKF (``identifier.ekf.ekf_identify``) on the prepared segments,
+  in measurement updates per second, for the paper's variant (smoothed u, v, r
+  measured, one Euler step per sample) and for the default (the logged x, y, ψ
+  measured, Euler substeps of at most 0.1 s, so 10 per update at 1 Hz); target
+  ≥ 20,000 updates/s. The one-off numba compilation (first call in a process) is
+  excluded and reported separately;
+
+and the peak resident memory of ``identifier.identify.identify`` on one log of
+``--samples`` samples (the log in memory, not read from CSV), measured in a fresh
+subprocess: its peak RSS (VmHWM, reset to the current RSS once the log is built)
+against the RSS before the identification.
+The long log is the three manoeuvres repeated end to end, each copy turned and moved
+to continue from the previous copy's last pose. A probe of a tenth of the samples
+runs first; the full log runs only when the probe, scaled linearly, fits in 60 % of
+the available memory (the figure is printed either way).
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import math
+import resource
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from identifier.ekf import EkfSegment, EkfSettings, ekf_identify
+from identifier.equation_error import equation_error_fit
+from identifier.identify import identify
+from identifier.logs import ManeuverLog
+from identifier.smoothing import smooth_track
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+
+MODEL = "shi2009"
+MANEUVER_NAMES = ("turning-35", "zigzag-10", "zigzag-20")
+TARGET_UPDATES_PER_S = 20_000.0
+
+
+def reference_logs(rate_hz: float) -> list[ManeuverLog]:
+    """KVLCC2 full-scale logs of the three manoeuvres at ``rate_hz`` [Hz]."""
+    ship = reference_ship("kvlcc2", "full")
+    return [
+        synthesize_log(ship, MANEUVERS[name](), rate_hz=rate_hz, seed=seed)
+        for seed, name in enumerate(MANEUVER_NAMES)
+    ]
+
+
+def long_log(logs: Sequence[ManeuverLog], n_samples: int) -> ManeuverLog:
+    """Repeat ``logs`` end to end up to ``n_samples``, each copy continuing the track.
+
+    Every copy is rotated about its first position so that its first heading equals
+    the previous copy's last heading, moved so that it starts where the previous one
+    ended, and shifted in time by one sampling interval past the previous end.
+    """
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "x", "y", "psi", "d", "n")}
+    count, t_end, x_end, y_end, psi_end = 0, 0.0, 0.0, 0.0, 0.0
+    while count < n_samples:
+        for log in logs:
+            take = min(log.n_samples, n_samples - count)
+            if take <= 0:
+                break
+            dt = float(log.time_s[1] - log.time_s[0])
+            turn = psi_end - float(log.heading_rad[0]) if count else 0.0
+            c, s = math.cos(turn), math.sin(turn)
+            dx = log.x_m[:take] - log.x_m[0]
+            dy = log.y_m[:take] - log.y_m[0]
+            start = t_end + dt if count else 0.0
+            parts["t"].append(start + log.time_s[:take] - log.time_s[0])
+            parts["x"].append(x_end + c * dx - s * dy)
+            parts["y"].append(y_end + s * dx + c * dy)
+            parts["psi"].append(log.heading_rad[:take] + turn)
+            parts["d"].append(log.rudder_rad[:take])
+            parts["n"].append(log.n_rps[:take])
+            t_end, x_end = float(parts["t"][-1][-1]), float(parts["x"][-1][-1])
+            y_end, psi_end = float(parts["y"][-1][-1]), float(parts["psi"][-1][-1])
+            count += take
+    first = logs[0]
+    return ManeuverLog(
+        time_s=np.concatenate(parts["t"]),
+        x_m=np.concatenate(parts["x"]),
+        y_m=np.concatenate(parts["y"]),
+        heading_rad=np.concatenate(parts["psi"]),
+        rudder_rad=np.concatenate(parts["d"]),
+        n_rps=np.concatenate(parts["n"]),
+        metadata={"vessel": first.metadata["vessel"], "length_m": first.metadata["length_m"]},
+    )
+
+
+def smoothing_rate(logs: Sequence[ManeuverLog], repeats: int = 2) -> tuple[float, float]:
+    """(first-call seconds, samples per second of later calls) of ``smooth_track``."""
+    start = time.perf_counter()
+    smooth_track(logs[0].time_s, logs[0].x_m, logs[0].y_m, logs[0].heading_rad)
+    first = time.perf_counter() - start
+    n = sum(log.n_samples for log in logs) * repeats
+    start = time.perf_counter()
+    for _ in range(repeats):
+        for log in logs:
+            smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
+    return first, n / (time.perf_counter() - start)
+
+
+def segments(logs: Sequence[ManeuverLog]) -> list[EkfSegment]:
+    """Smoothed segments as ``identifier.identify.identify`` prepares them."""
+    result = []
+    for i, log in enumerate(logs):
+        track = smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
+        result.append(
+            EkfSegment(
+                name=f"log {i + 1}",
+                time_s=log.time_s,
+                velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
+                velocity_std=np.column_stack([track.u_std_mps, track.v_std_mps, track.r_std_radps]),
+                track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
+                track_std=np.array(
+                    [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]
+                ),
+                initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
+                rudder_rad=log.rudder_rad,
+                n_rps=log.n_rps,
+            )
+        )
+    return result
+
+
+def ekf_rate(
+    segs: Sequence[EkfSegment], length_m: float, measurements: str, max_substep_s: float
+) -> tuple[float, float]:
+    """(first-call seconds, updates per second of a later call) of ``ekf_identify``."""
+    ls = equation_error_fit(MODEL, segs, length_m)
+    settings = EkfSettings(
+        state_process_std=(
+            float(ls.residual_std[0]),
+            float(ls.residual_std[1]),
+            float(ls.residual_std[2]),
+        ),
+        measurements=measurements,
+        max_substep_s=max_substep_s,
+    )
+    cov0 = ls.covariance * 100.0
+
+    def run() -> float:
+        start = time.perf_counter()
+        ekf_identify(MODEL, segs, ls.theta, cov0, length_m, settings)
+        return time.perf_counter() - start
+
+    first = run()
+    best = min(run() for _ in range(2))
+    return first, sum(seg.time_s.size for seg in segs) / best
+
+
+def _status_mib(field: str) -> float | None:
+    """Return VmRSS, VmHWM, ... of /proc/self/status [MiB]; None where there is none."""
+    try:
+        with open("/proc/self/status") as file:
+            for line in file:
+                if line.startswith(f"{field}:"):
+                    return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return None
+
+
+def _reset_peak_rss() -> bool:
+    """Reset the peak RSS to the current RSS (Linux ≥ 4.0); False where not possible."""
+    try:
+        with open("/proc/self/clear_refs", "w") as file:
+            file.write("5")
+    except OSError:
+        return False
+    return True
+
+
+def _max_rss_mib() -> float:
+    # ru_maxrss is in KiB on Linux (bytes on macOS).
+    scale = 1.0 if sys.platform.startswith("linux") else 1.0 / 1024.0
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 1024.0
+
+
+def _available_mib() -> float:
+    """MemAvailable of /proc/meminfo [MiB]; infinity where there is none."""
+    try:
+        with open("/proc/meminfo") as file:
+            for line in file:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return math.inf
+
+
+def large_identification(rate_hz: float, n_samples: int) -> dict[str, float]:
+    """Identify one ``n_samples`` log in this process; RSS before, peak during, seconds.
+
+    The log is built first and everything else freed; then the peak RSS is reset to the
+    current RSS (``/proc/self/clear_refs``), so that the peak is that of ``identify``.
+    Where that is not possible, the peak is the process's (``ru_maxrss``).
+    """
+    log = long_log(reference_logs(rate_hz), n_samples)
+    gc.collect()
+    before = _status_mib("VmRSS") if _reset_peak_rss() else None
+    start = time.perf_counter()
+    result = identify([log])
+    seconds = time.perf_counter() - start
+    peak = _status_mib("VmHWM") if before is not None else None
+    return {
+        "samples": log.n_samples,
+        "hours": float(log.time_s[-1] - log.time_s[0]) / 3600.0,
+        "rss_before_mib": before if before is not None else math.nan,
+        "rss_peak_mib": peak if peak is not None else _max_rss_mib(),
+        "seconds": seconds,
+        "not_identifiable": len(result.not_identifiable),
+    }
+
+
+def _child(rate_hz: float, n_samples: int) -> dict[str, float]:
+    """Run :func:`large_identification` in a fresh interpreter (its own peak RSS)."""
+    command = [sys.executable, __file__, "--child", "--rate-hz", str(rate_hz)]
+    child = subprocess.run([*command, "--samples", str(n_samples)], capture_output=True, text=True)
+    if child.returncode != 0:
+        lines = child.stderr.strip().splitlines() or ["no output"]
+        raise RuntimeError(f"identification of {n_samples} samples failed: {lines[-1]}")
+    return json.loads(child.stdout.strip().splitlines()[-1])
+
+
+def _describe(run: dict[str, float]) -> str:
+    above = run["rss_peak_mib"] - run["rss_before_mib"]
+    return (
+        f"{run['seconds']:.0f} s, peak RSS {run['rss_peak_mib']:,.0f} MiB "
+        f"({above:,.0f} MiB above the {run['rss_before_mib']:,.0f} MiB before identify)"
+    )
+
+
+def memory(rate_hz: float, n_samples: int, probe_fraction: float = 0.1) -> None:
+    """Print the peak RSS of identifying one ``n_samples`` log at ``rate_hz``.
+
+    A probe of ``probe_fraction · n_samples`` runs first; the full log runs only when
+    the probe's memory growth, scaled linearly, fits in 60 % of the available memory
+    (the machine may be shared); otherwise the extrapolation is printed.
+    """
+    probe = _child(rate_hz, max(1000, round(probe_fraction * n_samples)))
+    base = probe["rss_before_mib"] if math.isfinite(probe["rss_before_mib"]) else 0.0
+    per_sample = (probe["rss_peak_mib"] - base) / probe["samples"]
+    estimate = base + per_sample * n_samples
+    print(
+        f"  {rate_hz:g} Hz, {probe['samples']:,.0f} samples ({probe['hours']:.1f} h): "
+        f"{_describe(probe)}; {1024.0 * per_sample:.1f} KiB/sample"
+    )
+    available = _available_mib()
+    if estimate > 0.6 * available:
+        print(
+            f"  {rate_hz:g} Hz, {n_samples:,} samples: NOT RUN, extrapolated peak RSS "
+            f"{estimate:,.0f} MiB > 60 % of the {available:,.0f} MiB available"
+        )
+        return
+    run = _child(rate_hz, n_samples)
+    print(
+        f"  {rate_hz:g} Hz, {run['samples']:,.0f} samples ({run['hours']:.1f} h): {_describe(run)}"
+    )
+
+
+def throughput(rate_hz: float) -> float | None:
+    """Print smoothing and EKF rates on the logs at ``rate_hz``; return the compile time.
+
+    The compile time is the first EKF call's excess over a warm call: the numba
+    compilation when this is the first identification in the process, else about 0.
+    """
+    logs = reference_logs(rate_hz)
+    n = sum(log.n_samples for log in logs)
+    length_m = float(logs[0].metadata["length_m"])
+    print(f"KVLCC2 full scale, {len(logs)} logs at {rate_hz:g} Hz, {n:,} samples; {MODEL}")
+    first, rate = smoothing_rate(logs)
+    print(f"  smoothing (smooth_track)       {rate:>10,.0f} samples/s")
+    segs = segments(logs)
+    compile_s = None
+    for label, measurements, substep in (
+        ("EKF velocities, 1 step/sample", "velocities", math.inf),
+        ("EKF track, substeps <= 0.1 s", "track", 0.1),
+    ):
+        first, rate = ekf_rate(segs, length_m, measurements, substep)
+        if compile_s is None:
+            compile_s = first - n / rate
+        verdict = "meets" if rate >= TARGET_UPDATES_PER_S else "BELOW"
+        print(
+            f"  {label:<31}{rate:>10,.0f} updates/s ({verdict} the "
+            f"{TARGET_UPDATES_PER_S:,.0f}/s target)"
+        )
+    return compile_s
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--rates-hz", default="10,1", help="logging rates of the throughput runs [Hz]"
+    )
+    parser.add_argument("--samples", type=int, default=1_000_000, help="size of the long log")
+    parser.add_argument(
+        "--large-rates-hz", default="1,10", help="logging rates of the long-log runs [Hz]"
+    )
+    parser.add_argument("--no-large", action="store_true", help="skip the long-log memory runs")
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--rate-hz", type=float, default=10.0, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        print(json.dumps(large_identification(args.rate_hz, args.samples)))
+        return 0
+
+    compile_s = None
+    for rate_hz in map(float, args.rates_hz.split(",")):
+        compiled = throughput(rate_hz)
+        compile_s = compiled if compile_s is None else compile_s
+    if compile_s is not None:
+        print(f"one-off numba compile of the EKF (first call in a process): {compile_s:.1f} s")
+    if not args.no_large:
+        print(f"identify() on one long log (memory probe first, then {args.samples:,} samples)")
+        for rate_hz in map(float, args.large_rates_hz.split(",")):
+            memory(rate_hz, args.samples)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

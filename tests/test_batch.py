@@ -1,0 +1,241 @@
+"""Batch identification: Dask tasks per vessel, failures isolated, resumable, CLI."""
+
+from __future__ import annotations
+
+import csv
+import json
+import logging
+import math
+import zipfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fmu_model import ModelParameters, load_params
+from identifier.batch import ManifestError, read_vessels, run_batch
+from identifier.cli import main
+from identifier.logs import write_log
+from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
+from tests.conftest import SEED_COEFFICIENTS
+
+BAD_LOG = "time_s,x_m,y_m,heading_deg,rudder_deg,rpm\n0,0,0,0,0,abc\n"
+
+
+def _ship() -> TruthShip:
+    params = ModelParameters.from_vector(
+        "shi2009",
+        np.array(list(SEED_COEFFICIENTS.values())),
+        length_m=100.0,
+        vessel_name="testship",
+        nominal_speed_mps=5.0,
+        nominal_n_rps=2.0,
+    )
+    return model_ship(params, rudder_rate_radps=math.radians(5.0))
+
+
+@pytest.fixture(scope="module")
+def cluster_address() -> Iterator[str]:
+    """A LocalCluster of 2 single-threaded worker processes, shared by the module."""
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": ":0"},  # no dashboard; any free port
+        silence_logs=logging.ERROR,
+    ) as cluster:
+        yield cluster.scheduler_address
+
+
+def _manifest(root: Path) -> Path:
+    """Two good vessels from 1 Hz zig-zags of the seed ship, one with a corrupt log."""
+    ship = _ship()
+    for vessel, seed in (("alpha", 0), ("beta", 10)):
+        for offset, maneuver in enumerate(("zigzag-10", "zigzag-20")):
+            log = synthesize_log(ship, MANEUVERS[maneuver](), seed=seed + offset)
+            write_log(root / vessel / f"{maneuver}.csv", log)
+    (root / "gamma").mkdir()
+    (root / "gamma" / "zigzag-10.csv").write_text(BAD_LOG)
+    manifest = root / "fleet.toml"
+    manifest.write_text(
+        "[[vessel]]\n"
+        'name = "alpha"\n'
+        'logs = ["alpha/zigzag-10.csv", "alpha/zigzag-20.csv"]\n'
+        "length_m = 100.0\n"
+        "\n[[vessel]]\n"
+        'name = "beta"\n'
+        'logs = ["beta/zigzag-10.csv", "beta/zigzag-20.csv"]\n'
+        'model = "shi2009"\n'
+        "\n[[vessel]]\n"
+        'name = "gamma"\n'
+        'logs = ["gamma/zigzag-10.csv"]\n'
+    )
+    return manifest
+
+
+def _mtimes(out: Path) -> dict[str, int]:
+    return {p.relative_to(out).as_posix(): p.stat().st_mtime_ns for p in out.glob("*/*")}
+
+
+def test_batch_runs_isolates_failures_and_resumes(
+    tmp_path: Path, cluster_address: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    manifest = _manifest(tmp_path / "in")
+    out = tmp_path / "out"
+    seen: list[str] = []
+
+    # First run: two vessels identified with params.json and FMU, one failure recorded.
+    summary = run_batch(
+        manifest, out, scheduler=cluster_address, progress=lambda v: seen.append(v.name)
+    )
+    assert [(v.name, v.status) for v in summary.vessels] == [
+        ("alpha", "ok"),
+        ("beta", "ok"),
+        ("gamma", "failed"),
+    ]
+    assert sorted(seen) == ["alpha", "beta", "gamma"]
+    assert summary.n_identified == 2 and not summary.ok
+    for name in ("alpha", "beta"):
+        params = load_params(out / name / "params.json")
+        assert params.vessel_name == name and params.length_m == 100.0
+        # The fit follows the logged track to about the logger's 1 m noise.
+        row = summary.vessels[0 if name == "alpha" else 1]
+        assert 0.3 < row.position_rms_m < 2.0 and row.heading_rms_deg < 0.2
+        assert row.n_logs == 2 and row.n_samples > 500
+        with zipfile.ZipFile(out / name / f"{name}.fmu") as fmu:
+            assert "modelDescription.xml" in fmu.namelist()
+        done = json.loads((out / name / "done.json").read_text())
+        assert [i["sha256"] for i in done["inputs"]] == [
+            i["sha256"] for i in params.identification["logs"]
+        ]
+        assert not (out / name / "error.txt").exists()
+    error = (out / "gamma" / "error.txt").read_text()
+    assert error.count("\n") == 1 and "zigzag-10.csv:2: column 'rpm'" in error
+    assert not (out / "gamma" / "done.json").exists()
+    with open(out / "summary.csv", newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert [(r["vessel"], r["status"], r["n_logs"]) for r in rows] == [
+        ("alpha", "ok", "2"),
+        ("beta", "ok", "2"),
+        ("gamma", "failed", "1"),
+    ]
+    assert int(rows[0]["not_identifiable"]) < int(rows[0]["n_coefficients"])
+    assert "column 'rpm'" in rows[2]["error"]
+    markdown = (out / "summary.md").read_text()
+    assert "| alpha | ok | 2 |" in markdown and "**gamma**" in markdown
+
+    # Re-run through the CLI: finished vessels are skipped (files untouched), the
+    # failure is retried and reported as one line on stderr, exit status 1.
+    before = _mtimes(out)
+    status = main(
+        ["batch", str(manifest), "--out", str(out), "--scheduler", cluster_address, "--quiet"]
+    )
+    assert status == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: gamma: ") and "column 'rpm'" in err[0]
+    after = _mtimes(out)
+    assert {k: v for k, v in after.items() if not k.startswith("gamma/")} == {
+        k: v for k, v in before.items() if not k.startswith("gamma/")
+    }
+    with open(out / "summary.csv", newline="") as file:
+        assert [r["status"] for r in csv.DictReader(file)] == ["skipped", "skipped", "failed"]
+
+    # An interrupted batch (alpha's completion record missing) resumes alpha only.
+    (out / "alpha" / "done.json").unlink()
+    summary = run_batch(manifest, out, scheduler=cluster_address)
+    assert [v.status for v in summary.vessels] == ["ok", "skipped", "failed"]
+    assert summary.n_identified == 1
+    assert (out / "beta" / "params.json").stat().st_mtime_ns == before["beta/params.json"]
+    assert (out / "alpha" / "done.json").is_file()
+
+    # A changed log re-runs its vessel; fixing the corrupt log lets gamma succeed.
+    log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), seed=99)
+    write_log(tmp_path / "in" / "beta" / "zigzag-10.csv", log)
+    write_log(tmp_path / "in" / "gamma" / "zigzag-10.csv", log)
+    summary = run_batch(manifest, out, scheduler=cluster_address, build_fmu=False)
+    assert [v.status for v in summary.vessels] == ["skipped", "ok", "ok"]
+    assert summary.ok
+    assert not (out / "gamma" / "error.txt").exists()
+    assert not (out / "gamma" / "gamma.fmu").exists()  # --no-fmu
+    assert not (out / "beta" / "beta.fmu").exists()  # no stale FMU beside new params
+    assert (out / "gamma" / "params.json").is_file()
+
+
+def test_default_local_cluster_and_directory_input(tmp_path: Path) -> None:
+    # Only failing vessels: the LocalCluster starts, the tasks fail fast, and every
+    # failure is recorded; no identification (no numba compile) is needed.
+    source = tmp_path / "fleet"
+    for name in ("one", "two"):
+        (source / name).mkdir(parents=True)
+        (source / name / "a.csv").write_text(BAD_LOG)
+    (source / "empty").mkdir()
+    (source / ".hidden").mkdir()
+    out = source / "out"  # inside the input directory: not a vessel
+    summary = run_batch(source, out, n_workers=2, build_fmu=False)
+    assert [(v.name, v.status) for v in summary.vessels] == [
+        ("empty", "failed"),
+        ("one", "failed"),
+        ("two", "failed"),
+    ]
+    assert summary.vessels[0].error == "no *.csv logs"
+    assert "a.csv:2: column 'rpm'" in str(summary.vessels[1].error)
+    assert (out / "two" / "error.txt").is_file() and (out / "summary.md").is_file()
+
+
+def test_directory_vessels_take_their_csv_logs_in_name_order(tmp_path: Path) -> None:
+    for name in ("b.csv", "a.csv", "notes.txt"):
+        (tmp_path / "ship-1" / name).parent.mkdir(exist_ok=True)
+        (tmp_path / "ship-1" / name).write_text("")
+    (tmp_path / "out").mkdir()
+    vessels = read_vessels(tmp_path, tmp_path / "out")
+    assert [v.name for v in vessels] == ["ship-1"]
+    assert [p.name for p in vessels[0].logs] == ["a.csv", "b.csv"]
+    assert vessels[0].logs[0].is_absolute()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[[vessel]]\nname = 'a'\nlogs = [\n", "invalid TOML"),
+        ("[[vessel]]\nname = 'a b'\nlogs = ['x.csv']\n", "expected a vessel name"),
+        ("[[vessel]]\nname = 'a'\nlogs = []\n", "'logs' must be a non-empty list"),
+        ("[[vessel]]\nname = 'a'\nlogs = ['x.csv']\nlength = 3\n", r"unknown keys \['length'\]"),
+        ("[[vessel]]\nname = 'a'\nlogs = ['x.csv']\nlength_m = -1\n", "'length_m' must be"),
+        ("[[vessel]]\nname = 'a'\nlogs = ['x.csv']\nmodel = 'nope'\n", "unknown model 'nope'"),
+        ("[[vessel]]\nname = 'a'\nlogs = ['x']\n[[vessel]]\nname = 'A'\nlogs = ['y']\n", "twice"),
+        ("title = 'fleet'\n", "unknown top-level keys"),
+        ("", "expected one or more"),
+    ],
+)
+def test_bad_manifest_is_a_one_line_error(tmp_path: Path, text: str, message: str) -> None:
+    manifest = tmp_path / "fleet.toml"
+    manifest.write_text(text)
+    with pytest.raises(ManifestError, match=message) as info:
+        read_vessels(manifest)
+    assert "\n" not in str(info.value) and str(info.value).startswith(str(manifest))
+
+
+def test_cli_bad_manifest_exits_1_without_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    manifest = tmp_path / "fleet.toml"
+    manifest.write_text("[[vessel]]\nname = 'a'\n")
+    out = tmp_path / "out"
+    assert main(["batch", str(manifest), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "fleet.toml: vessel 'a': 'logs' must be" in err
+    assert not out.exists()
+
+
+def test_cli_usage_errors_exit_2(tmp_path: Path) -> None:
+    for argv in (
+        ["batch", str(tmp_path)],
+        ["batch", str(tmp_path), "--out", "o", "--workers", "0"],
+    ):
+        with pytest.raises(SystemExit) as info:
+            main(argv)
+        assert info.value.code == 2
