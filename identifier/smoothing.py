@@ -730,6 +730,31 @@ def estimate_noise(
 # --------------------------------------------------------------------------- track
 
 
+NOISE_CHUNK_SAMPLES = 20_000
+"""Noise is estimated in chunks of this many samples and pooled (bounded memory)."""
+
+
+def _pooled_noise(t_s: FloatArray, z: FloatArray) -> NoiseEstimate:
+    """Run :func:`estimate_noise` on chunks of a long series and pool the variances.
+
+    ``estimate_noise`` needs memory proportional to samples × window; chunking keeps a
+    million-sample log within a few hundred MB. Variances are averaged weighted by the
+    chunk lengths (a trailing chunk shorter than half a chunk joins the previous one).
+    """
+    n = t_s.size
+    if n <= NOISE_CHUNK_SAMPLES:
+        return estimate_noise(t_s, z)
+    edges = list(range(0, n, NOISE_CHUNK_SAMPLES)) + [n]
+    if n - edges[-2] < NOISE_CHUNK_SAMPLES // 2:
+        del edges[-2]
+    meas_var = accel_var = 0.0
+    for start, stop in zip(edges[:-1], edges[1:], strict=True):
+        part = estimate_noise(t_s[start:stop], z[start:stop])
+        meas_var += part.meas_std**2 * (stop - start)
+        accel_var += part.accel_std**2 * (stop - start)
+    return NoiseEstimate(meas_std=math.sqrt(meas_var / n), accel_std=math.sqrt(accel_var / n))
+
+
 def smooth_track(
     t_s: ArrayLike,
     x_m: ArrayLike,
@@ -806,13 +831,13 @@ def smooth_track(
     psi_meas = np.unwrap(psi_meas)
 
     if position_noise_m is None or position_accel_std_mps2 is None:
-        ex, ey = estimate_noise(t, xm), estimate_noise(t, ym)
+        ex, ey = _pooled_noise(t, xm), _pooled_noise(t, ym)
         if position_noise_m is None:
             position_noise_m = math.hypot(ex.meas_std, ey.meas_std) / math.sqrt(2.0)
         if position_accel_std_mps2 is None:
             position_accel_std_mps2 = math.hypot(ex.accel_std, ey.accel_std) / math.sqrt(2.0)
     if heading_noise_rad is None or heading_accel_std_radps2 is None:
-        eh = estimate_noise(t, psi_meas)
+        eh = _pooled_noise(t, psi_meas)
         if heading_noise_rad is None:
             heading_noise_rad = eh.meas_std
         if heading_accel_std_radps2 is None:

@@ -438,3 +438,15 @@ def test_bad_input_raises_clear_errors():
         heading_accel_std_radps2=0.001,
     )
     assert three.u_mps.shape == (3,)
+
+
+def test_long_series_noise_is_estimated_in_pooled_chunks() -> None:
+    from identifier.smoothing import NOISE_CHUNK_SAMPLES, _pooled_noise
+
+    rng = np.random.default_rng(11)
+    t = np.arange(2.6 * NOISE_CHUNK_SAMPLES) * 0.5
+    z = 300.0 * np.sin(t / 200.0) + 1.5 * rng.standard_normal(t.size)
+    pooled = _pooled_noise(t, z)
+    assert pooled.meas_std == pytest.approx(1.5, rel=0.05)
+    whole = estimate_noise(t, z)
+    assert pooled.meas_std == pytest.approx(whole.meas_std, rel=0.02)
