@@ -37,6 +37,7 @@ Units: an axis carries its own units ([m, m/s, m/s²] for positions,
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -744,11 +745,11 @@ def _pooled_noise(t_s: FloatArray, z: FloatArray) -> NoiseEstimate:
     n = t_s.size
     if n <= NOISE_CHUNK_SAMPLES:
         return estimate_noise(t_s, z)
-    edges = list(range(0, n, NOISE_CHUNK_SAMPLES)) + [n]
+    edges = [*range(0, n, NOISE_CHUNK_SAMPLES), n]
     if n - edges[-2] < NOISE_CHUNK_SAMPLES // 2:
         del edges[-2]
     meas_var = accel_var = 0.0
-    for start, stop in zip(edges[:-1], edges[1:], strict=True):
+    for start, stop in itertools.pairwise(edges):
         part = estimate_noise(t_s[start:stop], z[start:stop])
         meas_var += part.meas_std**2 * (stop - start)
         accel_var += part.accel_std**2 * (stop - start)
