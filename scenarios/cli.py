@@ -8,8 +8,10 @@ Commands::
     spiral          Dieudonné spiral on an FMU: r(δ) and the loop width
     pullout         pull-out on an FMU: residual yaw rate, decay time constant
     imo             IMO MSC.137(76) criteria of an FMU (--strict: gate)
-    validate        standard set on an FMU and a reference ship, report (--max-error-pct: gate)
-    demo            logs -> identification -> native FMU -> validation report
+    validate        standard set on an FMU and a reference ship, report (--max-error-pct: gate;
+                    --params: 95 % intervals from the identified covariance)
+    uncertainty     Monte-Carlo 95 % intervals of the standard manoeuvres from params.json
+    demo            logs -> identification -> native FMU -> validation report with intervals
 
 Speed and propeller speed default to the FMU's start values (``u0``, ``propeller_rpm``);
 the steering-gear rate to 2.34 deg/s (KVLCC2 full scale, a typical large ship's).
@@ -80,6 +82,7 @@ from scenarios.report import (
     criteria_table,
     failing_rows,
     format_table,
+    interval_counts,
     write_json,
     write_report,
 )
@@ -89,6 +92,7 @@ from scenarios.uncertainty import add_uncertainty_command, run_uncertainty_comma
 PROG = "python -m scenarios"
 EXIT_DATA_ERROR = 1
 EXIT_GATE_FAILED = 3
+DEFAULT_UNCERTAINTY_SAMPLES = 100
 DEFAULT_SPIRAL_STEPS_DEG = (
     "25,20,15,10,5,2,0,-2,-5,-10,-15,-20,-25,-20,-15,-10,-5,-2,0,2,5,10,15,20,25"
 )
@@ -140,6 +144,20 @@ def _seed(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"expected a seed >= 0, got {text!r}")
     return value
+
+
+def _count(text: str, minimum: int = 0) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < minimum:
+        raise argparse.ArgumentTypeError(f"expected a number >= {minimum}, got {text!r}")
+    return value
+
+
+def _positive_count(text: str) -> int:
+    return _count(text, 1)
 
 
 def _angle_list(text: str) -> tuple[float, ...]:
@@ -285,6 +303,43 @@ def build_parser() -> argparse.ArgumentParser:
         help="exit 3 when any |error| exceeds P %% (overshoot angles: relative error too)",
     )
     p.add_argument("--dt-s", type=_positive, default=0.1, metavar="S", help="step [s]")
+    band = p.add_argument_group(
+        "uncertainty",
+        "95 %% intervals of the predicted quantities from the coefficient covariance "
+        "(identification noise only, not model-structure error)",
+    )
+    band.add_argument(
+        "--params",
+        metavar="FILE",
+        help="params.json the FMU was built from, with its covariance: adds the intervals",
+    )
+    band.add_argument(
+        "--uncertainty-samples",
+        type=_count,
+        metavar="N",
+        help=f"Monte-Carlo samples (default {DEFAULT_UNCERTAINTY_SAMPLES} with --params; "
+        "0: no intervals)",
+    )
+    band.add_argument(
+        "--uncertainty-dt-s",
+        type=_positive,
+        default=0.5,
+        metavar="S",
+        help="step of the Monte-Carlo runs [s] (default 0.5)",
+    )
+    band.add_argument("--seed", type=_seed, default=0, help="seed of the draw (default 0)")
+    band.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="dask scheduler, e.g. tcp://host:8786 (default: a local cluster)",
+    )
+    band.add_argument(
+        "--workers",
+        type=_positive_count,
+        default=2,
+        metavar="K",
+        help="workers of the local cluster (default 2)",
+    )
 
     add_uncertainty_command(sub)
 
@@ -694,6 +749,23 @@ def _gate_line(rows: Sequence[ComparisonRow], max_error_pct: float, total: int) 
 
 
 def _validate(args: argparse.Namespace) -> int:
+    from fmu_model import load_params
+
+    params = None if args.params is None else load_params(args.params)
+    samples = 0
+    if params is not None:
+        samples = (
+            DEFAULT_UNCERTAINTY_SAMPLES
+            if args.uncertainty_samples is None
+            else args.uncertainty_samples
+        )
+    if samples:
+        where = args.scheduler or f"{args.workers} local workers"
+        _progress(
+            f"validate: then {samples} Monte-Carlo samples of {args.params} "
+            f"(step {args.uncertainty_dt_s:g} s) on {where}",
+            args.quiet,
+        )
     bar = _bar(args.quiet)("validate", 8, "run")
     try:
         validation = validate(
@@ -702,6 +774,13 @@ def _validate(args: argparse.Namespace) -> int:
             scale=args.scale,
             dt_s=args.dt_s,
             on_run=lambda _name: bar.update(1),
+            params=params,
+            uncertainty_samples=samples,
+            uncertainty_dt_s=args.uncertainty_dt_s,
+            seed=args.seed,
+            scheduler=args.scheduler,
+            n_workers=args.workers,
+            params_source=args.params or "",
         )
     finally:
         bar.close()
@@ -722,6 +801,13 @@ def _print_validation(validation: Validation) -> None:
         f"(step {validation.condition.dt_s:g} s)"
     )
     print(format_table(*comparison_table(validation.rows)))
+    if validation.uncertainty is not None:
+        inside, judged = interval_counts(validation.rows)
+        print(
+            f"95 % intervals: {validation.uncertainty.n_samples} Monte-Carlo samples of the "
+            f"identified coefficients (identification noise only, not model-structure "
+            f"error); reference inside for {inside} of {judged} quantities"
+        )
     for warning in validation.warnings:
         print(f"warning: {warning}")
     n_pass = sum(c.passed for c in validation.criteria)
@@ -733,7 +819,14 @@ def _print_validation(validation: Validation) -> None:
 
 def _demo(args: argparse.Namespace) -> int:
     config = DemoConfig.quick() if args.quick else DemoConfig()
-    stages = ("synthesize", "identify", "build FMU", "validate")
+    stages = (
+        "synthesize",
+        "identify",
+        "build FMU",
+        "validate",
+        *(("uncertainty",) if config.uncertainty_samples > 0 else ()),
+        "report",
+    )
     start = time.perf_counter()
 
     def on_stage(name: str, seconds: float, summary: str) -> None:
@@ -768,6 +861,16 @@ _COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
 }
 
 
+def _check_validate_usage(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Exit 2 (argparse) for uncertainty options that cannot take effect without --params."""
+    if args.params is not None:
+        return
+    if args.uncertainty_samples:
+        parser.error("--uncertainty-samples needs --params (the FMU's params.json)")
+    if args.scheduler is not None:
+        parser.error("--scheduler needs --params (the FMU's params.json)")
+
+
 def _fail(command: str, message: str) -> int:
     text = message.replace("\r", "\\r").replace("\n", "\\n")
     print(f"{PROG} {command}: error: {text}", file=sys.stderr)
@@ -779,7 +882,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Usage errors exit through argparse with status 2.
     """
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command == "validate":
+        _check_validate_usage(parser, args)
     try:
         return _COMMANDS[args.command](args)
     except (

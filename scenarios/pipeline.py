@@ -8,7 +8,9 @@ The demo pipeline (:func:`run_demo`), DESIGN.md "The data flow" end to end::
     OUT/logs/<manoeuvre>.csv   synthetic KVLCC2 trial logs (noisy, seeds fixed)
     OUT/params.json            identified coefficients (identifier.identify)
     OUT/<vessel>.fmu           native FMI 2.0 co-simulation FMU (fmu_model.export_native)
-    OUT/report/                validation against the reference ship (scenarios.report)
+    OUT/report/                validation against the reference ship (scenarios.report),
+                               with the 95 % intervals from the identified covariance
+                               (scenarios.uncertainty on a local dask cluster)
 """
 
 from __future__ import annotations
@@ -18,11 +20,11 @@ import math
 import os
 import time
 import zlib
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -36,9 +38,21 @@ from scenarios.metrics import (
     turning_metrics,
     zigzag_metrics,
 )
-from scenarios.report import Condition, ManeuverRun, Validation, write_report
+from scenarios.report import (
+    Condition,
+    ManeuverRun,
+    Validation,
+    interval_counts,
+    uncertainty_bands,
+    write_report,
+)
 from scenarios.run import FmuPlant, Plant, run_program
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from fmu_model import ModelParameters
 
 __all__ = [
     "STANDARD_LIMIT_L_OVER_U",
@@ -48,6 +62,7 @@ __all__ = [
     "DemoResult",
     "FmuInfo",
     "ScenarioError",
+    "check_params_match",
     "check_rudder",
     "imo_criteria",
     "maneuver_seed",
@@ -60,6 +75,7 @@ __all__ = [
     "simulate",
     "synthesize_logs",
     "validate",
+    "with_uncertainty",
 ]
 
 
@@ -142,6 +158,9 @@ class FmuInfo:
         Largest |rudder_angle| the FMU accepts (its declared max; π when none) [rad].
     max_step_s : float or None
         Start value of ``max_step``, the FMU's largest internal step, if declared [s].
+    parameters : mapping of str to float
+        Start values of every variable of causality ``parameter`` that has one (the
+        model's coefficients among them) [SI].
 
     """
 
@@ -152,6 +171,7 @@ class FmuInfo:
     rpm: float
     rudder_limit_rad: float
     max_step_s: float | None
+    parameters: Mapping[str, float] = field(default_factory=dict)
 
 
 def _float_or_none(value: object) -> float | None:
@@ -202,6 +222,11 @@ def read_fmu_info(path: str | os.PathLike[str]) -> FmuInfo:
         if x is not None
     ]
     max_step = variables.get("max_step")
+    parameters = {
+        v.name: start
+        for v in md.modelVariables
+        if v.causality == "parameter" and (start := _float_or_none(v.start)) is not None
+    }
     return FmuInfo(
         path=name,
         model_name=str(md.modelName),
@@ -210,6 +235,7 @@ def read_fmu_info(path: str | os.PathLike[str]) -> FmuInfo:
         rpm=_float_or_none(variables["propeller_rpm"].start) or 0.0,
         rudder_limit_rad=min(limits) if limits else math.pi,
         max_step_s=None if max_step is None else _float_or_none(max_step.start),
+        parameters=parameters,
     )
 
 
@@ -232,6 +258,48 @@ def open_fmu(path: str | os.PathLike[str]) -> Iterator[FmuPlant]:
         yield plant
     finally:
         plant.close()
+
+
+def check_params_match(info: FmuInfo, params: ModelParameters, source: str = "") -> None:
+    """Raise :class:`ScenarioError` unless ``params`` are the ones the FMU was built from.
+
+    The FMU's model name must be the vessel name, its ``length`` the ship length, and
+    every coefficient of the parameters' structure a parameter of the FMU whose start
+    value equals the coefficient (to 1e-12 relative; the exporters write the shortest
+    text that parses back to the same double).
+
+    Parameters
+    ----------
+    info : FmuInfo
+        From :func:`read_fmu_info`.
+    params : ModelParameters
+        E.g. the params.json the FMU is said to come from.
+    source : str, optional
+        Where ``params`` come from (a path), to begin the message with.
+
+    """
+    what = f"the parameters ({params.model}, vessel {params.vessel_name!r})"
+    if source:
+        what = f"{source}: {what}"
+    problems = []
+    if info.model_name != params.vessel_name:
+        problems.append(f"the FMU's model is {info.model_name!r}")
+    if not math.isclose(info.length_m, params.length_m, rel_tol=1e-12):
+        problems.append(f"L = {params.length_m:g} m but the FMU's is {info.length_m:g} m")
+    missing = [name for name in params.names if name not in info.parameters]
+    if missing:
+        problems.append(f"the FMU has no parameter {', '.join(missing)}")
+    else:
+        differ = [
+            f"{name} = {value:.6g} but {info.parameters[name]:.6g} in the FMU"
+            for name, value in params.as_dict().items()
+            if not math.isclose(info.parameters[name], value, rel_tol=1e-12)
+        ]
+        if differ:
+            more = f" (and {len(differ) - 3} more)" if len(differ) > 3 else ""
+            problems.append(", ".join(differ[:3]) + more)
+    if problems:
+        raise ScenarioError(f"{what} do not match the FMU {info.path}: {'; '.join(problems)}")
 
 
 def check_rudder(info: FmuInfo, rudder_rad: float) -> None:
@@ -422,12 +490,20 @@ def validate(
     scale: str = "full",
     dt_s: float = 0.1,
     on_run: Callable[[str], object] | None = None,
+    params: ModelParameters | None = None,
+    uncertainty_samples: int = 0,
+    uncertainty_dt_s: float = 0.5,
+    seed: int = 0,
+    scheduler: str | None = None,
+    n_workers: int = 2,
+    params_source: str = "",
 ) -> Validation:
     """Run the standard set on an FMU and on a reference ship, same approach condition.
 
     Both ships start at the reference ship's approach speed and propeller speed and use
     its steering-gear rate (an identified model of that ship is meant to reproduce it
-    there).
+    there). With ``params`` and ``uncertainty_samples`` > 0 the predicted quantities
+    also get their 95 % intervals (:func:`with_uncertainty`).
 
     Parameters
     ----------
@@ -441,15 +517,38 @@ def validate(
         Communication step of both [s].
     on_run : callable, optional
         Called with a label after each of the eight runs.
+    params : ModelParameters, optional
+        The parameters the FMU was built from, with their covariance; checked against
+        the FMU (:func:`check_params_match`) before anything runs.
+    uncertainty_samples : int
+        Monte-Carlo samples for the intervals; 0 for none.
+    uncertainty_dt_s : float
+        Step of the Monte-Carlo runs [s].
+    seed : int
+        Seed of the draw.
+    scheduler : str, optional
+        Address of a dask scheduler for the Monte Carlo; default a local cluster.
+    n_workers : int
+        Workers of that local cluster.
+    params_source : str, optional
+        Where ``params`` come from (e.g. the params.json path), for the report.
 
     Raises
     ------
     ScenarioError
-        Bad FMU, a run that does not give its metrics, an FMU error.
+        Bad FMU, parameters that do not match it or have no covariance, a run that does
+        not give its metrics, an FMU error.
 
     """
     info = read_fmu_info(fmu_path)
     check_rudder(info, math.radians(35.0))
+    if params is not None:
+        check_params_match(info, params, params_source)
+    if params is not None and uncertainty_samples > 0 and params.covariance is None:
+        raise ScenarioError(
+            f"{params_source or 'the parameters'}: no covariance, so no uncertainty to "
+            "sample; identify with a covariance or leave out the uncertainty"
+        )
     ref_name, description, ref_length, condition, ref = reference_runs(reference, scale, dt_s)
     if on_run is not None:
         for run in ref:
@@ -472,7 +571,7 @@ def validate(
             f"the FMU's start speed u0 = {info.speed_mps:.4g} m/s differs from the approach "
             f"speed {condition.speed_mps:.4g} m/s used for both ships"
         )
-    return Validation(
+    validation = Validation(
         fmu_path=info.path,
         model_name=info.model_name,
         model_length_m=info.length_m,
@@ -486,6 +585,103 @@ def validate(
         reference_criteria=tuple(imo_criteria(ref, ref_length, condition.speed_mps)),
         warnings=tuple(warnings),
     )
+    if params is None or uncertainty_samples <= 0:
+        return validation
+    return with_uncertainty(
+        validation,
+        params,
+        n_samples=uncertainty_samples,
+        dt_s=uncertainty_dt_s,
+        seed=seed,
+        scheduler=scheduler,
+        n_workers=n_workers,
+        source=params_source,
+    )
+
+
+def with_uncertainty(
+    validation: Validation,
+    params: ModelParameters,
+    *,
+    n_samples: int = 100,
+    dt_s: float = 0.5,
+    seed: int = 0,
+    scheduler: str | None = None,
+    client: Client | None = None,
+    n_workers: int = 2,
+    processes: bool = True,
+    chunk_size: int | None = None,
+    source: str = "",
+) -> Validation:
+    """Return ``validation`` with the 95 % intervals of its predicted quantities.
+
+    Runs ``scenarios.uncertainty.monte_carlo_metrics`` on the validation's programs at
+    its approach condition (the reference ship's speed, propeller speed and rudder
+    rate) and locates each interval at the predicted value
+    (``scenarios.report.uncertainty_bands``). The intervals cover the coefficient
+    uncertainty from identification only, not model-structure error.
+
+    Parameters
+    ----------
+    validation : Validation
+        From :func:`validate`.
+    params : ModelParameters
+        The parameters the validated FMU was built from, with their covariance.
+    n_samples : int
+        Coefficient sets to draw.
+    dt_s : float
+        Communication step of the Monte-Carlo runs [s].
+    seed : int
+        Seed of the draw.
+    scheduler : str, optional
+        Address of a running dask scheduler (``"tcp://host:8786"``).
+    client : distributed.Client, optional
+        An existing client (not closed here).
+    n_workers : int
+        Workers of the local cluster made when neither of the two is given.
+    processes : bool
+        Whether that local cluster's workers are processes (else threads of this one).
+    chunk_size : int, optional
+        Samples per task. Default on a local cluster: one task per worker process, or
+        a single task for thread workers (they share the GIL); the cost of a task is
+        set by its number of steps much more than by its number of ships. Default on
+        a given scheduler or client: ``monte_carlo_metrics``'s.
+    source : str, optional
+        Where ``params`` come from, for the report.
+
+    Raises
+    ------
+    ScenarioError
+        The parameters do not match the FMU, have no usable covariance, or the
+        settings are invalid.
+
+    """
+    from scenarios.uncertainty import UncertaintyError, monte_carlo_metrics
+
+    check_params_match(read_fmu_info(validation.fmu_path), params, source)
+    c = validation.condition
+    if chunk_size is None and scheduler is None and client is None:
+        chunk_size = max(1, math.ceil(n_samples / max(1, n_workers)) if processes else n_samples)
+    try:
+        result = monte_carlo_metrics(
+            params,
+            [run.program for run in validation.predicted],
+            n_samples=n_samples,
+            seed=seed,
+            dt_s=dt_s,
+            rudder_rate_radps=c.rudder_rate_radps,
+            speed_mps=c.speed_mps,
+            n_rps=c.n_rps,
+            scheduler=scheduler,
+            client=client,
+            n_workers=n_workers,
+            processes=processes,
+            chunk_size=chunk_size,
+        )
+    except UncertaintyError as exc:
+        raise ScenarioError(f"{source or 'uncertainty'}: {exc}") from None
+    bands = uncertainty_bands(result, validation.rows, source=source)
+    return replace(validation, uncertainty=bands)
 
 
 # ----------------------------------------------------------------------- synthesis
@@ -590,6 +786,15 @@ class DemoConfig:
         Model structure to identify.
     validation_dt_s : float
         Communication step of the validation runs [s].
+    uncertainty_samples : int
+        Monte-Carlo samples of the identified coefficients for the report's 95 %
+        intervals; 0 for none.
+    uncertainty_dt_s : float
+        Communication step of the Monte-Carlo runs [s].
+    uncertainty_workers : int
+        Workers of the local dask cluster of the Monte Carlo.
+    uncertainty_processes : bool
+        Whether those workers are processes (else threads, which start at once).
 
     """
 
@@ -602,11 +807,15 @@ class DemoConfig:
     seed: int = 1
     model: str = "shi2009"
     validation_dt_s: float = 0.1
+    uncertainty_samples: int = 100
+    uncertainty_dt_s: float = 0.5
+    uncertainty_workers: int = 2
+    uncertainty_processes: bool = True
 
     @classmethod
     def quick(cls) -> DemoConfig:
-        """Return the shorter configuration for tests: validation at a 0.5 s step."""
-        return cls(validation_dt_s=0.5)
+        """Return the shorter configuration for tests: 0.5 s step, 20 samples on threads."""
+        return cls(validation_dt_s=0.5, uncertainty_samples=20, uncertainty_processes=False)
 
 
 @dataclass(frozen=True)
@@ -642,6 +851,10 @@ def run_demo(
         Called after each stage with its name, duration [s] and a one-line summary.
     make_bar : BarFactory, optional
         Progress bars for the long stages.
+
+    Stages, each reported to ``on_stage``: ``synthesize``, ``identify``, ``build FMU``,
+    ``validate``, ``uncertainty`` (when ``config.uncertainty_samples`` > 0) and
+    ``report``.
 
     Raises
     ------
@@ -714,9 +927,39 @@ def run_demo(
         )
     finally:
         bar.close()
+    stage_done(
+        "validate",
+        start,
+        f"{len(validation.rows)} quantities vs {validation.reference_name}, "
+        f"step {config.validation_dt_s:g} s",
+    )
+
+    if config.uncertainty_samples > 0:
+        start = time.perf_counter()
+        validation = with_uncertainty(
+            validation,
+            result.params,
+            n_samples=config.uncertainty_samples,
+            dt_s=config.uncertainty_dt_s,
+            n_workers=config.uncertainty_workers,
+            processes=config.uncertainty_processes,
+            source=str(params_path),
+        )
+        inside, judged = interval_counts(validation.rows)
+        stage_done(
+            "uncertainty",
+            start,
+            f"{config.uncertainty_samples} Monte-Carlo samples on "
+            f"{config.uncertainty_workers} local "
+            f"{'worker processes' if config.uncertainty_processes else 'worker threads'}; "
+            "reference inside the 95 % "
+            f"interval for {inside} of {judged} quantities",
+        )
+
+    start = time.perf_counter()
     report_dir = out / "report"
     files = write_report(validation, report_dir)
-    stage_done("validate", start, f"report in {report_dir / 'report.md'}")
+    stage_done("report", start, f"report in {report_dir / 'report.md'}")
 
     return DemoResult(
         logs=tuple(logs),

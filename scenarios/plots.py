@@ -22,7 +22,9 @@ from matplotlib.figure import Figure
 from fmu_model.atomic import write_atomic
 
 __all__ = [
+    "IntervalBar",
     "Run",
+    "interval_figure",
     "pullout_figure",
     "save_png",
     "spiral_figure",
@@ -32,6 +34,9 @@ __all__ = [
 
 Run = tuple[str, np.ndarray]
 """A labelled trajectory (``TRAJECTORY_DTYPE``): ``("reference", traj)``."""
+
+IntervalBar = tuple[str, float | None, float | None, float | None, float | None]
+"""``(label, reference, predicted, lo, hi)``: one quantity and its interval; None: missing."""
 
 # Line styles by position in the list of runs: the first (the reference) solid.
 _STYLES = ("-", "--", ":", "-.")
@@ -200,6 +205,58 @@ def pullout_figure(runs: Sequence[Run], title: str = "") -> Figure:
     ax.legend(fontsize=8, loc="upper right")
     if title:
         ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def interval_figure(panels: Sequence[tuple[str, Sequence[IntervalBar]]], title: str = "") -> Figure:
+    """Draw reference and predicted values of quantities, the prediction's interval as a bar.
+
+    Parameters
+    ----------
+    panels : sequence of (str, sequence of IntervalBar)
+        One panel per unit, each its axis label and its quantities, listed top down:
+        the reference as a black diamond, the predicted value as a dot and its
+        interval [lo, hi] as a horizontal bar with end caps.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The panels stacked, heights in proportion to their number of quantities.
+
+    """
+    if not panels:
+        raise ValueError("no panels to draw")
+    counts = [max(1, len(bars)) for _, bars in panels]
+    fig = _figure(9.0, 1.2 + 0.45 * sum(counts) + 0.6 * len(panels))
+    axes = fig.subplots(len(panels), 1, squeeze=False, gridspec_kw={"height_ratios": counts})
+    for ax, (axis_label, bars) in zip(axes[:, 0], panels, strict=True):
+        y = -np.arange(len(bars), dtype=float)  # first quantity on top
+        shown: set[str] = set()
+
+        def once(name: str, shown: set[str] = shown) -> str:
+            if name in shown:
+                return "_nolegend_"
+            shown.add(name)
+            return name
+
+        for yi, (_, reference, predicted, lo, hi) in zip(y, bars, strict=True):
+            if lo is not None and hi is not None:
+                ax.hlines(yi, lo, hi, color="C0", lw=2.0, label=once("95 % interval"))
+                ax.plot([lo, hi], [yi, yi], "|", color="C0", ms=12, mew=2.0)
+            if predicted is not None:
+                ax.plot([predicted], [yi], "o", color="C0", ms=6, label=once("predicted"))
+            if reference is not None:
+                ax.plot([reference], [yi], "D", color="k", ms=6, label=once("reference"))
+        ax.set_yticks(y, [label for label, *_ in bars], fontsize=8)
+        ax.set_ylim(y[-1] - 0.6 if len(y) else -0.6, 0.6)
+        ax.set_xlabel(axis_label)
+        ax.grid(True, axis="x", lw=0.4, alpha=0.6)
+        ax.legend(fontsize=8, loc="best")
+    if title:
+        axes[0, 0].set_title(title, fontsize=10)
     fig.tight_layout()
     return fig
 

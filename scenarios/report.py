@@ -10,10 +10,23 @@ writes the report directory::
     validation.json      the same numbers, for machines (format below)
     turning-circles.png  35° turns, starboard and port, reference vs predicted (in L)
     <zigzag>.png         heading, rudder and speed time histories per zig-zag
+    uncertainty.png      reference vs predicted with the 95 % intervals (with uncertainty)
 
 The error of a quantity is ``100 (predicted − reference) / reference`` [%], for the
 overshoot angles too (a relative error of a small angle is large: a 5° overshoot
 predicted as 5.5° is a 10 % error), so angles also carry the plain difference [deg].
+
+With :class:`UncertaintyBands` (``Validation.uncertainty``) every predicted quantity
+also carries a 95 % interval from a Monte-Carlo run over the identified coefficients'
+covariance (``scenarios.uncertainty.monte_carlo_metrics``), and the table says whether
+the reference value lies inside it. The Monte-Carlo runs step more coarsely than the
+validation runs, so each interval is moved by the offset between the predicted value
+and the Monte-Carlo value at θ̂ (:func:`uncertainty_bands`):
+
+    [lo, hi] = predicted + [q₀.₀₂₅ − m(θ̂), q₀.₉₇₅ − m(θ̂)],
+
+with m(θ̂) the metric of the Monte-Carlo run at the identified coefficients: the
+location comes from the validation run, the spread from the samples.
 
 ``validation.json``::
 
@@ -22,7 +35,12 @@ predicted as 5.5° is a 10 % error), so angles also carry the plain difference [
      "model": {"name", "length_m"},
      "condition": {"speed_mps", "rpm", "rudder_rate_deg_s", "dt_s"},
      "comparison": [{"maneuver", "quantity", "label", "unit", "reference",
-                     "predicted", "error_pct", "difference"}, ...],
+                     "predicted", "error_pct", "difference",
+                     "interval": {"lo", "hi", "mean", "offset", "n_samples",
+                                  "n_failed"} | null,
+                     "in_interval": bool | null}, ...],
+     "uncertainty": {"n_samples", "seed", "dt_s", "source", "scope",
+                     "n_in_interval", "n_with_interval"} | null,
      "max_abs_error_pct": float | null,
      "gate": {"max_error_pct", "passed", "failing": [label, ...]} | null,
      "imo": {"passed": bool, "criteria": [Criterion.as_dict(), ...]},
@@ -36,10 +54,10 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,14 +65,27 @@ from fmu_model.atomic import write_atomic
 from scenarios.imo import Criterion
 from scenarios.maneuvers import Program
 from scenarios.metrics import TurningMetrics, ZigzagMetrics
-from scenarios.plots import save_png, trajectory_figure, zigzag_figure
+from scenarios.plots import (
+    IntervalBar,
+    interval_figure,
+    save_png,
+    trajectory_figure,
+    zigzag_figure,
+)
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from scenarios.uncertainty import UncertaintyResult
 
 __all__ = [
     "VALIDATION_FORMAT",
     "VALIDATION_VERSION",
     "ComparisonRow",
     "Condition",
+    "Interval",
     "ManeuverRun",
+    "UncertaintyBands",
     "Validation",
     "compare_runs",
     "comparison_table",
@@ -62,7 +93,10 @@ __all__ = [
     "failing_rows",
     "figure_names",
     "format_table",
+    "interval_counts",
     "render_markdown",
+    "uncertainty_bands",
+    "uncertainty_figure",
     "validation_json",
     "write_json",
     "write_report",
@@ -81,6 +115,12 @@ _ZIGZAG_QUANTITIES = (
     ("first_overshoot_deg", "1st overshoot", "deg"),
     ("second_overshoot_deg", "2nd overshoot", "deg"),
 )
+
+UNCERTAINTY_SCOPE = (
+    "coefficient uncertainty from identification only (the measurement noise of the "
+    "trial logs), not model-structure error"
+)
+"""What the 95 % intervals cover, for the report and ``validation.json``."""
 
 
 @dataclass(frozen=True)
@@ -131,6 +171,81 @@ class ManeuverRun:
 
 
 @dataclass(frozen=True)
+class Interval:
+    """95 % interval of one predicted quantity under coefficient uncertainty.
+
+    Attributes
+    ----------
+    lo, hi : float
+        Bounds in the quantity's unit (m or deg); NaN when no sample gave a value.
+    mean : float
+        Sample mean, moved by ``offset`` like the bounds; NaN when no sample gave one.
+    offset : float
+        Added to every Monte-Carlo value: predicted value minus the Monte-Carlo value at
+        the identified coefficients (the step-size difference of the two runs); 0 when
+        either is missing [unit].
+    n_samples : int
+        Coefficient sets drawn.
+    n_failed : int
+        Samples without a value (diverged or the run did not reach the event).
+
+    """
+
+    lo: float
+    hi: float
+    mean: float
+    offset: float
+    n_samples: int
+    n_failed: int
+
+    @property
+    def is_finite(self) -> bool:
+        """True when both bounds are finite numbers."""
+        return math.isfinite(self.lo) and math.isfinite(self.hi)
+
+    def contains(self, value: float) -> bool:
+        """Whether ``value`` lies in [lo, hi] (False for an interval without bounds)."""
+        return self.is_finite and self.lo <= value <= self.hi
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON record with the attribute names as keys (NaN left for the writer)."""
+        return {
+            "lo": self.lo,
+            "hi": self.hi,
+            "mean": self.mean,
+            "offset": self.offset,
+            "n_samples": self.n_samples,
+            "n_failed": self.n_failed,
+        }
+
+
+@dataclass(frozen=True)
+class UncertaintyBands:
+    """Monte-Carlo 95 % intervals of the compared quantities.
+
+    Attributes
+    ----------
+    intervals : mapping
+        ``(maneuver, quantity) → Interval``, keys as in :class:`ComparisonRow`.
+    n_samples : int
+        Coefficient sets drawn.
+    seed : int
+        Seed of the draw.
+    dt_s : float
+        Communication step of the Monte-Carlo runs [s].
+    source : str
+        Where the coefficients and their covariance come from (the params.json).
+
+    """
+
+    intervals: Mapping[tuple[str, str], Interval]
+    n_samples: int
+    seed: int
+    dt_s: float
+    source: str = ""
+
+
+@dataclass(frozen=True)
 class ComparisonRow:
     """One line of the comparison table.
 
@@ -151,6 +266,9 @@ class ComparisonRow:
         missing or the reference is 0 [%].
     difference : float or None
         ``predicted − reference`` in ``unit``.
+    interval : Interval or None
+        95 % interval of the predicted value under coefficient uncertainty, when the
+        validation ran the Monte Carlo.
 
     """
 
@@ -162,9 +280,17 @@ class ComparisonRow:
     predicted: float | None
     error_pct: float | None
     difference: float | None
+    interval: Interval | None = None
+
+    @property
+    def in_interval(self) -> bool | None:
+        """Whether the reference lies in the 95 % interval; None when either is missing."""
+        if self.interval is None or self.reference is None or not self.interval.is_finite:
+            return None
+        return self.interval.contains(self.reference)
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON record with the attribute names as keys."""
+        """JSON record with the attribute names as keys, and ``in_interval``."""
         return {
             "maneuver": self.maneuver,
             "quantity": self.quantity,
@@ -174,6 +300,8 @@ class ComparisonRow:
             "predicted": self.predicted,
             "error_pct": self.error_pct,
             "difference": self.difference,
+            "interval": None if self.interval is None else self.interval.as_dict(),
+            "in_interval": self.in_interval,
         }
 
 
@@ -205,6 +333,8 @@ class Validation:
         The same for the reference ship.
     warnings : tuple of str
         Anything the reader must know (e.g. the two lengths differ).
+    uncertainty : UncertaintyBands, optional
+        95 % intervals of the predicted quantities (``rows`` carry them).
 
     """
 
@@ -220,10 +350,13 @@ class Validation:
     criteria: tuple[Criterion, ...]
     reference_criteria: tuple[Criterion, ...]
     warnings: tuple[str, ...] = ()
+    uncertainty: UncertaintyBands | None = None
     rows: tuple[ComparisonRow, ...] = field(init=False)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "rows", tuple(compare_runs(self.reference, self.predicted)))
+        intervals = None if self.uncertainty is None else self.uncertainty.intervals
+        rows = compare_runs(self.reference, self.predicted, intervals=intervals)
+        object.__setattr__(self, "rows", tuple(rows))
 
     @property
     def max_abs_error_pct(self) -> float | None:
@@ -250,7 +383,10 @@ def _row_label(program: Program, label: str) -> str:
 
 
 def compare_runs(
-    reference: Sequence[ManeuverRun], predicted: Sequence[ManeuverRun]
+    reference: Sequence[ManeuverRun],
+    predicted: Sequence[ManeuverRun],
+    *,
+    intervals: Mapping[tuple[str, str], Interval] | None = None,
 ) -> list[ComparisonRow]:
     """Compare turning indices and zig-zag overshoots, reference vs predicted.
 
@@ -258,6 +394,9 @@ def compare_runs(
     ----------
     reference, predicted : sequence of ManeuverRun
         Runs of the same programs in the same order.
+    intervals : mapping, optional
+        ``(maneuver, quantity) → Interval`` of the predicted values; rows without an
+        entry get none.
 
     Returns
     -------
@@ -290,9 +429,65 @@ def compare_runs(
                     predicted=b,
                     error_pct=error,
                     difference=difference,
+                    interval=None if intervals is None else intervals.get((ref.program.name, key)),
                 )
             )
     return rows
+
+
+def uncertainty_bands(
+    result: UncertaintyResult, rows: Sequence[ComparisonRow], *, source: str = ""
+) -> UncertaintyBands:
+    """95 % intervals of the rows' predicted values from a Monte-Carlo run.
+
+    For each row the samples of its metric (``result.summary``; overshoots converted
+    from radians to degrees) are moved by ``offset = predicted − m(θ̂)``, the
+    difference between the validation run and the Monte-Carlo run at the identified
+    coefficients, so that the interval sits where the validation put the prediction:
+    ``lo = q₀.₀₂₅ + offset``, ``hi = q₀.₉₇₅ + offset``, ``mean = mean + offset``. When
+    either value is missing the offset is 0.
+
+    Parameters
+    ----------
+    result : scenarios.uncertainty.UncertaintyResult
+        Monte-Carlo run of the rows' programs (same names).
+    rows : sequence of ComparisonRow
+        The comparison (``compare_runs``) whose predicted values locate the intervals.
+    source : str, optional
+        Where the coefficients come from, for the report.
+
+    Raises
+    ------
+    KeyError
+        A row's manoeuvre is not among the result's programs.
+
+    """
+    intervals: dict[tuple[str, str], Interval] = {}
+    for row in rows:
+        if row.unit == "deg":
+            metric, scale = row.quantity[: -len("_deg")] + "_rad", math.degrees(1.0)
+        else:
+            metric, scale = row.quantity, 1.0
+        s = result.summary(row.maneuver, metric)
+        nominal = scale * s.nominal
+        offset = (
+            row.predicted - nominal if row.predicted is not None and math.isfinite(nominal) else 0.0
+        )
+        intervals[row.maneuver, row.quantity] = Interval(
+            lo=scale * s.q025 + offset,
+            hi=scale * s.q975 + offset,
+            mean=scale * s.mean + offset,
+            offset=offset,
+            n_samples=s.n_samples,
+            n_failed=s.n_failed,
+        )
+    return UncertaintyBands(
+        intervals=intervals,
+        n_samples=result.n_samples,
+        seed=result.seed,
+        dt_s=result.dt_s,
+        source=source,
+    )
 
 
 def failing_rows(rows: Sequence[ComparisonRow], max_error_pct: float) -> list[ComparisonRow]:
@@ -334,23 +529,47 @@ def criteria_table(criteria: Sequence[Criterion]) -> tuple[list[str], list[list[
     return header, rows
 
 
+def _verdict(value: bool | None) -> str:
+    return "n/a" if value is None else ("yes" if value else "no")
+
+
 def comparison_table(rows: Sequence[ComparisonRow]) -> tuple[list[str], list[list[str]]]:
-    """Header and rows (quantity, unit, reference, predicted, error %, difference) as text."""
+    """Header and rows (quantity, unit, reference, predicted, error %, difference) as text.
+
+    When any row has an interval, two more columns: "95 % interval" (``lo … hi``) and
+    "in interval" (``yes``/``no``: the reference inside it; ``n/a`` without one).
+    """
     header = ["quantity", "unit", "reference", "predicted", "error %", "difference"]
+    banded = any(r.interval is not None for r in rows)
+    if banded:
+        header += ["95 % interval", "in interval"]
     out = []
     for r in rows:
         digits = 1 if r.unit == "m" else 2
-        out.append(
-            [
-                r.label,
-                r.unit,
-                _number(r.reference, digits),
-                _number(r.predicted, digits),
-                "n/a" if r.error_pct is None else f"{r.error_pct:+.1f}",
-                "n/a" if r.difference is None else f"{r.difference:+.{digits}f} {r.unit}",
+        cells = [
+            r.label,
+            r.unit,
+            _number(r.reference, digits),
+            _number(r.predicted, digits),
+            "n/a" if r.error_pct is None else f"{r.error_pct:+.1f}",
+            "n/a" if r.difference is None else f"{r.difference:+.{digits}f} {r.unit}",
+        ]
+        if banded:
+            interval = r.interval
+            cells += [
+                f"{interval.lo:.{digits}f} … {interval.hi:.{digits}f}"
+                if interval is not None and interval.is_finite
+                else "n/a",
+                _verdict(r.in_interval),
             ]
-        )
+        out.append(cells)
     return header, out
+
+
+def interval_counts(rows: Sequence[ComparisonRow]) -> tuple[int, int]:
+    """Rows whose reference lies inside its interval, and rows with a verdict at all."""
+    verdicts = [r.in_interval for r in rows if r.in_interval is not None]
+    return sum(verdicts), len(verdicts)
 
 
 def _is_numeric(cell: str) -> bool:
@@ -396,6 +615,42 @@ def _markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> lis
     return lines
 
 
+def uncertainty_figure(validation: Validation) -> Figure:
+    """Draw reference vs predicted with the 95 % intervals: lengths in L, overshoots in deg.
+
+    Lengths are divided by the reference ship's length so that the turning indices of
+    both ships share one axis; rows without an interval show the two points only.
+    """
+    v = validation
+    length = v.reference_length_m
+
+    def bar(r: ComparisonRow, scale: float) -> IntervalBar:
+        lo = hi = None
+        if r.interval is not None and r.interval.is_finite:
+            lo, hi = r.interval.lo / scale, r.interval.hi / scale
+        return (
+            r.label,
+            None if r.reference is None else r.reference / scale,
+            None if r.predicted is None else r.predicted / scale,
+            lo,
+            hi,
+        )
+
+    panels = [
+        (
+            f"length / L [-] (L = {length:g} m, the reference's)",
+            [bar(r, length) for r in v.rows if r.unit == "m"],
+        ),
+        ("overshoot [deg]", [bar(r, 1.0) for r in v.rows if r.unit == "deg"]),
+    ]
+    samples = "" if v.uncertainty is None else f" ({v.uncertainty.n_samples} samples)"
+    return interval_figure(
+        [panel for panel in panels if panel[1]],
+        title=f"reference {v.reference_name} vs predicted {Path(v.fmu_path).name}\n"
+        f"95 % intervals from the identified coefficients' covariance{samples}",
+    )
+
+
 def figure_names(validation: Validation) -> list[str]:
     """File names of the report's PNGs, in the order the report shows them."""
     names = []
@@ -404,6 +659,8 @@ def figure_names(validation: Validation) -> list[str]:
     names.extend(
         f"{r.program.name}.png" for r in validation.reference if r.program.kind == "zigzag"
     )
+    if any(r.interval is not None for r in validation.rows):
+        names.append("uncertainty.png")
     return names
 
 
@@ -442,6 +699,8 @@ def render_markdown(validation: Validation, max_error_pct: float | None = None) 
         failing = failing_rows(v.rows, max_error_pct)
         verdict = "PASS" if not failing else f"FAIL ({len(failing)} of {len(v.rows)} rows)"
         lines.append(f"Gate |error| ≤ {max_error_pct:g} %: **{verdict}**.")
+    if v.uncertainty is not None:
+        lines += ["", *_uncertainty_paragraph(v.uncertainty, v.rows)]
     lines += ["", "## IMO MSC.137(76) criteria, predicted model", ""]
     lines += _markdown_table(*criteria_table(v.criteria))
     lines += [
@@ -459,6 +718,34 @@ def render_markdown(validation: Validation, max_error_pct: float | None = None) 
     return "\n".join(lines)
 
 
+def _uncertainty_paragraph(bands: UncertaintyBands, rows: Sequence[ComparisonRow]) -> list[str]:
+    """Markdown lines saying what the intervals are, what they cover and how they came out."""
+    inside, judged = interval_counts(rows)
+    source = f" in `{bands.source}`" if bands.source else ""
+    lines = [
+        f"The 95 % intervals are the 2.5 % and 97.5 % quantiles of {bands.n_samples} "
+        f"Monte-Carlo samples of the identified coefficients, θ ~ N(θ̂, Σ) with the "
+        f"covariance Σ{source} (seed {bands.seed}, step {bands.dt_s:g} s), each moved "
+        "by the difference between the predicted value and the Monte-Carlo run at θ̂. "
+        f"They cover the {UNCERTAINTY_SCOPE}: a reference value outside its interval "
+        "is a difference the noise in the trials does not explain. "
+        f"Reference inside the interval: {inside} of {judged} quantities.",
+    ]
+    failed = [r for r in rows if r.interval is not None and r.interval.n_failed]
+    if failed:
+        parts = [
+            f"{r.label} ({r.interval.n_failed} of {r.interval.n_samples})"
+            for r in failed
+            if r.interval is not None
+        ]
+        lines += [
+            "",
+            "Samples without a value (diverged, or the run did not reach the event), "
+            f"left out of the intervals: {'; '.join(parts)}.",
+        ]
+    return lines
+
+
 def _finite_or_none(value: Any) -> Any:
     """Replace non-finite floats (not valid JSON) by None, recursively."""
     if isinstance(value, float):
@@ -468,6 +755,21 @@ def _finite_or_none(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return [_finite_or_none(x) for x in value]
     return value
+
+
+def _uncertainty_record(validation: Validation) -> dict[str, Any]:
+    bands = validation.uncertainty
+    assert bands is not None
+    inside, judged = interval_counts(validation.rows)
+    return {
+        "n_samples": bands.n_samples,
+        "seed": bands.seed,
+        "dt_s": bands.dt_s,
+        "source": bands.source,
+        "scope": UNCERTAINTY_SCOPE,
+        "n_in_interval": inside,
+        "n_with_interval": judged,
+    }
 
 
 def validation_json(validation: Validation, max_error_pct: float | None = None) -> dict[str, Any]:
@@ -493,6 +795,7 @@ def validation_json(validation: Validation, max_error_pct: float | None = None) 
         },
         "condition": v.condition.as_dict(),
         "comparison": [r.as_dict() for r in v.rows],
+        "uncertainty": None if v.uncertainty is None else _uncertainty_record(v),
         "max_abs_error_pct": v.max_abs_error_pct,
         "gate": gate,
         "imo": {"passed": v.imo_passed, "criteria": [c.as_dict() for c in v.criteria]},
@@ -565,6 +868,8 @@ def write_report(
             f"predicted {fmu_name}",
         )
         written.append(save_png(fig, out / f"{ref.program.name}.png"))
+    if any(r.interval is not None for r in v.rows):
+        written.append(save_png(uncertainty_figure(v), out / "uncertainty.png"))
     write_json(out / "validation.json", validation_json(v, max_error_pct))
     written.append(out / "validation.json")
     write_atomic(out / "report.md", render_markdown(v, max_error_pct) + "\n")
