@@ -1,0 +1,84 @@
+"""Write an NMEA 0183 recording of KVLCC2 manoeuvres, as a ship's logger would.
+
+Stands in for "your own trial data" in the README walkthrough: the KVLCC2 reference
+ship plays a manoeuvre (``scenarios.synthesize``), and its noisy track is written as
+GGA + RMC position fixes on WGS84 (through the inverse of the azimuthal equidistant
+plane that ``identifier convert`` uses), HDT heading, RSA rudder angle and RPM shaft
+speed, once per second, with checksums.
+
+    python examples/own_data/record_nmea.py --maneuver zigzag-10 -o recordings/zz10.nmea
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import math
+import sys
+from functools import reduce
+
+import pyproj
+
+from fmu_model.atomic import write_atomic
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+
+ORIGIN_LAT_DEG, ORIGIN_LON_DEG = 63.4305, 10.3951  # Trondheimsfjorden
+START = dt.datetime(2024, 5, 17, 10, 0, 0, tzinfo=dt.UTC)
+
+
+def _sentence(body: str) -> str:
+    checksum = reduce(lambda acc, ch: acc ^ ord(ch), body, 0)
+    return f"${body}*{checksum:02X}"
+
+
+def _angle(value_deg: float, degree_digits: int, hemispheres: str) -> tuple[str, str]:
+    hemisphere = hemispheres[0] if value_deg >= 0.0 else hemispheres[1]
+    value = abs(value_deg)
+    degrees = int(value)
+    minutes = (value - degrees) * 60.0
+    return f"{degrees:0{degree_digits}d}{minutes:010.7f}", hemisphere
+
+
+def nmea_lines(maneuver: str, seed: int) -> list[str]:
+    """Return the NMEA sentences of one synthetic KVLCC2 manoeuvre."""
+    log = synthesize_log(reference_ship("kvlcc2", "full"), MANEUVERS[maneuver](), seed=seed)
+    plane = pyproj.Proj(
+        f"+proj=aeqd +lat_0={ORIGIN_LAT_DEG} +lon_0={ORIGIN_LON_DEG} +datum=WGS84 +units=m"
+    )
+    lon, lat = plane(log.y_m, log.x_m, inverse=True)
+    lines = []
+    for k in range(log.n_samples):
+        stamp = START + dt.timedelta(seconds=float(log.time_s[k]))
+        hhmmss = stamp.strftime("%H%M%S.%f")[:9]
+        lat_text, ns = _angle(float(lat[k]), 2, "NS")
+        lon_text, ew = _angle(float(lon[k]), 3, "EW")
+        heading = math.degrees(float(log.heading_rad[k])) % 360.0
+        lines.append(
+            _sentence(f"GPGGA,{hhmmss},{lat_text},{ns},{lon_text},{ew},1,10,0.8,5.0,M,40.0,M,,")
+        )
+        lines.append(
+            _sentence(
+                f"GPRMC,{hhmmss},A,{lat_text},{ns},{lon_text},{ew},15.5,{heading:.1f},"
+                f"{stamp:%d%m%y},,,A"
+            )
+        )
+        lines.append(_sentence(f"HEHDT,{heading:.2f},T"))
+        lines.append(_sentence(f"IIRSA,{math.degrees(float(log.rudder_rad[k])):.2f},A,,V"))
+        lines.append(_sentence(f"IIRPM,S,0,{float(log.n_rps[k]) * 60.0:.1f},,A"))
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Write the recording; return the exit status."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--maneuver", choices=sorted(MANEUVERS), default="zigzag-10")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("-o", "--output", required=True)
+    args = parser.parse_args(argv)
+    write_atomic(args.output, "\r\n".join(nmea_lines(args.maneuver, args.seed)) + "\r\n")
+    print(f"wrote {args.output}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
