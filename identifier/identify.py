@@ -26,6 +26,7 @@ from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import EquationErrorFit, equation_error_fit
 from identifier.errors import IdentificationError
 from identifier.logs import ManeuverLog
+from identifier.refine import RefinementResult, refine_output_error
 from identifier.smoothing import SmoothedTrack, smooth_track
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
@@ -67,6 +68,10 @@ class FitSettings:
     max_variance_inflation : float
         ... and so is one whose regressor is this collinear with the others in the data
         (variance inflation factor, ``EquationErrorFit.variance_inflation``).
+    refine : bool
+        After the EKF, refine by output error on the whole logs
+        (``identifier.refine.refine_output_error``, default settings), which keeps the
+        EKF estimate when its guards fire.
 
     """
 
@@ -81,6 +86,7 @@ class FitSettings:
     max_substep_s: float = 0.1
     max_relative_std: float = 0.5
     max_variance_inflation: float = 1e4
+    refine: bool = False
 
 
 @dataclass(frozen=True)
@@ -109,6 +115,7 @@ class IdentificationResult:
     coefficients: tuple[CoefficientReport, ...]
     warnings: tuple[str, ...]
     settings: FitSettings
+    refinement: RefinementResult | None = None  # both fits when settings.refine
 
     @property
     def not_identifiable(self) -> tuple[str, ...]:
@@ -317,6 +324,11 @@ def identify(
             "not identifiable from these logs (not excited, collinear with other terms, or "
             f"posterior std above {settings.max_relative_std:.0%} of the value): " + ", ".join(weak)
         )
+    refinement = None
+    if settings.refine:
+        refinement = refine_output_error(params, logs, tracks=tracks)
+        params = refinement.params
+        warnings.extend(refinement.warnings)
     return IdentificationResult(
         params=params,
         logs=tuple(logs),
@@ -326,4 +338,5 @@ def identify(
         coefficients=reports,
         warnings=tuple(warnings),
         settings=settings,
+        refinement=refinement,
     )

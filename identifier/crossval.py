@@ -1,0 +1,663 @@
+"""Cross-validation: identify on some manoeuvres, predict the ones held out.
+
+Zig-zag overshoots do not tell a model that extrapolates well from one that does not
+(reference/model_structures.md, §8); only held-out manoeuvres do. For each held-out
+log the identified model is replayed with the log's own rudder and propeller speed
+(``identifier.refine.replay``, RK4, inputs interpolated between samples) from the
+execute point on, from the state the model itself gives there when fitted to the
+approach (``identifier.refine.execute_state``; nothing after execute is used). Then
+
+* the RMS position error from execute to the end of the log, in ship lengths, and
+* the manoeuvre's own indices computed the same way on both the logged (smoothed)
+  track and the prediction: advance, transfer and tactical diameter of a turning
+  circle, first and second overshoot of a zig-zag (``scenarios.metrics``).
+
+This module is the one place where the identifier uses ``scenarios``: the metric
+definitions (pure functions of a trajectory) exist once, there. Nothing here knows
+about FMI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fmu_model import ModelParameters, ParamsFormatError, model_names
+from fmu_model.atomic import write_atomic
+from identifier.errors import IdentificationError, LogFormatError
+from identifier.identify import FitSettings, identify
+from identifier.logs import ManeuverLog, read_log
+from identifier.refine import execute_index, execute_state, replay, smooth_log
+from identifier.smoothing import SmoothedTrack
+from scenarios.metrics import MetricsError, turning_metrics, zigzag_metrics
+from scenarios.trajectory import empty_trajectory
+
+KINDS = ("turning", "zigzag")
+_KIND_PATTERNS = (
+    ("turning", re.compile(r"turn", re.IGNORECASE)),
+    ("zigzag", re.compile(r"zig[-_ ]?zag", re.IGNORECASE)),
+)
+_ZIGZAG_ANGLES = re.compile(r"zig[-_ ]?zag[-_ ]?(\d+(?:\.\d+)?)[-_/](\d+(?:\.\d+)?)", re.I)
+_TURNING_METRICS = ("advance_m", "transfer_m", "tactical_diameter_m")
+_ZIGZAG_METRICS = ("first_overshoot_deg", "second_overshoot_deg")
+
+
+# --------------------------------------------------------------------------------------
+# Results
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MetricError:
+    """One manoeuvre index, logged vs predicted.
+
+    Attributes
+    ----------
+    name : str
+        ``advance_m``, ``transfer_m``, ``tactical_diameter_m``, ``first_overshoot_deg``
+        or ``second_overshoot_deg`` (the unit is in the name).
+    logged, predicted : float or None
+        From the logged (smoothed) track and from the prediction; None when the
+        track does not cover the index (e.g. a turn that never reaches 180°).
+    error : float or None
+        predicted − logged, in the unit of the name.
+    relative_error : float or None
+        predicted / logged − 1.
+
+    """
+
+    name: str
+    logged: float | None
+    predicted: float | None
+
+    @property
+    def error(self) -> float | None:
+        """Return predicted − logged (None when one is missing)."""
+        if self.logged is None or self.predicted is None:
+            return None
+        return self.predicted - self.logged
+
+    @property
+    def relative_error(self) -> float | None:
+        """Return predicted / logged − 1 (None when missing or logged is 0)."""
+        if self.logged is None or self.predicted is None or self.logged == 0.0:
+            return None
+        return self.predicted / self.logged - 1.0
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """Prediction of one held-out log.
+
+    Attributes
+    ----------
+    name : str
+        The log's path (or "log N").
+    kind : str or None
+        ``turning``, ``zigzag`` or None (unknown: no indices).
+    position_rms_m : float
+        RMS distance between predicted and logged positions from execute to the end
+        of the log [m]; inf when the prediction diverged.
+    position_rms_L : float
+        The same in ship lengths.
+    metrics : tuple of MetricError
+        The manoeuvre's indices.
+    notes : tuple of str
+        Why an index is missing.
+
+    """
+
+    name: str
+    kind: str | None
+    position_rms_m: float
+    position_rms_L: float
+    metrics: tuple[MetricError, ...]
+    notes: tuple[str, ...] = ()
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (non-finite numbers as null)."""
+        return {
+            "log": self.name,
+            "kind": self.kind,
+            "position_rms_m": _json_number(self.position_rms_m),
+            "position_rms_L": _json_number(self.position_rms_L),
+            "metrics": {
+                m.name: {
+                    "logged": _json_number(m.logged),
+                    "predicted": _json_number(m.predicted),
+                    "error": _json_number(m.error),
+                    "relative_error": _json_number(m.relative_error),
+                }
+                for m in self.metrics
+            },
+            "notes": list(self.notes),
+        }
+
+
+@dataclass(frozen=True)
+class Fold:
+    """One identification and the logs it predicts.
+
+    Attributes
+    ----------
+    train : tuple of str
+        Names of the training logs.
+    params : ModelParameters
+        The identified model (refined when refinement ran and was kept).
+    held_out : tuple of HeldOut
+        The predictions.
+    warnings : tuple of str
+        The identification's warnings.
+
+    """
+
+    train: tuple[str, ...]
+    params: ModelParameters
+    held_out: tuple[HeldOut, ...]
+    warnings: tuple[str, ...]
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        refinement = self.params.identification.get("refinement")
+        return {
+            "train": list(self.train),
+            "coefficients": self.params.as_dict(),
+            "refinement": None
+            if refinement is None
+            else {k: refinement[k] for k in ("kept", "reason", "cost_before", "cost_after")},
+            "test": [h.to_json_dict() for h in self.held_out],
+            "warnings": list(self.warnings),
+        }
+
+
+@dataclass(frozen=True)
+class CrossValidation:
+    """All folds of a cross-validation."""
+
+    model: str
+    refine: bool
+    folds: tuple[Fold, ...]
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: ``{"model", "refine", "folds": [...]}``."""
+        return {
+            "model": self.model,
+            "refine": self.refine,
+            "folds": [f.to_json_dict() for f in self.folds],
+        }
+
+
+def _json_number(value: float | None) -> float | None:
+    return float(value) if value is not None and math.isfinite(value) else None
+
+
+# --------------------------------------------------------------------------------------
+# Classifying logs
+# --------------------------------------------------------------------------------------
+
+
+def _name(log: ManeuverLog, index: int) -> str:
+    return log.path or f"log {index + 1}"
+
+
+def maneuver_kind(log: ManeuverLog) -> str | None:
+    """Return ``"turning"`` or ``"zigzag"`` from the log's ``# source:`` or file name.
+
+    The source is looked at first, then the file name; None when neither names one.
+    """
+    for text in (log.metadata.get("source", ""), Path(log.path or "").name):
+        found = [
+            (m.start(), kind) for kind, pattern in _KIND_PATTERNS if (m := pattern.search(text))
+        ]
+        if found:
+            return min(found)[1]
+    return None
+
+
+def zigzag_angles(log: ManeuverLog) -> tuple[float, float]:
+    """Return the zig-zag's first rudder command δ (signed) and check heading Z [rad].
+
+    δ and Z from ``zigzag-δ-Z`` in the source or file name when there, else δ as the
+    largest logged rudder angle (0.1° resolution) and Z as the whole degree of heading
+    change crossed when the rudder first moves back; the sign of δ is that of the first
+    rudder movement.
+    """
+    k = execute_index(log)
+    after = log.rudder_rad[k:] - log.rudder_rad[0]
+    moved = np.flatnonzero(np.abs(after) > math.radians(0.5))
+    sign = 1.0 if not moved.size or after[moved[0]] > 0.0 else -1.0
+    for text in (log.metadata.get("source", ""), Path(log.path or "").name):
+        match = _ZIGZAG_ANGLES.search(text)
+        if match:
+            return sign * math.radians(float(match[1])), math.radians(float(match[2]))
+    rudder = sign * math.radians(round(math.degrees(float(np.max(np.abs(after)))), 1))
+    # First reversal: the rudder first moves back between samples j and j + 1, so the
+    # heading crossed Z in (ψ_j, ψ_j+1]: the whole degree in there nearest the middle.
+    # (more than 0.5° back from its largest value so far; jitter is not a reversal).
+    toward = sign * log.rudder_rad[k:]
+    back = np.flatnonzero(np.maximum.accumulate(toward) - toward > math.radians(0.5))
+    if not back.size:
+        raise IdentificationError("no rudder reversal: not a zig-zag", log=log.path)
+    j = int(back[0])
+    while j > 1 and toward[j - 1] < toward[j - 2]:  # back to where it started to move
+        j -= 1
+    j = k + j - 1
+    low, high = (math.degrees(sign * (log.heading_rad[i] - log.heading_rad[k])) for i in (j, j + 1))
+    middle = 0.5 * (low + high)
+    whole = range(math.ceil(low), math.floor(high) + 1)
+    check = min(whole, key=lambda d: abs(d - middle)) if whole else round(middle)
+    return rudder, math.radians(check)
+
+
+# --------------------------------------------------------------------------------------
+# Prediction of one log
+# --------------------------------------------------------------------------------------
+
+
+def _trajectory(
+    time_s: np.ndarray, states: np.ndarray, rudder_rad: np.ndarray, n_rps: np.ndarray
+) -> np.ndarray:
+    traj = empty_trajectory(time_s.size)
+    traj["time_s"] = time_s
+    traj["u_mps"], traj["v_mps"], traj["r_radps"] = states[:, 0], states[:, 1], states[:, 2]
+    traj["x_m"], traj["y_m"], traj["psi_rad"] = states[:, 3], states[:, 4], states[:, 5]
+    traj["rudder_rad"], traj["n_rps"] = rudder_rad, n_rps
+    return traj
+
+
+def predict_log(
+    params: ModelParameters, log: ManeuverLog, track: SmoothedTrack | None = None
+) -> tuple[int, np.ndarray]:
+    """Replay the model with a log's inputs from its state at execute.
+
+    The state at execute comes from the approach alone
+    (``identifier.refine.execute_state``); from there on the model runs open loop on
+    the logged rudder [rad] and propeller speed [rev/s].
+
+    Parameters
+    ----------
+    params : ModelParameters
+        The model.
+    log : ManeuverLog
+        The log whose inputs are replayed.
+    track : SmoothedTrack, optional
+        Its smoothed track; smoothed here when omitted.
+
+    Returns
+    -------
+    tuple of (int, numpy.ndarray)
+        The execute index k and the predicted (u, v, r, x, y, ψ) at the samples
+        ``k, k+1, …`` (shape (N − k, 6), SI units; NaN from a divergence on).
+
+    """
+    track = track or smooth_log(log)
+    k, state = execute_state(params, log, track)
+    states = replay(
+        params.model,
+        params.to_vector(),
+        params.length_m,
+        log.time_s[k:],
+        log.rudder_rad[k:],
+        log.n_rps[k:],
+        state,
+        max_step_s=0.05 * params.length_m / max(float(state[0]), 0.1),
+        speed_limit_mps=5.0 * max(float(np.max(np.hypot(track.u_mps, track.v_mps))), 0.1),
+    )
+    return k, states
+
+
+def _indices(
+    kind: str, traj: np.ndarray, execute_s: float, angles: tuple[float, float] | None
+) -> dict[str, float | None]:
+    """Return the manoeuvre's indices of one trajectory (None when not covered)."""
+    if kind == "turning":
+        try:
+            m = turning_metrics(traj, execute_s)
+        except MetricsError:
+            return dict.fromkeys(_TURNING_METRICS)
+        return {
+            "advance_m": m.advance_m,
+            "transfer_m": m.transfer_m,
+            "tactical_diameter_m": m.tactical_diameter_m,
+        }
+    assert angles is not None
+    try:
+        z = zigzag_metrics(traj, angles[0], angles[1], execute_s)
+    except MetricsError:
+        return dict.fromkeys(_ZIGZAG_METRICS)
+    return {
+        "first_overshoot_deg": z.first_overshoot_deg,
+        "second_overshoot_deg": z.second_overshoot_deg,
+    }
+
+
+def held_out_errors(
+    params: ModelParameters,
+    log: ManeuverLog,
+    track: SmoothedTrack | None = None,
+    *,
+    name: str | None = None,
+) -> HeldOut:
+    """Predict a log and compare: position RMS and the manoeuvre's indices.
+
+    Parameters
+    ----------
+    params : ModelParameters
+        The identified model.
+    log : ManeuverLog
+        The held-out log.
+    track : SmoothedTrack, optional
+        Its smoothed track; smoothed here when omitted.
+    name : str, optional
+        Name in the result; the log's path by default.
+
+    Returns
+    -------
+    HeldOut
+        Errors of the prediction.
+
+    """
+    track = track or smooth_log(log)
+    name = name or log.path or "log"
+    k, states = predict_log(params, log, track)
+    finite = np.all(np.isfinite(states), axis=1)
+    notes: list[str] = []
+    if finite.all():
+        sq = np.square(states[:, 3] - log.x_m[k:]) + np.square(states[:, 4] - log.y_m[k:])
+        rms = math.sqrt(float(np.mean(sq)))
+    else:
+        rms = math.inf
+        notes.append(f"the prediction diverges at t = {log.time_s[k + int(np.argmin(finite))]:g} s")
+    kind = maneuver_kind(log)
+    metrics: list[MetricError] = []
+    if kind is not None:
+        execute_s = float(log.time_s[k])
+        angles = zigzag_angles(log) if kind == "zigzag" else None
+        logged_states = np.column_stack(
+            [track.u_mps, track.v_mps, track.r_radps, track.x_m, track.y_m, track.heading_rad]
+        )
+        logged = _indices(
+            kind,
+            _trajectory(log.time_s, logged_states, log.rudder_rad, log.n_rps),
+            execute_s,
+            angles,
+        )
+        good = int(np.argmin(finite)) if not finite.all() else states.shape[0]
+        predicted: dict[str, float | None] = dict.fromkeys(logged)
+        if good > 2:
+            end = k + good
+            traj = _trajectory(
+                log.time_s[k:end], states[:good], log.rudder_rad[k:end], log.n_rps[k:end]
+            )
+            predicted = _indices(kind, traj, execute_s, angles)
+        for key, value in logged.items():
+            metrics.append(MetricError(key, value, predicted[key]))
+            if value is None:
+                notes.append(f"{key}: not covered by the logged track")
+            elif predicted[key] is None:
+                notes.append(f"{key}: not reached by the prediction")
+    else:
+        notes.append("manoeuvre kind unknown (no 'turning'/'zigzag' in source or file name)")
+    return HeldOut(
+        name=name,
+        kind=kind,
+        position_rms_m=rms,
+        position_rms_L=rms / params.length_m,
+        metrics=tuple(metrics),
+        notes=tuple(notes),
+    )
+
+
+# --------------------------------------------------------------------------------------
+# Folds
+# --------------------------------------------------------------------------------------
+
+
+def select_logs(logs: Sequence[ManeuverLog], spec: Sequence[str]) -> list[int]:
+    """Return the indices of the logs a ``--train``/``--test`` spec names.
+
+    Each item is a kind (``turning``, ``zigzag``) or a log path; a path matches a log
+    whose path is the same file.
+
+    Raises
+    ------
+    IdentificationError
+        An item that is neither a kind nor one of the logs.
+
+    """
+    chosen: list[int] = []
+    for item in spec:
+        if item in KINDS:
+            hits = [i for i, log in enumerate(logs) if maneuver_kind(log) == item]
+        else:
+            target = Path(item).resolve()
+            hits = [
+                i for i, log in enumerate(logs) if log.path and Path(log.path).resolve() == target
+            ]
+            if not hits:
+                raise IdentificationError(
+                    f"{item!r} is neither a manoeuvre kind ({', '.join(KINDS)}) nor one of the logs"
+                )
+        chosen.extend(i for i in hits if i not in chosen)
+    return chosen
+
+
+def cross_validate(
+    train: Sequence[ManeuverLog],
+    test: Sequence[ManeuverLog],
+    settings: FitSettings | None = None,
+    *,
+    length_m: float | None = None,
+) -> Fold:
+    """Identify on ``train`` and predict every log of ``test``.
+
+    Parameters
+    ----------
+    train, test : sequence of ManeuverLog
+        Training and held-out logs.
+    settings : FitSettings, optional
+        Identification settings (``refine=True`` for output-error refinement).
+    length_m : float, optional
+        Ship length [m]; from the logs when omitted.
+
+    Raises
+    ------
+    IdentificationError
+        No training or no test log, or a failed identification.
+
+    """
+    if not train:
+        raise IdentificationError("no training logs")
+    if not test:
+        raise IdentificationError("no held-out logs to predict")
+    result = identify(list(train), settings or FitSettings(), length_m=length_m)
+    held = tuple(
+        held_out_errors(result.params, log, name=_name(log, i)) for i, log in enumerate(test)
+    )
+    return Fold(
+        train=tuple(_name(log, i) for i, log in enumerate(train)),
+        params=result.params,
+        held_out=held,
+        warnings=result.warnings,
+    )
+
+
+def leave_one_out(
+    logs: Sequence[ManeuverLog],
+    settings: FitSettings | None = None,
+    *,
+    length_m: float | None = None,
+) -> tuple[Fold, ...]:
+    """One fold per log: identify on all the others, predict it.
+
+    Raises
+    ------
+    IdentificationError
+        Fewer than two logs, or a failed identification.
+
+    """
+    if len(logs) < 2:
+        raise IdentificationError("leave-one-out needs at least two logs")
+    return tuple(
+        cross_validate(
+            [log for j, log in enumerate(logs) if j != i], [logs[i]], settings, length_m=length_m
+        )
+        for i in range(len(logs))
+    )
+
+
+def format_table(cv: CrossValidation) -> str:
+    """Markdown table of all held-out predictions, one row per index."""
+    lines = [
+        f"model {cv.model}{', output-error refinement' if cv.refine else ''}",
+        "",
+        "| trained on | held out | pos. RMS [L] | index | logged | predicted | error |",
+        "|---|---|---|---|---|---|---|",
+    ]
+
+    def fmt(value: float | None, digits: str = ".4g") -> str:
+        return "—" if value is None or not math.isfinite(value) else format(value, digits)
+
+    for fold in cv.folds:
+        train = ", ".join(Path(t).name for t in fold.train)
+        for h in fold.held_out:
+            rows = h.metrics or (MetricError("—", None, None),)
+            for m in rows:
+                rel = m.relative_error
+                error = "—" if rel is None else f"{rel:+.1%}"
+                if m.name.endswith("_deg") and m.error is not None:
+                    error = f"{m.error:+.2f} deg ({error})"
+                lines.append(
+                    f"| {train} | {Path(h.name).name} | {fmt(h.position_rms_L, '.3f')} | "
+                    f"{m.name} | {fmt(m.logged)} | {fmt(m.predicted)} | {error} |"
+                )
+    return "\n".join(lines)
+
+
+def run_cross_validation(
+    logs: Sequence[ManeuverLog],
+    settings: FitSettings,
+    *,
+    train: Sequence[str] = (),
+    test: Sequence[str] = (),
+    leave_one_out_: bool = False,
+    length_m: float | None = None,
+) -> CrossValidation:
+    """Select the folds from specs (kinds or paths) and run them.
+
+    Without ``test`` every log not in training is held out.
+    """
+    if leave_one_out_:
+        folds = leave_one_out(logs, settings, length_m=length_m)
+    else:
+        if not train:
+            raise IdentificationError("name the training logs (--train) or use --leave-one-out")
+        train_idx = select_logs(logs, train)
+        test_idx = (
+            select_logs(logs, test) if test else [i for i in range(len(logs)) if i not in train_idx]
+        )
+        overlap = sorted(set(train_idx) & set(test_idx))
+        if overlap:
+            names = ", ".join(_name(logs[i], i) for i in overlap)
+            raise IdentificationError(f"logs both trained on and held out: {names}")
+        folds = (
+            cross_validate(
+                [logs[i] for i in train_idx],
+                [logs[i] for i in test_idx],
+                settings,
+                length_m=length_m,
+            ),
+        )
+    return CrossValidation(model=settings.model, refine=settings.refine, folds=folds)
+
+
+# --------------------------------------------------------------------------------------
+# Command line: python -m identifier crossval
+# --------------------------------------------------------------------------------------
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add the ``crossval`` command to the subparsers ``sub`` of ``python -m identifier``."""
+    cv = sub.add_parser(
+        "crossval",
+        help="identify on some logs, predict the held-out ones",
+        description=(
+            "Cross-validate a model structure: identify on the training logs, replay the "
+            "held-out logs' rudder and rpm, and compare track and manoeuvre indices."
+        ),
+    )
+    cv.add_argument("logs", nargs="+", metavar="LOG.csv", help="trial logs (DESIGN.md format)")
+    cv.add_argument(
+        "--train",
+        nargs="+",
+        metavar="KIND|FILE",
+        default=[],
+        help="training logs: turning, zigzag or log files (given here or among LOGS)",
+    )
+    cv.add_argument(
+        "--test",
+        nargs="+",
+        metavar="KIND|FILE",
+        default=[],
+        help="held-out logs (default: every log not trained on)",
+    )
+    cv.add_argument(
+        "--leave-one-out", action="store_true", help="one fold per log, trained on all others"
+    )
+    cv.add_argument("--model", default="shi2009", choices=model_names())
+    cv.add_argument("--refine", action="store_true", help="output-error refinement after the EKF")
+    cv.add_argument("--length-m", type=float, help="ship length [m] (default: from logs)")
+    cv.add_argument("--json", metavar="OUT", help="write the results as JSON")
+    cv.add_argument("--quiet", action="store_true", help="no table on stdout")
+    return cv
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``python -m identifier crossval`` for parsed ``args``; return the exit status."""
+    if args.leave_one_out and (args.train or args.test):
+        print("error: --leave-one-out takes no --train/--test", file=sys.stderr)
+        return 2
+    if not args.leave_one_out and not args.train:
+        print("error: give --train KIND|FILE... or --leave-one-out", file=sys.stderr)
+        return 2
+    try:
+        paths = list(dict.fromkeys(args.logs))
+        known = {Path(p).resolve() for p in paths}
+        for item in (*args.train, *args.test):
+            if item not in KINDS and Path(item).resolve() not in known:
+                paths.append(item)
+                known.add(Path(item).resolve())
+        logs = [read_log(p) for p in paths]
+        cv = run_cross_validation(
+            logs,
+            FitSettings(model=args.model, refine=args.refine),
+            train=args.train,
+            test=args.test,
+            leave_one_out_=args.leave_one_out,
+            length_m=args.length_m,
+        )
+        if args.json:
+            write_atomic(args.json, json.dumps(cv.to_json_dict(), indent=2, allow_nan=False) + "\n")
+    except (LogFormatError, IdentificationError, ParamsFormatError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        print(f"error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
+    for fold in cv.folds:
+        for warning in fold.warnings:
+            print(f"warning: {warning}", file=sys.stderr)
+    if not args.quiet:
+        print(format_table(cv))
+        if args.json:
+            print(f"wrote {args.json}")
+    return 0

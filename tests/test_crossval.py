@@ -1,0 +1,166 @@
+"""Cross-validation: classification, the known-answer case, the CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fmu_model import ModelParameters
+from identifier.cli import main
+from identifier.crossval import (
+    Fold,
+    cross_validate,
+    maneuver_kind,
+    select_logs,
+    zigzag_angles,
+)
+from identifier.errors import IdentificationError
+from identifier.identify import FitSettings
+from identifier.logs import ManeuverLog, read_log, write_log
+from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
+from tests.conftest import SEED_COEFFICIENTS
+
+RUDDER_RATE = math.radians(5.0)
+NAMES = ("turning-35", "zigzag-10", "zigzag-20", "turning-35-port", "zigzag-10-port")
+
+
+def _truth() -> ModelParameters:
+    return ModelParameters.from_vector(
+        "shi2009",
+        np.array(list(SEED_COEFFICIENTS.values())),
+        length_m=100.0,
+        vessel_name="testship",
+        nominal_speed_mps=5.0,
+        nominal_n_rps=2.0,
+    )
+
+
+@pytest.fixture(scope="module")
+def logs() -> dict[str, ManeuverLog]:
+    """Seed-model logs, 1 Hz, 1 m / 0.1 deg noise (the model fitted to data from itself)."""
+    ship = model_ship(_truth(), rudder_rate_radps=RUDDER_RATE)
+    return {
+        name: synthesize_log(ship, MANEUVERS[name](), seed=seed) for seed, name in enumerate(NAMES)
+    }
+
+
+@pytest.fixture(scope="module")
+def log_files(logs: dict[str, ManeuverLog], tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    directory = tmp_path_factory.mktemp("cv")
+    paths = []
+    for name in NAMES[:3]:
+        paths.append(directory / f"{name}.csv")
+        write_log(paths[-1], logs[name])
+    return paths
+
+
+@pytest.fixture(scope="module")
+def known_answer(logs: dict[str, ManeuverLog]) -> Fold:
+    train = [logs[n] for n in ("turning-35", "zigzag-10", "zigzag-20")]
+    test = [logs[n] for n in ("turning-35-port", "zigzag-10-port")]
+    return cross_validate(train, test, FitSettings(refine=True))
+
+
+def test_logs_are_classified_by_source_then_file_name(
+    logs: dict[str, ManeuverLog], log_files: list[Path]
+) -> None:
+    assert maneuver_kind(logs["turning-35-port"]) == "turning"
+    assert maneuver_kind(logs["zigzag-20"]) == "zigzag"
+    bare = ManeuverLog(*(getattr(logs["zigzag-10"], k) for k in _ARRAYS), metadata={})
+    assert maneuver_kind(bare) is None
+    named = ManeuverLog(*(getattr(logs["zigzag-10"], k) for k in _ARRAYS), path="t/turn1.csv")
+    assert maneuver_kind(named) == "turning"
+    files = [read_log(p) for p in log_files]
+    assert select_logs(files, ["zigzag"]) == [1, 2]
+    assert select_logs(files, [str(log_files[0]), "zigzag"]) == [0, 1, 2]
+    with pytest.raises(IdentificationError, match="neither a manoeuvre kind"):
+        select_logs(files, ["spiral"])
+
+
+_ARRAYS = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
+
+
+def test_zigzag_angles_from_the_source_or_from_the_data(logs: dict[str, ManeuverLog]) -> None:
+    log = logs["zigzag-10-port"]
+    rudder, heading = zigzag_angles(log)
+    assert (math.degrees(rudder), math.degrees(heading)) == pytest.approx((-10.0, 10.0))
+    bare = ManeuverLog(*(getattr(logs["zigzag-20"], k) for k in _ARRAYS), metadata={})
+    rudder, heading = zigzag_angles(bare)  # largest rudder; heading at the first reversal
+    assert (math.degrees(rudder), math.degrees(heading)) == pytest.approx((20.0, 20.0))
+
+
+def test_model_fitted_to_its_own_data_predicts_held_out_manoeuvres_within_1_percent(
+    known_answer: Fold,
+) -> None:
+    assert known_answer.params.identification["refinement"]["kept"] == "refined"
+    turning, zig = known_answer.held_out
+    assert turning.kind == "turning" and zig.kind == "zigzag"
+    for m in turning.metrics:
+        assert m.relative_error is not None and abs(m.relative_error) < 0.01, m
+    for m in zig.metrics:
+        assert m.error is not None and m.logged is not None
+        assert abs(m.error) <= max(0.01 * abs(m.logged), 0.1), m  # [deg]
+    assert turning.position_rms_L < 0.05 and zig.position_rms_L < 0.05
+    assert not turning.notes and not zig.notes
+
+
+def test_cli_crossval_writes_table_and_json(log_files: list[Path], tmp_path: Path, capsys) -> None:
+    out = tmp_path / "cv.json"
+    status = main(
+        ["crossval", *map(str, log_files), "--train", "zigzag", "--test", "turning",
+         "--json", str(out)]
+    )  # fmt: skip
+    assert status == 0
+    table = capsys.readouterr().out
+    assert "| tactical_diameter_m |" in table and f"wrote {out}" in table
+    doc = json.loads(out.read_text())
+    assert doc["model"] == "shi2009" and doc["refine"] is False
+    (fold,) = doc["folds"]
+    assert fold["train"] == [str(p) for p in log_files[1:]]
+    (held,) = fold["test"]
+    assert held["log"] == str(log_files[0]) and held["kind"] == "turning"
+    assert held["position_rms_L"] > 0.0
+    assert set(held["metrics"]) == {"advance_m", "transfer_m", "tactical_diameter_m"}
+    td = held["metrics"]["tactical_diameter_m"]
+    assert set(td) == {"logged", "predicted", "error", "relative_error"}
+    assert td["error"] == pytest.approx(td["predicted"] - td["logged"])
+
+
+def test_cli_leave_one_out_runs_one_fold_per_log(
+    log_files: list[Path], tmp_path: Path, capsys
+) -> None:
+    out = tmp_path / "loo.json"
+    assert main(["crossval", *map(str, log_files), "--leave-one-out", "--json", str(out)]) == 0
+    folds = json.loads(out.read_text())["folds"]
+    assert [f["test"][0]["log"] for f in folds] == [str(p) for p in log_files]
+    for fold, held_out in zip(folds, log_files, strict=True):
+        assert str(held_out) not in fold["train"] and len(fold["train"]) == 2
+    zig = folds[1]["test"][0]
+    assert set(zig["metrics"]) == {"first_overshoot_deg", "second_overshoot_deg"}
+
+
+def test_cli_crossval_exit_codes(log_files: list[Path], tmp_path: Path, capsys) -> None:
+    files = list(map(str, log_files))
+    # Usage errors: 2.
+    assert main(["crossval", *files, "--leave-one-out", "--train", "zigzag"]) == 2
+    assert main(["crossval", *files]) == 2
+    with pytest.raises(SystemExit) as info:
+        main(["crossval", *files, "--train", "zigzag", "--model", "nope"])
+    assert info.value.code == 2
+    capsys.readouterr()
+    # Data errors: 1, one line, nothing written.
+    out = tmp_path / "cv.json"
+    assert main(["crossval", *files, "--train", "spiral", "--json", str(out)]) == 1
+    assert "spiral" in capsys.readouterr().err  # neither a kind nor a readable log
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,x_m,y_m,heading_deg,rudder_deg,rpm\n0,0,0,0,0,abc\n")
+    assert main(["crossval", str(bad), *files, "--train", "zigzag", "--json", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "bad.csv:2: column 'rpm'" in err
+    assert main(["crossval", files[0], "--train", files[0], "--test", files[0]]) == 1
+    assert "both trained on and held out" in capsys.readouterr().err
+    assert not out.exists()

@@ -1,0 +1,194 @@
+"""Output-error refinement: the replay, the optimiser, the guards, the wiring."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fmu_model import ModelParameters, simulate
+from identifier.identify import FitSettings, identify
+from identifier.logs import ManeuverLog
+from identifier.refine import (
+    RefinementResult,
+    execute_index,
+    fit_initial_state,
+    refine_output_error,
+    replay,
+    turn_spread,
+    virtual_turns,
+)
+from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
+from tests.conftest import SEED_COEFFICIENTS
+
+RUDDER_RATE = math.radians(5.0)
+# Coefficients that shape the manoeuvres, and how the start is perturbed from the truth.
+PERTURBATION = {"b1": 1.15, "b4": 0.9, "c1": 1.2, "c2": 0.85, "c3": 1.15}
+
+
+def _truth() -> ModelParameters:
+    return ModelParameters.from_vector(
+        "shi2009",
+        np.array(list(SEED_COEFFICIENTS.values())),
+        length_m=100.0,
+        vessel_name="testship",
+        nominal_speed_mps=5.0,
+        nominal_n_rps=2.0,
+    )
+
+
+def _perturbed(truth: ModelParameters) -> ModelParameters:
+    theta = truth.to_vector().copy()
+    for name, factor in PERTURBATION.items():
+        theta[truth.names.index(name)] *= factor
+    return truth.with_vector(theta, np.diag((0.2 * np.abs(theta)) ** 2 + 1e-12))
+
+
+def _turns(params: ModelParameters):  # type: ignore[no-untyped-def]
+    return virtual_turns(params, speed_mps=5.0, n_rps=2.0, rudder_rate_radps=RUDDER_RATE)
+
+
+@pytest.fixture(scope="module")
+def logs() -> dict[str, ManeuverLog]:
+    """Seed-model logs (1 Hz, 1 m / 0.1 deg noise): turning circle and 10/10 zig-zag."""
+    ship = model_ship(_truth(), rudder_rate_radps=RUDDER_RATE)
+    return {
+        name: synthesize_log(ship, MANEUVERS[name](), seed=seed)
+        for seed, name in enumerate(("turning-35", "zigzag-10"))
+    }
+
+
+@pytest.fixture(scope="module")
+def refined(logs: dict[str, ManeuverLog]) -> RefinementResult:
+    return refine_output_error(_perturbed(_truth()), list(logs.values()))
+
+
+def test_replay_with_held_inputs_is_fmu_model_simulate(logs: dict[str, ManeuverLog]) -> None:
+    truth, log = _truth(), logs["zigzag-10"]
+    x0 = np.array([5.0, 0.1, 0.001, 3.0, -2.0, 0.05])
+    ours = replay(
+        "shi2009", truth.to_vector(), 100.0, log.time_s, log.rudder_rad, log.n_rps, x0,
+        inputs="hold", max_step_s=0.3,
+    )  # fmt: skip
+    theirs = simulate(truth, log.time_s, log.rudder_rad, log.n_rps, x0, max_step_s=0.3)
+    np.testing.assert_allclose(ours, theirs, rtol=0.0, atol=1e-9)
+
+
+def test_replay_batches_coefficients_and_initial_states(logs: dict[str, ManeuverLog]) -> None:
+    truth, log = _truth(), logs["zigzag-10"]
+    thetas = np.stack([truth.to_vector(), _perturbed(truth).to_vector()])
+    x0s = np.array([[5.0, 0, 0, 0, 0, 0], [4.0, 0, 0, 10.0, 0, 0]])
+    batch = replay("shi2009", thetas, 100.0, log.time_s, log.rudder_rad, log.n_rps, x0s)
+    for k in range(2):
+        one = replay("shi2009", thetas[k], 100.0, log.time_s, log.rudder_rad, log.n_rps, x0s[k])
+        np.testing.assert_array_equal(batch[k], one)
+
+
+def test_interpolated_inputs_and_fitted_start_replay_the_truth_to_the_noise(
+    logs: dict[str, ManeuverLog],
+) -> None:
+    # The logged rudder is a ramp sampled at 1 Hz: interpolating it reproduces the
+    # truth to the logger noise (1 m, 0.1 deg); holding it lags by half a sample.
+    truth, log = _truth(), logs["zigzag-10"]
+    x0 = fit_initial_state(truth, log, end_index=execute_index(log) + 1)
+    assert x0[0] == pytest.approx(5.0, abs=0.02) and abs(x0[1]) < 0.05
+
+    def heading_rms_deg(inputs: str) -> float:
+        s = replay(
+            "shi2009", truth.to_vector(), 100.0, log.time_s, log.rudder_rad, log.n_rps, x0,
+            inputs=inputs,
+        )  # fmt: skip
+        return math.degrees(math.sqrt(float(np.mean(np.square(s[:, 5] - log.heading_rad)))))
+
+    assert heading_rms_deg("linear") < 0.15
+    assert heading_rms_deg("hold") > 2.0 * heading_rms_deg("linear")
+
+
+def test_execute_index_from_metadata_and_from_the_rudder(logs: dict[str, ManeuverLog]) -> None:
+    log = logs["zigzag-10"]
+    assert log.time_s[execute_index(log)] == pytest.approx(60.0)  # '# execute_time_s: 60.0'
+    bare = ManeuverLog(
+        log.time_s, log.x_m, log.y_m, log.heading_rad, log.rudder_rad, log.n_rps, metadata={}
+    )
+    k = execute_index(bare)  # the first sample of the rudder's first movement
+    assert log.time_s[k] == pytest.approx(60.0)
+    assert log.rudder_rad[k] > 0.0 == log.rudder_rad[k - 1]
+
+
+def test_refinement_lowers_the_cost_it_minimises(refined: RefinementResult) -> None:
+    assert refined.refined.cost < 0.01 * refined.initial.cost
+    assert refined.refined.position_rms_L < refined.initial.position_rms_L
+    assert refined.nfev > 0
+
+
+def test_refinement_with_a_turning_log_recovers_the_truth(refined: RefinementResult) -> None:
+    truth = _truth().as_dict()
+    start = _perturbed(_truth()).as_dict()
+    found = refined.refined.params.as_dict()
+    for name in PERTURBATION:
+        assert abs(found[name] - truth[name]) < 0.5 * abs(start[name] - truth[name]), name
+    true_td = _turns(_truth())[0].tactical_diameter_m
+    assert true_td is not None
+    refined_td = refined.refined.turns[0].tactical_diameter_m
+    start_td = refined.initial.turns[0].tactical_diameter_m
+    assert refined_td is not None and start_td is not None
+    assert abs(refined_td / true_td - 1.0) < 0.01 < abs(start_td / true_td - 1.0)
+    # A turning log is in the training set: the refined estimate is kept.
+    assert not refined.turn_check and refined.kept == "refined"
+    assert refined.params is not refined.initial.params
+    np.testing.assert_array_equal(refined.params.to_vector(), refined.refined.params.to_vector())
+    cov = refined.params.covariance
+    assert cov is not None and np.all(np.diag(cov) > 0.0)
+
+
+def test_turn_check_keeps_the_ekf_estimate_when_refinement_moves_the_turn(
+    logs: dict[str, ManeuverLog], refined: RefinementResult
+) -> None:
+    # Same data and start, the check of model_structures.md section 6 forced on:
+    # refinement moves the virtual turn by ~20 % (back to the truth), so it is not
+    # trusted and the start (the "EKF" estimate) is kept, with the spread reported.
+    start = _perturbed(_truth())
+    guarded = refine_output_error(start, list(logs.values()), check_turns=True)
+    assert guarded.turn_check and guarded.kept == "ekf"
+    assert guarded.turn_spread == pytest.approx(refined.turn_spread) and guarded.turn_spread > 0.05
+    np.testing.assert_array_equal(guarded.params.to_vector(), start.to_vector())
+    assert any("tactical diameter by" in w and "kept the EKF" in w for w in guarded.warnings)
+    summary = guarded.params.identification["refinement"]
+    assert summary["kept"] == "ekf" and summary["cost_after"] < summary["cost_before"]
+
+
+def test_turn_spread_compares_tactical_diameters() -> None:
+    truth = _truth()
+    base = _turns(truth)
+    # A symmetric ship turns symmetrically.
+    assert base[0].tactical_diameter_m == pytest.approx(base[1].tactical_diameter_m, rel=1e-9)
+    assert base[0].sane and base[1].sane
+    assert turn_spread(base, base) == 0.0
+    theta = truth.to_vector().copy()
+    theta[truth.names.index("c3")] *= 1.3  # more rudder yaw moment: a tighter turn
+    tighter = _turns(truth.with_vector(theta))
+    assert tighter[0].tactical_diameter_m is not None and base[0].tactical_diameter_m is not None
+    expected = 1.0 - tighter[0].tactical_diameter_m / base[0].tactical_diameter_m
+    assert turn_spread(base, tighter) == pytest.approx(expected) and expected > 0.05
+
+
+def test_sanity_guard_flags_a_diverging_turn() -> None:
+    truth = _truth()
+    theta = truth.to_vector().copy()
+    theta[truth.names.index("a1")] = 0.004  # negative resistance: the ship accelerates
+    turns = _turns(truth.with_vector(theta))
+    assert not any(t.bounded for t in turns) and not any(t.sane for t in turns)
+
+
+def test_identify_with_refine_carries_both_fits(logs: dict[str, ManeuverLog]) -> None:
+    plain = identify(list(logs.values()))
+    assert plain.refinement is None and "refinement" not in plain.params.identification
+    result = identify(list(logs.values()), FitSettings(refine=True))
+    r = result.refinement
+    assert r is not None
+    np.testing.assert_array_equal(r.initial.params.to_vector(), plain.params.to_vector())
+    summary = result.params.identification["refinement"]
+    assert summary["kept"] == r.kept
+    assert {"method", "cost_before", "cost_after", "ekf", "refined"} <= set(summary)
+    assert result.params.identification["settings"]["refine"] is True
