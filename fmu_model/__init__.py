@@ -10,9 +10,10 @@ from fmu_model.params import (
 )
 from fmu_model.simulate import euler_step, n_substeps, rk4_step, simulate
 from fmu_model.structure import ModelStructure, Term
-from fmu_model.variants import get_model, model_names, register_model
+from fmu_model.variants import DEFAULT_MODEL, get_model, model_names, register_model
 
 __all__ = [
+    "DEFAULT_MODEL",
     "ModelParameters",
     "ModelStructure",
     "NumericModel",

@@ -12,7 +12,7 @@ A manifest, ``MANIFEST.toml``, with one ``[[vessel]]`` table per vessel::
     logs = ["tanker-a/zigzag-10.csv",         # required: trial logs (DESIGN.md CSV),
             "tanker-a/turning-35.csv"]        #   relative to the manifest's folder
     length_m = 320.0                          # optional: default the logs' '# length_m:'
-    model = "shi2009"                         # optional: default --model, else shi2009
+    model = "shi2009"                         # optional: --model, else DEFAULT_MODEL
 
 Other keys are errors (a typo must not silently fall back to a default). Or a
 directory ``DIR`` with one sub-directory per vessel, named after the vessel, holding

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 from tqdm import tqdm
 
-from fmu_model import ParamsFormatError, model_names, save_params
+from fmu_model import DEFAULT_MODEL, ParamsFormatError, model_names, save_params
 from identifier import batch, crossval, ingest
 from identifier.errors import IdentificationError, LogFormatError
 from identifier.identify import FitSettings, IdentificationResult, identify
@@ -40,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     fit = sub.add_parser("fit", help="identify coefficients from trial logs")
     fit.add_argument("logs", nargs="+", metavar="LOG.csv", help="trial logs (DESIGN.md format)")
     fit.add_argument("-o", "--output", required=True, metavar="params.json")
-    fit.add_argument("--model", default="shi2009", choices=model_names())
+    fit.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     fit.add_argument("--length-m", type=_positive, help="ship length [m] (default: from logs)")
     fit.add_argument(
         "--initial",

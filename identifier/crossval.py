@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from fmu_model import ModelParameters, ParamsFormatError, model_names
+from fmu_model import DEFAULT_MODEL, ModelParameters, ParamsFormatError, model_names
 from fmu_model.atomic import write_atomic
 from identifier.errors import IdentificationError, LogFormatError
 from identifier.identify import FitSettings, identify
@@ -613,7 +613,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     cv.add_argument(
         "--leave-one-out", action="store_true", help="one fold per log, trained on all others"
     )
-    cv.add_argument("--model", default="shi2009", choices=model_names())
+    cv.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     cv.add_argument("--refine", action="store_true", help="output-error refinement after the EKF")
     cv.add_argument("--length-m", type=float, help="ship length [m] (default: from logs)")
     cv.add_argument("--json", metavar="OUT", help="write the results as JSON")

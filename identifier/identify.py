@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fmu_model import ModelParameters, get_model
+from fmu_model import DEFAULT_MODEL, ModelParameters, get_model
 from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import EquationErrorFit, equation_error_fit
 from identifier.errors import IdentificationError
@@ -75,7 +75,7 @@ class FitSettings:
 
     """
 
-    model: str = "shi2009"
+    model: str = DEFAULT_MODEL
     initial: str = "equation-error"
     alpha: float = 1.0
     prior_inflation: float = 10.0

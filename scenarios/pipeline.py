@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from fmu_model.variants import DEFAULT_MODEL
 from scenarios.imo import Criterion, evaluate
 from scenarios.maneuvers import Program, standard_set
 from scenarios.metrics import (
@@ -805,7 +806,7 @@ class DemoConfig:
     position_noise_m: float = 1.0
     heading_noise_deg: float = 0.1
     seed: int = 1
-    model: str = "shi2009"
+    model: str = DEFAULT_MODEL
     validation_dt_s: float = 0.1
     uncertainty_samples: int = 100
     uncertainty_dt_s: float = 0.5

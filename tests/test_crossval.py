@@ -62,7 +62,7 @@ def log_files(logs: dict[str, ManeuverLog], tmp_path_factory: pytest.TempPathFac
 def known_answer(logs: dict[str, ManeuverLog]) -> Fold:
     train = [logs[n] for n in ("turning-35", "zigzag-10", "zigzag-20")]
     test = [logs[n] for n in ("turning-35-port", "zigzag-10-port")]
-    return cross_validate(train, test, FitSettings(refine=True))
+    return cross_validate(train, test, FitSettings(model="shi2009", refine=True))
 
 
 def test_logs_are_classified_by_source_then_file_name(
@@ -112,7 +112,7 @@ def test_cli_crossval_writes_table_and_json(log_files: list[Path], tmp_path: Pat
     out = tmp_path / "cv.json"
     status = main(
         ["crossval", *map(str, log_files), "--train", "zigzag", "--test", "turning",
-         "--json", str(out)]
+         "--model", "shi2009", "--json", str(out)]
     )  # fmt: skip
     assert status == 0
     table = capsys.readouterr().out

@@ -8,6 +8,7 @@ must continue bit-identically; bad input must give the documented FMI status.
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import re
@@ -25,18 +26,13 @@ from typing import Any
 
 import numpy as np
 import pytest
-from fmpy import calloc, extract, free, read_model_description, simulate_fmu
+from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
-    fmi2CallbackAllocateMemoryTYPE,
-    fmi2CallbackFreeMemoryTYPE,
-    fmi2CallbackFunctions,
-    fmi2CallbackLoggerTYPE,
     fmi2LastSuccessfulTime,
     fmi2Terminated,
 )
-from fmpy.logging import addLoggerProxy
 from fmpy.validation import validate_fmu
 
 import build_fmu
@@ -53,6 +49,7 @@ from fmu_model.export_native import (
 )
 from fmu_model.interface import RUDDER_LIMIT_RAD, fmu_variables
 from fmu_model.model_description import LOG_CATEGORIES, OSP_NAMESPACE
+from tests.fmi_logging import LogRecorder
 
 ROOT = Path(__file__).resolve().parents[1]
 HOST_SOURCE = ROOT / "tests" / "c_host" / "host.c"
@@ -120,29 +117,11 @@ def unzipped(fmu_path: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 # --- FMI helpers -----------------------------------------------------------------------
 
 
-class Logger:
-    """fmi2 callbacks that record (status, category, message) of every log call."""
-
-    def __init__(self) -> None:
-        self.messages: list[tuple[int, str, str]] = []
-        self.callbacks = fmi2CallbackFunctions()
-        self.callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
-        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        addLoggerProxy(byref(self.callbacks))
-
-    def _log(self, env: Any, name: bytes, status: int, category: bytes, message: bytes) -> None:
-        self.messages.append((status, category.decode(), message.decode()))
-
-    def last(self) -> tuple[int, str, str]:
-        return self.messages[-1]
-
-
 @contextmanager
 def slave(
     unzipped: Path,
     *,
-    logger: Logger | None = None,
+    logger: LogRecorder | None = None,
     logging_on: bool = False,
     before_init: Callable[[FMU2Slave], None] | None = None,
     name: str = "ship",
@@ -447,7 +426,7 @@ def test_fmu_state_round_trips_continue_bit_identically(unzipped: Path) -> None:
 
 
 def test_corrupt_serialized_state_is_rejected(unzipped: Path) -> None:
-    logger = Logger()
+    logger = LogRecorder()
     with slave(unzipped, logger=logger) as fmu:
         serialized = bytearray(fmu.serializeFMUstate(fmu.getFMUstate()))
         serialized[20] ^= 0xFF  # inside the GUID
@@ -473,6 +452,22 @@ def test_reset_returns_to_the_initial_state(unzipped: Path) -> None:
         np.testing.assert_array_equal(run(fmu, time_s, rudder, rpm), first)
 
 
+def test_log_messages_reach_the_default_logger_after_a_recorder_is_gone(
+    unzipped: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    # fmpy's C logging proxy has one process-wide target; a per-test callback left it
+    # dangling and crashed the next FMU that logged through fmpy's defaults.
+    recorder = LogRecorder()
+    with slave(unzipped, logger=recorder) as fmu, pytest.raises(FMICallException):
+        fmu.setReal([VR_RUDDER], [math.nan])
+    assert "must be finite" in recorder.last()[2]
+    del recorder, fmu
+    gc.collect()
+    with slave(unzipped) as fmu, pytest.raises(FMICallException):
+        fmu.setReal([VR_RPM], [math.inf])
+    assert "[ERROR] fmi2SetReal: 'propeller_rpm'" in capfd.readouterr().out
+
+
 # --- bad input: the documented statuses ----------------------------------------------
 
 BAD_SET_REAL = {
@@ -491,7 +486,7 @@ BAD_SET_REAL = {
 @pytest.mark.parametrize("case", BAD_SET_REAL)
 def test_bad_set_real_is_an_error_and_changes_nothing(unzipped: Path, case: str) -> None:
     vrs, values, message = BAD_SET_REAL[case]
-    logger = Logger()
+    logger = LogRecorder()
     with slave(unzipped, logger=logger) as fmu:
         everything = list(range(32))
         before = fmu.getReal(everything)
@@ -515,7 +510,7 @@ BAD_DO_STEP = {
 @pytest.mark.parametrize("case", BAD_DO_STEP)
 def test_bad_do_step_is_an_error(unzipped: Path, case: str) -> None:
     t, h, message = BAD_DO_STEP[case]
-    logger = Logger()
+    logger = LogRecorder()
     with slave(unzipped, logger=logger) as fmu:
         before = fmu.getReal(VR_OUTPUTS)
         assert do_step(fmu, t, h) == FMI_ERROR
@@ -526,7 +521,7 @@ def test_bad_do_step_is_an_error(unzipped: Path, case: str) -> None:
 
 def test_diverging_state_discards_the_step(unzipped: Path, params: ModelParameters) -> None:
     """With a1 > 0, u' = a1 u^2 blows up within 1/(a1 u0) = 0.4 s."""
-    logger = Logger()
+    logger = LogRecorder()
 
     def unstable(fmu: FMU2Slave) -> None:
         fmu.setReal([VR_COEFFICIENTS], [0.5])
@@ -564,7 +559,7 @@ UNSUPPORTED = {
 
 @pytest.mark.parametrize("function", UNSUPPORTED)
 def test_unsupported_functions_are_errors_with_a_message(unzipped: Path, function: str) -> None:
-    logger = Logger()
+    logger = LogRecorder()
     with slave(unzipped, logger=logger) as fmu:
         assert status(UNSUPPORTED[function], fmu) == FMI_ERROR
         assert logger.last()[2].startswith(function)
@@ -572,7 +567,7 @@ def test_unsupported_functions_are_errors_with_a_message(unzipped: Path, functio
 
 def test_instantiate_refuses_wrong_guid_and_model_exchange(unzipped: Path) -> None:
     md = read_model_description(unzipped)
-    logger = Logger()
+    logger = LogRecorder()
     fmu = FMU2Slave(
         guid="{00000000-0000-0000-0000-000000000000}",
         unzipDirectory=str(unzipped),
@@ -588,7 +583,7 @@ def test_instantiate_refuses_wrong_guid_and_model_exchange(unzipped: Path) -> No
 
 
 def test_logging_categories(unzipped: Path) -> None:
-    logger = Logger()
+    logger = LogRecorder()
     with slave(unzipped, logger=logger, logging_on=True) as fmu:
         fmu.doStep(0.0, 0.1)
         assert (FMI_OK, "logAll") == logger.last()[:2]

@@ -8,28 +8,22 @@ import subprocess
 import sys
 import zipfile
 from collections.abc import Iterator
-from ctypes import byref
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
-from fmpy import calloc, extract, free, read_model_description
+from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
-    fmi2CallbackAllocateMemoryTYPE,
-    fmi2CallbackFreeMemoryTYPE,
-    fmi2CallbackFunctions,
-    fmi2CallbackLoggerTYPE,
 )
-from fmpy.logging import addLoggerProxy
 from fmpy.validation import validate_fmu
 
 from fmu_model import ModelParameters, simulate
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_pythonfmu import build_pythonfmu_fmu
 from fmu_model.interface import fmu_variables
+from tests.fmi_logging import LogRecorder
 
 MAX_STEP_S = 0.05
 FMI_DISCARD, FMI_ERROR = 2, 3
@@ -82,28 +76,24 @@ class Instance:
     """An fmpy FMU2Slave that records the FMU's log messages as (status, text)."""
 
     def __init__(self, fmu_path: Path, unzipdir: str, start: dict[str, float] | None = None):
-        self.messages: list[tuple[int, str]] = []
+        self.log = LogRecorder()
         md = read_model_description(str(fmu_path))
-        self.callbacks = fmi2CallbackFunctions()
-        self.callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
-        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        addLoggerProxy(byref(self.callbacks))
         self.slave = FMU2Slave(
             guid=md.guid,
             unzipDirectory=unzipdir,
             modelIdentifier=md.coSimulation.modelIdentifier,
             instanceName="ship",
         )
-        self.slave.instantiate(callbacks=self.callbacks, loggingOn=True)
+        self.slave.instantiate(callbacks=self.log.callbacks, loggingOn=True)
         self.slave.setupExperiment(startTime=0.0)
         for name, value in (start or {}).items():
             self.slave.setReal([VR[name]], [value])
         self.slave.enterInitializationMode()
         self.slave.exitInitializationMode()
 
-    def _log(self, env: Any, name: Any, status: int, category: Any, message: bytes) -> None:
-        self.messages.append((status, message.decode()))
+    @property
+    def messages(self) -> list[tuple[int, str]]:
+        return [(status, text) for status, _, text in self.log.messages]
 
     def outputs(self) -> np.ndarray:
         return np.array(self.slave.getReal(OUTPUTS))

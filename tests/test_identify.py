@@ -22,6 +22,7 @@ from tests.conftest import SEED_COEFFICIENTS
 
 TRAINING = ("turning-35", "zigzag-10", "zigzag-20")
 RUDDER_RATE = math.radians(5.0)
+SEED = FitSettings(model="shi2009")  # the truth's own structure
 
 
 def _truth() -> ModelParameters:
@@ -53,7 +54,7 @@ def log_files(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
 
 @pytest.fixture(scope="module")
 def recovered(log_files: list[Path]) -> IdentificationResult:
-    return identify([read_log(p) for p in log_files])
+    return identify([read_log(p) for p in log_files], SEED)
 
 
 def test_noise_levels_are_estimated_from_the_logs(recovered: IdentificationResult) -> None:
@@ -115,7 +116,7 @@ def test_track_measurements_beat_the_papers_velocity_measurements(
 ) -> None:
     paper = identify(
         [read_log(p) for p in log_files],
-        FitSettings(measurements="velocities", max_substep_s=math.inf),
+        FitSettings(model="shi2009", measurements="velocities", max_substep_s=math.inf),
     )
     ours = {c.name: c.value for c in recovered.coefficients}
     theirs = {c.name: c.value for c in paper.coefficients}
@@ -134,7 +135,7 @@ def _straight_log() -> ManeuverLog:
 
 
 def test_straight_run_reports_unidentifiable_coefficients() -> None:
-    result = identify([_straight_log()])
+    result = identify([_straight_log()], SEED)
     weak = set(result.not_identifiable)
     # Nothing excites the rudder and turning terms.
     assert {"a4", "a6", "a7", "b2", "b3", "b4", "c3"} <= weak
@@ -144,7 +145,7 @@ def test_straight_run_reports_unidentifiable_coefficients() -> None:
 def test_diverging_filter_raises_with_log_and_sample() -> None:
     log = _straight_log()
     with pytest.raises(IdentificationError, match=r"sample \d+: .*(diverged|exploded)") as info:
-        identify([log], FitSettings(param_random_walk=100.0))
+        identify([log], FitSettings(model="shi2009", param_random_walk=100.0))
     assert info.value.sample is not None and info.value.sample > 0
 
 
@@ -165,7 +166,8 @@ def test_missing_length_is_an_error() -> None:
 
 def test_cli_fit_writes_params_and_plots(log_files: list[Path], tmp_path: Path, capsys) -> None:
     out = tmp_path / "params.json"
-    status = main(["fit", *map(str, log_files), "-o", str(out), "--plot", str(tmp_path), "--quiet"])
+    args = ["--model", "shi2009", "-o", str(out), "--plot", str(tmp_path), "--quiet"]
+    status = main(["fit", *map(str, log_files), *args])
     assert status == 0
     params = load_params(out)
     assert params.model == "shi2009" and params.length_m == 100.0

@@ -7,7 +7,7 @@ import zipfile
 
 import pytest
 
-from fmu_model import load_params
+from fmu_model import DEFAULT_MODEL, load_params
 from identifier.logs import read_log
 from scenarios.cli import main
 from scenarios.pipeline import DemoConfig, read_fmu_info
@@ -29,7 +29,7 @@ def test_quick_demo_produces_logs_params_fmu_and_report(tmp_path, capsys):
         assert log.length_m == 320.0 and log.metadata["vessel"] == "kvlcc2-full"
 
     params = load_params(out / "params.json")
-    assert params.model == "shi2009" and params.length_m == 320.0
+    assert params.model == DEFAULT_MODEL and params.length_m == 320.0
     assert params.nominal_speed_mps == pytest.approx(7.9739, rel=1e-3)
     used = sorted(entry["path"] for entry in params.identification["logs"])
     assert used == sorted(str(p) for p in logs)

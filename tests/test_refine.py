@@ -182,9 +182,9 @@ def test_sanity_guard_flags_a_diverging_turn() -> None:
 
 
 def test_identify_with_refine_carries_both_fits(logs: dict[str, ManeuverLog]) -> None:
-    plain = identify(list(logs.values()))
+    plain = identify(list(logs.values()), FitSettings(model="shi2009"))
     assert plain.refinement is None and "refinement" not in plain.params.identification
-    result = identify(list(logs.values()), FitSettings(refine=True))
+    result = identify(list(logs.values()), FitSettings(model="shi2009", refine=True))
     r = result.refinement
     assert r is not None
     np.testing.assert_array_equal(r.initial.params.to_vector(), plain.params.to_vector())
