@@ -1,7 +1,7 @@
 """Model fidelity: which structure predicts manoeuvres it was not trained on (issue 8).
 
-    python benchmarks/fidelity.py [--models shi2009,prime-cubic,prime-modulus]
-        [--out benchmarks/fidelity.md] [--dt-s 0.2]
+    python benchmarks/fidelity.py [--model NAME ...] [--out benchmarks/fidelity.md]
+        [--dt-s 0.2]
 
 Data: KVLCC2 full-scale trial logs from the MMG reference ship (``scenarios.synthesize``,
 1 Hz, 1 m position and 0.1° heading noise): zig-zag 10/10, zig-zag 20/20 and the 35°
@@ -10,10 +10,11 @@ starboard turning circle. For every model structure and two training sets
 (a) the two zig-zags only: the turning circle is held out;
 (b) all three manoeuvres;
 
-the coefficients are identified with the EKF and then refined by output error
-(``identifier.refine``; the table shows the refined coefficients even when the
-guards of reference/model_structures.md §6–§7 reject them, and says which estimate
-``identify(refine=True)`` keeps). Each coefficient set then sails the standard
+the coefficients are identified (equation-error least squares, then the EKF) and
+refined by output error (``identifier.refine``) from whichever of the two replays the
+training logs better (the ``(start)`` row). The table shows all three estimates, the
+refined one even when the guards of reference/model_structures.md §6–§7 reject it,
+and says which one ``identify(refine=True)`` keeps. Each coefficient set then sails the standard
 manoeuvres from the reference approach condition (``scenarios.run.run_program`` with
 ``ModelPlant``, closed-loop zig-zags, as the FMU validation does), and its indices are
 compared with the reference ship's own run through the same driver:
@@ -22,8 +23,8 @@ diameter), first and second overshoot of both zig-zags. Errors are predicted/tru
 for distances and predicted − true in degrees for overshoots.
 
 Prints a markdown table and writes it to ``--out``. The recommendation at the end is
-the structure whose guarded estimate predicts the held-out turning circle of (a)
-best (largest |error| of advance, transfer and tactical diameter).
+the structure whose kept estimate predicts the held-out turning circle of (a) best
+(largest |error| of advance, transfer and tactical diameter, both sides).
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from scenarios.metrics import MetricsError, turning_metrics, zigzag_metrics
 from scenarios.run import ModelPlant, Plant, run_program
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
 
-MODELS = ("shi2009", "prime-cubic", "prime-modulus")
+MODELS = ("shi2009", "prime-cubic", "prime-modulus", "prime-rudder[dgamma=0]", "prime-rudder")
 TRAINING = {
     "zig-zags": ("zigzag-10", "zigzag-20"),
     "all three": ("turning-35", "zigzag-10", "zigzag-20"),
@@ -117,9 +118,9 @@ def errors(predicted: Indices, truth: Indices) -> list[str]:
 
 
 def worst_turning_error(predicted: Indices, truth: Indices) -> float:
-    """Largest |relative error| of advance, transfer and tactical diameter (inf: n/a)."""
+    """Largest |relative error| of advance, transfer and both tactical diameters (inf: n/a)."""
     worst = 0.0
-    for key in ("adv", "trf", "TD"):
+    for key in ("adv", "trf", "TD", "TD port"):
         p, t = predicted.values[key], truth.values[key]
         if p is None or t is None:
             return math.inf
@@ -130,7 +131,12 @@ def worst_turning_error(predicted: Indices, truth: Indices) -> float:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the benchmark; print and write the table."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
-    parser.add_argument("--models", default=",".join(MODELS))
+    parser.add_argument(
+        "--model",
+        action="append",
+        dest="models",
+        help=f"model to assess (repeat; default: {', '.join(MODELS)})",
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("fidelity.md")))
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
     args = parser.parse_args(argv)
@@ -160,7 +166,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "|" + "---|" * (len(COLUMNS) + 6),
     ]
     held_out: dict[str, float] = {}
-    for model in args.models.split(","):
+    for model in args.models or MODELS:
         for label, names in TRAINING.items():
             tag = "(a) zig-zags" if label == "zig-zags" else "(b) all three"
             start = time.perf_counter()
@@ -168,19 +174,36 @@ def main(argv: Sequence[str] | None = None) -> int:
             seconds = time.perf_counter() - start
             r = result.refinement
             assert r is not None
-            fits: list[tuple[str, ModelParameters, float, bool]] = [
-                ("EKF", r.initial.params, r.initial.position_rms_L, r.kept == "ekf"),
+            start_params = r.initial.params
+            fits: list[tuple[str, ModelParameters, float | None, bool]] = [
+                ("EKF", start_params.with_vector(result.ekf.theta), None, False),
+                (
+                    "equation-error",
+                    start_params.with_vector(result.equation_error.theta),
+                    None,
+                    False,
+                ),
                 ("refined", r.refined.params, r.refined.position_rms_L, r.kept == "refined"),
             ]
+            start_row = 0 if r.initial_method == "ekf" else 1
+            fits[start_row] = (
+                f"{fits[start_row][0]} (start)",
+                start_params,
+                r.initial.position_rms_L,
+                r.kept == "initial",
+            )
             for estimate, params, rms, kept in fits:
                 predicted = indices(ModelPlant(params), ship, args.dt_s)
                 if kept and label == "zig-zags":
                     held_out[model] = worst_turning_error(predicted, truth)
                 row = [model, tag, estimate, "yes" if kept else "", *errors(predicted, truth)]
-                row += [f"{rms:.3f}", f"{seconds:.0f}" if estimate == "EKF" else ""]
+                row += [
+                    "" if rms is None else f"{rms:.3f}",
+                    f"{seconds:.0f}" if estimate.startswith("EKF") else "",
+                ]
                 lines.append("| " + " | ".join(row) + " |")
                 print(lines[-1], flush=True)
-            if r.kept == "ekf":
+            if r.kept == "initial":
                 lines.append(f"| | | | | guard: {r.reason} |" + " |" * (len(COLUMNS) + 1))
     best = min(held_out, key=lambda m: held_out[m])
     lines += [

@@ -32,7 +32,7 @@ from fmu_model.structure import (
     ModelStructure,
     psi,
 )
-from fmu_model.variants import get_model
+from fmu_model.variants import get_model, parse_family
 
 _ARGS = (*VELOCITY_SYMBOLS, *INPUT_SYMBOLS, L)
 
@@ -179,3 +179,26 @@ def numeric_model(name: str) -> NumericModel:
             cse=True,
         ),
     )
+
+
+@cache
+def family_regressors(name: str) -> Callable[..., np.ndarray]:
+    """Regressors of the family ``name`` with its shape constants as trailing arguments.
+
+    Returns ``phi(u, v, r, rudder_rad, n_rps, length_m, *shape) -> (p, …)``, shape in the
+    order of ``ModelFamily.shape``: one compiled function for a search over shapes,
+    from the same symbolic terms as the structures the family instantiates.
+    """
+    spec = parse_family(name)
+    if spec is None:
+        raise KeyError(f"{name!r} is not a model family")
+    family = spec[0]
+    regressors = [t.regressor for t in family.terms]
+    shape_symbols = tuple(c.symbol for c in family.shape)
+    fn = sp.lambdify((*_ARGS, *shape_symbols), regressors, modules="numpy", cse=True)
+
+    def phi(*args: Any) -> np.ndarray:
+        shape = np.broadcast_shapes(*(np.shape(a) for a in args[:5]))
+        return _stack(fn(*args), shape)
+
+    return phi

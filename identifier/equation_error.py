@@ -55,36 +55,58 @@ class EquationErrorFit:
     variance_inflation: np.ndarray
 
 
+def regression_samples(segments: Sequence[EkfSegment]) -> tuple[np.ndarray, np.ndarray]:
+    """Return the samples (u, v, r, δ, n) (5, M) and their central-difference accelerations (3, M).
+
+    SI units: m/s, m/s, rad/s, rad, rev/s; accelerations m/s², m/s², rad/s². The first and
+    last sample of every segment have no central difference and are left out.
+    """
+    samples, accs = [], []
+    for seg in segments:
+        s = seg.velocities
+        samples.append(np.vstack([s[1:-1].T, seg.rudder_rad[1:-1], seg.n_rps[1:-1]]))
+        span = (seg.time_s[2:] - seg.time_s[:-2])[:, None]
+        accs.append(((s[2:] - s[:-2]) / span).T)
+    return np.concatenate(samples, axis=1), np.concatenate(accs, axis=1)
+
+
 def regression_data(
     model_name: str, segments: Sequence[EkfSegment], length_m: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return the regressors Φ (p, M) and the central-difference accelerations (3, M)."""
-    model = numeric_model(model_name)
-    phis, accs = [], []
-    for seg in segments:
-        s = seg.velocities
-        phis.append(
-            model.regressors(
-                s[1:-1, 0], s[1:-1, 1], s[1:-1, 2], seg.rudder_rad[1:-1], seg.n_rps[1:-1], length_m
-            )
-        )
-        span = (seg.time_s[2:] - seg.time_s[:-2])[:, None]
-        accs.append(((s[2:] - s[:-2]) / span).T)
-    return np.concatenate(phis, axis=1), np.concatenate(accs, axis=1)
+    (u, v, r, rudder_rad, n_rps), acc = regression_samples(segments)
+    return numeric_model(model_name).regressors(u, v, r, rudder_rad, n_rps, length_m), acc
 
 
 def equation_error_fit(
     model_name: str, segments: Sequence[EkfSegment], length_m: float
 ) -> EquationErrorFit:
     """Fit θ by equation-error least squares on the smoothed segments (module docstring)."""
-    model = numeric_model(model_name)
     phi, acc = regression_data(model_name, segments, length_m)
+    return fit_regression(phi, acc, numeric_model(model_name).structure.equation_index)
+
+
+def fit_regression(
+    phi: np.ndarray, acc: np.ndarray, equation_index: Sequence[int]
+) -> EquationErrorFit:
+    """Solve acc_j ≈ Σ_{i in equation j} θ_i φ_i for every equation j (module docstring).
+
+    Parameters
+    ----------
+    phi : numpy.ndarray
+        Regressors (p, M).
+    acc : numpy.ndarray
+        Accelerations (3, M) [m/s², m/s², rad/s²].
+    equation_index : sequence of int
+        For each coefficient the equation it enters (0 surge, 1 sway, 2 yaw).
+
+    """
     p, m = phi.shape
     theta = np.zeros(p)
     cov = np.zeros((p, p))
     residual_std = np.zeros(3)
     rms = np.sqrt(np.mean(phi**2, axis=1))
-    eq_index = np.asarray(model.structure.equation_index)
+    eq_index = np.asarray(equation_index)
     fitted = np.zeros_like(acc)
     vif = np.ones(p)
     for j in range(3):

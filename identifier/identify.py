@@ -22,11 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from fmu_model import DEFAULT_MODEL, ModelParameters, get_model
+from fmu_model.variants import parse_family
 from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import EquationErrorFit, equation_error_fit
 from identifier.errors import IdentificationError
 from identifier.logs import ManeuverLog
 from identifier.refine import RefinementResult, refine_output_error
+from identifier.shape import select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
@@ -70,8 +72,9 @@ class FitSettings:
         (variance inflation factor, ``EquationErrorFit.variance_inflation``).
     refine : bool
         After the EKF, refine by output error on the whole logs
-        (``identifier.refine.refine_output_error``, default settings), which keeps the
-        EKF estimate when its guards fire.
+        (``identifier.refine.refine_output_error``, default settings), starting from
+        whichever of the EKF and equation-error estimates replays the logs better, and
+        keeping that start when the guards fire.
 
     """
 
@@ -139,6 +142,24 @@ def _execute_index(log: ManeuverLog) -> int:
     return int(moved[0]) if moved.size else log.n_samples
 
 
+def _json_safe(settings: dict[str, object]) -> dict[str, object]:
+    """Return the settings for params.json, a non-finite number (``inf``) as text."""
+    return {
+        key: str(value) if isinstance(value, float) and not math.isfinite(value) else value
+        for key, value in settings.items()
+    }
+
+
+def _nominal(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]) -> tuple[float, float]:
+    """Approach speed [m/s] and propeller speed [rev/s]: means over the logs' approaches."""
+    speeds, revs = [], []
+    for log, track in zip(logs, tracks, strict=True):
+        end = max(_execute_index(log), 3)
+        speeds.append(float(np.mean(track.u_mps[:end])))
+        revs.append(float(np.mean(log.n_rps[:end])))
+    return float(np.mean(speeds)), float(np.mean(revs))
+
+
 def _check_sampling(log: ManeuverLog, name: str) -> None:
     interval = float(np.median(np.diff(log.time_s)))
     if interval > MAX_SAMPLE_INTERVAL_S:
@@ -196,7 +217,6 @@ def identify(
         raise IdentificationError("no logs given")
     if settings.initial not in ("equation-error", "zero"):
         raise ValueError(f"unknown initial guess {settings.initial!r}")
-    structure = get_model(settings.model)
     length = vessel_length(logs, length_m)
     warnings: list[str] = []
     tracks: list[SmoothedTrack] = []
@@ -240,7 +260,16 @@ def identify(
         if progress is not None:
             progress(log.n_samples)
 
-    ls = equation_error_fit(settings.model, segments, length)
+    nominal_speed_mps, nominal_n_rps = _nominal(logs, tracks)
+    family = parse_family(settings.model)
+    shape = None
+    if family is not None and len(family[1]) < len(family[0].shape):
+        shape = select_shape(
+            family[0], segments, length, nominal_speed_mps, nominal_n_rps, fixed=family[1]
+        )
+    model = settings.model if shape is None else shape.model
+    structure = get_model(model)
+    ls = equation_error_fit(model, segments, length)
     if settings.initial == "equation-error":
         theta0 = ls.theta
         cov0 = ls.covariance * settings.prior_inflation**2
@@ -248,7 +277,7 @@ def identify(
         theta0 = np.zeros(structure.n_coefficients)
         cov0 = settings.alpha * np.eye(structure.n_coefficients)
     ekf = ekf_identify(
-        settings.model,
+        model,
         segments,
         theta0,
         cov0,
@@ -291,26 +320,22 @@ def identify(
             strict=True,
         )
     )
-    speeds, revs = [], []
-    for log, track in zip(logs, tracks, strict=True):
-        end = max(_execute_index(log), 3)
-        speeds.append(float(np.mean(track.u_mps[:end])))
-        revs.append(float(np.mean(log.n_rps[:end])))
     vessel = next((log.metadata["vessel"] for log in logs if "vessel" in log.metadata), "ship")
     params = ModelParameters(
-        model=settings.model,
+        model=model,
         coefficients=ekf.theta,
         length_m=length,
         vessel_name=vessel,
-        nominal_speed_mps=float(np.mean(speeds)),
-        nominal_n_rps=float(np.mean(revs)),
+        nominal_speed_mps=nominal_speed_mps,
+        nominal_n_rps=nominal_n_rps,
         covariance=ekf.covariance,
         identification={
             "method": "smoothing (CA Kalman + RTS) -> augmented-state EKF (Shi et al. 2009)",
             "logs": [
                 {"path": _log_name(log, i), "sha256": _sha256(log)} for i, log in enumerate(logs)
             ],
-            "settings": asdict(settings),
+            "settings": _json_safe(asdict(settings)),
+            **({} if shape is None else {"shape": asdict(shape)}),
             "noise": [
                 {"position_m": t.position_noise_m, "heading_deg": math.degrees(t.heading_noise_rad)}
                 for t in tracks
@@ -326,7 +351,10 @@ def identify(
         )
     refinement = None
     if settings.refine:
-        refinement = refine_output_error(params, logs, tracks=tracks)
+        equation_error = params.with_vector(ls.theta, ls.covariance * settings.prior_inflation**2)
+        refinement = refine_output_error(
+            params, logs, tracks=tracks, alternatives={"equation-error": equation_error}
+        )
         params = refinement.params
         warnings.extend(refinement.warnings)
     return IdentificationResult(

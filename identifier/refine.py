@@ -9,19 +9,21 @@ logged track, the objective is
     J(θ) = ½ Σ_logs Σ_k>k_e [ w_p² ((x̂_k − x_k)² + (ŷ_k − y_k)²) / σ_p²
                             + w_ψ² (ψ̂_k − ψ_k)² / σ_ψ²
                             + w_v² Σ_{u,v,r} (ŝ_k − s̃_k)² / σ_s² ]
-           + ½ w_prior (θ − θ_EKF)ᵀ Σ_EKF⁻¹ (θ − θ_EKF),
+           + ½ w_prior (θ − θ₀)ᵀ Σ₀⁻¹ (θ − θ₀),
 
 with σ_p, σ_ψ the logger noise estimated by the smoother, s̃ the smoothed velocities
 (optional, ``velocity_weight``), k_e the execute sample and the last term a Tikhonov
-prior at the EKF estimate weighted by its covariance. It is minimised with
-``scipy.optimize.least_squares`` (trust-region reflective, lsmr sub-problems) in
-whitened coordinates z, θ = θ_EKF + C z with C Cᵀ = Σ_EKF, so that the prior is
-½ w_prior |z|² and a unit step in z is one EKF standard deviation.
+prior at the start estimate θ₀ weighted by its covariance Σ₀. The start is the EKF
+estimate or, when it replays the training logs worse (larger J(θ₀)), the
+equation-error estimate. J is minimised with ``scipy.optimize.least_squares``
+(trust-region reflective, lsmr sub-problems) in whitened coordinates z,
+θ = θ₀ + C z with C Cᵀ = Σ₀, so that the prior is ½ w_prior |z|² and a unit step in
+z is one prior standard deviation.
 
 Initial states. The first smoothed state of a log is poor (the smoother sees one side
 only: 0.1–0.2 m/s on u and v at 1 Hz, 1 m noise), and a replay from it drifts by
 several metres where the true model, from the true state, stays within the noise.
-So each log's state at execute is the EKF model's, fitted to the approach alone and
+So each log's state at execute is the start model's, fitted to the approach alone and
 replayed to execute (:func:`execute_state`), and is then held: fitted over the whole
 log it would absorb model error, and a replay that included the approach would let a
 course-unstable model tune itself to a tiny initial error.
@@ -40,12 +42,12 @@ correlated in time, so this covariance is optimistic.
 
 Guards (reference/model_structures.md, §6 and §7): output error on zig-zags alone is
 unreliable for turns. After refining, hard-over (35°) turns both ways are simulated
-from the training approach state with the EKF and the refined coefficients. When no
+from the training approach state with the start and the refined coefficients. When no
 training log turns through 180° and the refined tactical diameter differs from the
-EKF's by more than ``turn_tolerance``, the EKF estimate is kept and the spread
-reported. Independently, a refined estimate is only kept when it lowers the cost,
-every training log replays without divergence and both virtual turns stay bounded
-and pass 360°.
+start's by more than ``turn_tolerance``, the start estimate is kept and the spread
+reported (unless the start does not even turn through 180°). Independently, a refined
+estimate is only kept when it lowers the cost, every training log replays without
+divergence and both virtual turns stay bounded and pass 360°.
 """
 
 from __future__ import annotations
@@ -103,7 +105,7 @@ class RefineSettings:
     velocity_weight : float
         w_v, multiplies the residuals against the smoothed u, v, r (0: not used).
     prior_weight : float
-        w_prior of the Tikhonov prior at the EKF estimate (0: no prior).
+        w_prior of the Tikhonov prior at the start estimate (0: no prior).
     max_nfev : int
         Largest number of objective evaluations of ``least_squares``.
     ftol : float
@@ -228,18 +230,21 @@ class RefinementResult:
     Attributes
     ----------
     params : ModelParameters
-        The estimate kept (refined or EKF), with the refinement summary in
+        The estimate kept (refined or initial), with the refinement summary in
         ``identification["refinement"]``.
-    kept : {"refined", "ekf"}
+    initial_method : str
+        Which candidate start replayed the training logs best: "ekf" or, when offered,
+        "equation-error".
+    kept : {"refined", "initial"}
         Which estimate ``params`` is.
     reason : str
         Why.
     initial, refined : FitSummary
-        The EKF estimate and the output-error optimum (kept or not).
+        The start estimate and the output-error optimum (kept or not).
     turn_check : bool
         Whether the virtual-turn check of §6 applied (no turning log in training).
     turn_spread : float
-        Largest relative change of the virtual tactical diameter, refined vs EKF
+        Largest relative change of the virtual tactical diameter, refined vs initial
         (inf when one of them does not turn through 180°).
     nfev : int
         Objective evaluations of the optimiser.
@@ -253,6 +258,7 @@ class RefinementResult:
     """
 
     params: ModelParameters
+    initial_method: str
     kept: str
     reason: str
     initial: FitSummary
@@ -281,15 +287,16 @@ class RefinementResult:
 
         return {
             "method": (
-                "output error: RK4 replay of every log from its execute state (the EKF "
+                "output error: RK4 replay of every log from its execute state (the start "
                 "model fitted to the approach), scipy.optimize.least_squares (trf), "
-                "Tikhonov prior at the EKF estimate"
+                "Tikhonov prior at the start estimate"
             ),
+            "initial_method": self.initial_method,
             "kept": self.kept,
             "reason": self.reason,
             "cost_before": _finite_or_none(self.initial.cost),
             "cost_after": _finite_or_none(self.refined.cost),
-            "ekf": fit(self.initial),
+            "initial": fit(self.initial),
             "refined": fit(self.refined),
             "refined_coefficients": self.refined.params.as_dict(),
             "turn_check": self.turn_check,
@@ -732,7 +739,7 @@ def _forward_difference(
 class _Objective:
     """The least-squares problem in whitened coordinates.
 
-    z = (z_θ, z_x0 of log 1, z_x0 of log 2, …): θ = θ_EKF + C z_θ and
+    z = (z_θ, z_x0 of log 1, z_x0 of log 2, …): θ = θ₀ + C z_θ and
     x0_i = x̂0_i + diag(σ̂0_i) z_x0_i, with x̂0 the log's initial state and σ̂0 the
     smoothed state's standard deviation; either part may be held (``free_theta``,
     ``free_x0``). Residuals: the weighted replay errors, √w_prior z_θ, and z_x0 (x̂0 as
@@ -895,7 +902,7 @@ def _summarise(
 
 
 def _whitening(params: ModelParameters) -> np.ndarray:
-    """C with C Cᵀ = Σ_EKF (eigenvalues floored), or a diagonal scale without Σ."""
+    """C with C Cᵀ = Σ₀ (eigenvalues floored), or a diagonal scale without Σ."""
     theta = params.to_vector()
     if params.covariance is None:
         return np.diag(np.where(theta != 0.0, 0.1 * np.abs(theta), 1e-6))
@@ -1067,25 +1074,37 @@ def refine_output_error(
     *,
     tracks: Sequence[SmoothedTrack] | None = None,
     settings: RefineSettings | None = None,
+    method: str = "ekf",
+    alternatives: Mapping[str, ModelParameters] | None = None,
     **overrides: Any,
 ) -> RefinementResult:
     """Refine identified coefficients by output error on whole manoeuvres.
 
+    With ``alternatives`` (e.g. the equation-error estimate beside the EKF's), the
+    start is the candidate whose open-loop replay of the training logs fits best
+    (smallest J at its own estimate, the prior term then being zero): only training
+    data decide, and the paper's one-step-ahead EKF fit is not always the estimate
+    that simulates whole manoeuvres best.
+
     Every log is replayed from its execute sample on, from the state there that the
-    EKF model gives when fitted to the approach (:func:`execute_state`). That state is
+    start model gives when fitted to the approach (:func:`execute_state`). That state is
     held: fitted to the whole log, it would absorb model error. The coefficients are
     fitted to the logs from execute to the end.
 
     Parameters
     ----------
     params : ModelParameters
-        The EKF estimate: start point, and with its covariance the prior.
+        The estimate of ``method``: start point, and with its covariance the prior.
     logs : sequence of ManeuverLog
         The training logs.
     tracks : sequence of SmoothedTrack, optional
         Their smoothed tracks (initial states, noise levels); smoothed here if omitted.
     settings : RefineSettings, optional
         Tuning; the defaults when omitted.
+    method : str
+        How ``params`` was estimated (named in the result and its messages).
+    alternatives : mapping of str to ModelParameters, optional
+        Other candidate starts by method name, with their covariances (the prior).
     **overrides
         Fields of :class:`RefineSettings` to override, e.g. ``prior_weight=0.1``.
 
@@ -1108,42 +1127,39 @@ def refine_output_error(
     tracks = tuple(tracks) if tracks is not None else tuple(smooth_log(log) for log in logs)
     if len(tracks) != len(logs):
         raise IdentificationError(f"{len(logs)} logs but {len(tracks)} smoothed tracks")
+    candidates = {method: params, **(alternatives or {})}
     approach = _approach(params, logs, tracks)
     if settings.rudder_rate_radps is not None:
         approach = (approach[0], approach[1], settings.rudder_rate_radps)
     settings = _with_step(settings, params.length_m, approach[0])
-    names = [log.path or f"log {i + 1}" for i, log in enumerate(logs)]
-    data = []
-    for log, track, name in zip(logs, tracks, names, strict=True):
-        k, state = execute_state(params, log, track, settings=settings)
-        data.append(replace(_prepare(log, track, name, settings, start=k), x0=state))
+    objectives = {
+        name: _objective(candidate, logs, tracks, settings)
+        for name, candidate in candidates.items()
+    }
+    start_costs = {name: o.cost(np.zeros(o.size)) for name, o in objectives.items()}
+    method = min(start_costs, key=lambda name: _finite_or_inf(start_costs[name]))
+    params, objective = candidates[method], objectives[method]
     p = params.to_vector().size
-    objective = _Objective(
-        model=params.model,
-        length_m=params.length_m,
-        data=tuple(data),
-        settings=settings,
-        theta0=params.to_vector().copy(),
-        whiten=_whitening(params),
-    )
     warnings: list[str] = []
     z0 = np.zeros(objective.size)
+    label = _label(method)
+    warnings.extend(_candidate_disagreement(candidates, method, approach, settings))
     if not math.isfinite(objective.cost(z0)):
         initial = _summarise(objective, z0, params, approach)
         reason = (
-            "the EKF estimate diverges replaying "
+            f"the {label} estimate diverges replaying "
             + ", ".join(initial.diverged)
             + "; output-error refinement skipped"
         )
         return _result(
-            params, "ekf", reason, initial, initial, False, math.nan, 0, "not run",
-            [reason], settings,
+            params, method, "initial", reason, initial, initial, False, math.nan, 0,
+            "not run", [reason], settings,
         )  # fmt: skip
     initial = _summarise(objective, z0, params, approach)
     if not all(t.sane for t in initial.turns):
         warnings.append(
-            "the EKF estimate fails the sanity guard: a virtual hard-over turn diverges "
-            "or does not pass 360 deg"
+            f"the {label} estimate fails the sanity guard: a virtual hard-over turn "
+            "diverges or does not pass 360 deg"
         )
     opt = objective.solve(z0, settings.max_nfev)
     J = opt.jac
@@ -1160,42 +1176,116 @@ def refine_output_error(
     refined = _summarise(objective, opt.x, refined_params, approach)
     turn_check = not covers_turn(tracks) if settings.check_turns is None else settings.check_turns
     spread = turn_spread(initial.turns, refined.turns)
-    kept, reason = _decide(initial, refined, turn_check, spread, settings.turn_tolerance)
-    if kept == "ekf" or "although" in reason:
+    kept, reason = _decide(initial, refined, turn_check, spread, settings.turn_tolerance, label)
+    if kept == "initial" or "although" in reason:
         warnings.append(reason)
     return _result(
-        params, kept, reason, initial, refined, turn_check, spread, int(opt.nfev),
+        params, method, kept, reason, initial, refined, turn_check, spread, int(opt.nfev),
         str(opt.message), warnings, settings,
     )  # fmt: skip
 
 
+def _objective(
+    params: ModelParameters,
+    logs: Sequence[ManeuverLog],
+    tracks: Sequence[SmoothedTrack],
+    settings: RefineSettings,
+) -> _Objective:
+    """Build the output-error objective around ``params`` (its execute states, prior)."""
+    data = []
+    for i, (log, track) in enumerate(zip(logs, tracks, strict=True)):
+        k, state = execute_state(params, log, track, settings=settings)
+        name = log.path or f"log {i + 1}"
+        data.append(replace(_prepare(log, track, name, settings, start=k), x0=state))
+    return _Objective(
+        model=params.model,
+        length_m=params.length_m,
+        data=tuple(data),
+        settings=settings,
+        theta0=params.to_vector().copy(),
+        whiten=_whitening(params),
+    )
+
+
+def _candidate_disagreement(
+    candidates: Mapping[str, ModelParameters],
+    start: str,
+    approach: tuple[float, float, float],
+    settings: RefineSettings,
+) -> list[str]:
+    """Warn when the candidate starts predict different hard-over turns.
+
+    Estimates that fit the training logs alike but turn differently mean that the logs
+    do not determine the turn (reference/model_structures.md §8): only a turning log, or
+    cross-validation, can tell which is right.
+    """
+    if len(candidates) < 2:
+        return []
+    speed, n, rate = approach
+    turns = {
+        name: virtual_turns(
+            p,
+            speed_mps=speed,
+            n_rps=n,
+            rudder_rate_radps=rate,
+            duration_factor=settings.turn_duration_factor,
+            max_step_s=settings.max_step_s,
+        )
+        for name, p in candidates.items()
+    }
+    spreads = {name: turn_spread(turns[start], t) for name, t in turns.items() if name != start}
+    worst = max(spreads, key=lambda name: spreads[name])
+    if spreads[worst] <= settings.turn_tolerance:
+        return []
+    amount = "through 180 deg" if math.isinf(spreads[worst]) else f"by {spreads[worst]:.0%}"
+    return [
+        f"the {_label(start)} and {_label(worst)} estimates fit the logs alike but their "
+        f"virtual 35 deg turns differ {amount}: these logs do not determine the turning "
+        "circle; add a turning log or check with 'identifier crossval'"
+    ]
+
+
+def _finite_or_inf(value: float) -> float:
+    return value if math.isfinite(value) else math.inf
+
+
+def _label(method: str) -> str:
+    return "EKF" if method == "ekf" else method
+
+
 def _decide(
-    initial: FitSummary, refined: FitSummary, turn_check: bool, spread: float, tolerance: float
+    initial: FitSummary,
+    refined: FitSummary,
+    turn_check: bool,
+    spread: float,
+    tolerance: float,
+    label: str,
 ) -> tuple[str, str]:
-    """Which estimate to keep, and why (model_structures.md §6, §7)."""
+    """Which estimate to keep, "initial" or "refined", and why (model_structures.md §6, §7)."""
+    keep = f"kept the {label} estimate"
     if refined.diverged:
-        return "ekf", (
+        return "initial", (
             "output-error estimate rejected: replaying "
             + ", ".join(refined.diverged)
-            + " diverges; kept the EKF estimate"
+            + f" diverges; {keep}"
         )
     if not all(t.sane for t in refined.turns):
-        return "ekf", (
+        return "initial", (
             "output-error estimate rejected: a virtual hard-over turn diverges or does not "
-            "pass 360 deg; kept the EKF estimate"
+            f"pass 360 deg; {keep}"
         )
     if not refined.cost < initial.cost:
-        return "ekf", "output error did not lower the cost; kept the EKF estimate"
+        return "initial", f"output error did not lower the cost; {keep}"
     if turn_check and not spread <= tolerance:
         text = _spread_text(initial, refined, spread)
-        if not initial.sane:
+        if any(t.tactical_diameter_m is None for t in initial.turns):
             return "refined", (
                 f"{text}; kept the output-error estimate although no turning log verifies "
-                "it, because the EKF estimate fails the sanity guard"
+                f"it, because the {label} estimate does not turn through 180 deg"
             )
-        return "ekf", (
+        return "initial", (
             f"{text}, beyond the {tolerance:.0%} tolerance of the turn check (output error "
-            "is not trusted on turns without a turning log); kept the EKF estimate"
+            f"is not trusted on turns without a turning log); {keep}"
         )
     return "refined", "output-error estimate accepted"
 
@@ -1215,6 +1305,7 @@ def _spread_text(initial: FitSummary, refined: FitSummary, spread: float) -> str
 
 def _result(
     params: ModelParameters,
+    method: str,
     kept: str,
     reason: str,
     initial: FitSummary,
@@ -1229,6 +1320,7 @@ def _result(
     chosen = refined.params if kept == "refined" else params
     result = RefinementResult(
         params=chosen,
+        initial_method=method,
         kept=kept,
         reason=reason,
         initial=initial,

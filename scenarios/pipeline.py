@@ -787,6 +787,8 @@ class DemoConfig:
         Model structure to identify.
     validation_dt_s : float
         Communication step of the validation runs [s].
+    refine : bool
+        Output-error refinement after the EKF (``identify --refine``; guarded).
     uncertainty_samples : int
         Monte-Carlo samples of the identified coefficients for the report's 95 %
         intervals; 0 for none.
@@ -807,6 +809,7 @@ class DemoConfig:
     heading_noise_deg: float = 0.1
     seed: int = 1
     model: str = DEFAULT_MODEL
+    refine: bool = True
     validation_dt_s: float = 0.1
     uncertainty_samples: int = 100
     uncertainty_dt_s: float = 0.5
@@ -904,7 +907,8 @@ def run_demo(
         def advance(n: int) -> None:
             bar.update(n)
 
-        result = identify(trial_logs, FitSettings(model=config.model), progress=advance)
+        settings = FitSettings(model=config.model, refine=config.refine)
+        result = identify(trial_logs, settings, progress=advance)
     finally:
         bar.close()
     params_path = out / "params.json"

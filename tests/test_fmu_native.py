@@ -36,7 +36,7 @@ from fmpy.fmi2 import (
 from fmpy.validation import validate_fmu
 
 import build_fmu
-from fmu_model import ModelParameters, save_params, simulate
+from fmu_model import ModelParameters, get_model, model_names, save_params, simulate
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_native import (
     C_DIR,
@@ -50,6 +50,7 @@ from fmu_model.export_native import (
 from fmu_model.interface import RUDDER_LIMIT_RAD, fmu_variables
 from fmu_model.model_description import LOG_CATEGORIES, OSP_NAMESPACE
 from tests.fmi_logging import LogRecorder
+from tests.test_shape import COEFFICIENTS as PRIME_RUDDER_COEFFICIENTS
 
 ROOT = Path(__file__).resolve().parents[1]
 HOST_SOURCE = ROOT / "tests" / "c_host" / "host.c"
@@ -341,6 +342,31 @@ def test_outputs_equal_python_rk4(unzipped: Path, params: ModelParameters, sched
     ref = simulate(params, time_s, rudder, rpm / 60.0, initial, method="rk4", max_step_s=MAX_STEP_S)
     assert_matches_model(out, ref)
     assert np.ptp(ref[:, 5]) > 0.1  # the ship did manoeuvre
+
+
+# Gains of the speed-dependent variants: the prime-rudder tanker of test_shape, with
+# rudder terms for the free-rudder variants; absent names are 0.
+PRIME_GAINS = {**PRIME_RUDDER_COEFFICIENTS, "Y_uud": -0.03, "N_uud": 0.3, "N_nv": -1e-3}
+
+
+@pytest.mark.parametrize("model", [m for m in model_names() if m != "shi2009"])
+def test_every_variant_fmu_equals_python_rk4(model: str, tmp_path: Path) -> None:
+    names = get_model(model).coefficient_names
+    params = replace(
+        make_params(),
+        model=model,
+        coefficients=np.array([PRIME_GAINS.get(name, 0.0) for name in names]),
+        covariance=None,
+    )
+    unzipped = Path(extract(build_native_fmu(params, tmp_path / "v.fmu"), unzipdir=tmp_path / "x"))
+    time_s = SCHEDULES["regular 0.1 s"](np.random.default_rng(7))
+    rudder, rpm = manoeuvre(time_s)
+    with slave(unzipped) as fmu:
+        out = run(fmu, time_s, rudder, rpm)
+    initial = [SPEED_MPS, 0.0, 0.0, 0.0, 0.0, 0.0]
+    ref = simulate(params, time_s, rudder, rpm / 60.0, initial, method="rk4", max_step_s=MAX_STEP_S)
+    assert np.all(np.isfinite(ref)) and np.ptp(ref[:, 5]) > 0.1
+    assert_matches_model(out, ref)
 
 
 def test_parameters_set_before_initialisation_are_used(

@@ -24,6 +24,7 @@ from fmu_model.errors import FmuBuildError
 from fmu_model.export_pythonfmu import build_pythonfmu_fmu
 from fmu_model.interface import fmu_variables
 from tests.fmi_logging import LogRecorder
+from tests.test_shape import COEFFICIENTS as PRIME_RUDDER_COEFFICIENTS
 
 MAX_STEP_S = 0.05
 FMI_DISCARD, FMI_ERROR = 2, 3
@@ -307,3 +308,29 @@ def test_build_writes_atomically_and_rejects_a_bad_max_step(tmp_path: Path) -> N
         params = json.loads(archive.read("resources/params.json"))
     assert {"modelDescription.xml", "resources/fmu_model/simulate.py"} <= names
     assert params["coefficients"] == COEFFICIENTS
+
+
+def test_a_model_family_runs_in_the_pythonfmu_backend_as_in_python(tmp_path: Path) -> None:
+    gains = PRIME_RUDDER_COEFFICIENTS
+    params = ModelParameters.from_vector(
+        "prime-rudder[k=0.00015,gamma=0.52,dgamma=0.12,l=-0.7]",
+        list(gains.values()),
+        length_m=100.0,
+        nominal_speed_mps=5.0,
+        nominal_n_rps=2.0,
+    )
+    shared = ("rudder_angle", "propeller_rpm", "u", "v", "r", "x", "y", "psi")
+    assert {n: VR[n] for n in shared} == {
+        v.name: v.value_reference for v in fmu_variables(params) if v.name in shared
+    }
+    path = build_pythonfmu_fmu(params, tmp_path / "family.fmu", max_step_s=MAX_STEP_S)
+    instance = Instance(path, str(extract(str(path))))
+    try:
+        t, rudder, rpm = manoeuvre(200)
+        got = instance.run(t, rudder, rpm)
+    finally:
+        instance.close()
+    initial = [5.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    want = simulate(params, t, rudder, rpm / 60.0, initial, method="rk4", max_step_s=MAX_STEP_S)
+    assert np.degrees(np.ptp(want[:, 5])) > 5.0
+    assert_close(got, want)

@@ -150,12 +150,28 @@ def test_turn_check_keeps_the_ekf_estimate_when_refinement_moves_the_turn(
     # trusted and the start (the "EKF" estimate) is kept, with the spread reported.
     start = _perturbed(_truth())
     guarded = refine_output_error(start, list(logs.values()), check_turns=True)
-    assert guarded.turn_check and guarded.kept == "ekf"
+    assert guarded.turn_check and guarded.kept == "initial" and guarded.initial_method == "ekf"
     assert guarded.turn_spread == pytest.approx(refined.turn_spread) and guarded.turn_spread > 0.05
     np.testing.assert_array_equal(guarded.params.to_vector(), start.to_vector())
     assert any("tactical diameter by" in w and "kept the EKF" in w for w in guarded.warnings)
     summary = guarded.params.identification["refinement"]
-    assert summary["kept"] == "ekf" and summary["cost_after"] < summary["cost_before"]
+    assert summary["kept"] == "initial" and summary["cost_after"] < summary["cost_before"]
+
+
+@pytest.mark.parametrize("good", ["ekf", "equation-error"])
+def test_refinement_starts_from_the_candidate_that_replays_best(
+    logs: dict[str, ManeuverLog], good: str
+) -> None:
+    estimates = {good: _truth(), ({"ekf", "equation-error"} - {good}).pop(): _perturbed(_truth())}
+    result = refine_output_error(
+        estimates["ekf"],
+        list(logs.values()),
+        alternatives={"equation-error": estimates["equation-error"]},
+        max_nfev=1,
+    )
+    assert result.initial_method == good
+    np.testing.assert_array_equal(result.initial.params.to_vector(), _truth().to_vector())
+    assert result.params.identification["refinement"]["initial_method"] == good
 
 
 def test_turn_spread_compares_tactical_diameters() -> None:
@@ -187,8 +203,9 @@ def test_identify_with_refine_carries_both_fits(logs: dict[str, ManeuverLog]) ->
     result = identify(list(logs.values()), FitSettings(model="shi2009", refine=True))
     r = result.refinement
     assert r is not None
-    np.testing.assert_array_equal(r.initial.params.to_vector(), plain.params.to_vector())
+    start = {"ekf": plain.params.to_vector(), "equation-error": plain.equation_error.theta}
+    np.testing.assert_array_equal(r.initial.params.to_vector(), start[r.initial_method])
     summary = result.params.identification["refinement"]
     assert summary["kept"] == r.kept
-    assert {"method", "cost_before", "cost_after", "ekf", "refined"} <= set(summary)
+    assert {"method", "cost_before", "cost_after", "initial", "refined"} <= set(summary)
     assert result.params.identification["settings"]["refine"] is True
