@@ -6,7 +6,8 @@ For every backend in :func:`backends` (a list of (label, FMU path); adding a bac
 one line there) it reports
 
 * µs per step in an fmpy loop (setReal inputs, doStep, getReal outputs, h = 0.1 s),
-* µs per step in the C host ``tests/c_host/host.c`` (same loop without Python),
+* µs per step in the C host ``tests/c_host/host.c`` (same loop without Python; a
+  pythonfmu FMU runs there with libpython preloaded, :func:`python_host_environment`),
 * seconds for a 1-hour run at 0.1 s with ``fmpy.simulate_fmu``,
 
 and the fmpy-loop cost of every backend relative to the first one (native C).
@@ -17,9 +18,12 @@ Without ``--params`` (or when the file does not exist) a built-in demo ship is u
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
+import site
 import subprocess
 import sys
+import sysconfig
 import tempfile
 import time
 from pathlib import Path
@@ -112,12 +116,16 @@ def host_us(host: Path | None, fmu_path: Path, steps: int, workdir: Path) -> flo
     if host is None:
         return None
     unzipped = Path(extract(fmu_path, unzipdir=tempfile.mkdtemp(dir=workdir)))
-    identifier = read_model_description(unzipped).coSimulation.modelIdentifier
+    md = read_model_description(unzipped)
+    identifier = md.coSimulation.modelIdentifier
     libraries = list((unzipped / "binaries").glob(f"*/{identifier}.*"))
     if not libraries:
         return None
     result = subprocess.run(
-        [str(host), str(libraries[0]), str(steps), "--bench"], capture_output=True, text=True
+        [str(host), str(libraries[0]), str(steps), "--bench"],
+        capture_output=True,
+        text=True,
+        env=python_host_environment() if "pythonfmu" in (md.generationTool or "").lower() else None,
     )
     if result.returncode != 0:
         return None
@@ -125,6 +133,18 @@ def host_us(host: Path | None, fmu_path: Path, steps: int, workdir: Path) -> flo
         if line.startswith("us_per_step "):
             return float(line.split()[1])
     return None
+
+
+def python_host_environment() -> dict[str, str]:
+    """Environment in which a C host can load a pythonfmu FMU.
+
+    A pythonfmu binary does not link libpython: it expects the host process to have
+    Python loaded (as fmpy has). A plain C host needs libpython preloaded and the
+    packages the slave imports (pythonfmu, fmu_model) on PYTHONPATH.
+    """
+    libpython = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("INSTSONAME")
+    paths = [*site.getsitepackages(), str(ROOT)]
+    return {**os.environ, "LD_PRELOAD": str(libpython), "PYTHONPATH": os.pathsep.join(paths)}
 
 
 def hour_s(fmu_path: Path) -> float:
@@ -167,6 +187,17 @@ def main() -> int:
         + ", ".join(f"{label} {fmpy_us:.2f}" for label, fmpy_us, _, _ in rows)
         + "".join(f"; {label}/{base_label} = {us / base_us:.1f}" for label, us, _, _ in rows[1:])
     )
+    base_host = rows[0][2]
+    if base_host is not None:
+        print(
+            "C host, µs per doStep: "
+            + ", ".join(f"{label} {c_us:.3f}" for label, _, c_us, _ in rows if c_us is not None)
+            + "".join(
+                f"; {label}/{base_label} = {c_us / base_host:.0f}"
+                for label, _, c_us, _ in rows[1:]
+                if c_us is not None
+            )
+        )
     return 0
 
 

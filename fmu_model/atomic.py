@@ -9,6 +9,7 @@ which is atomic on POSIX and Windows when both names are on the same file system
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import secrets
 import stat
@@ -45,6 +46,10 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
         If ``data`` is neither ``bytes`` nor ``str``; nothing is written.
     OSError
         If the directory cannot be created or the file cannot be written or renamed.
+        The error names ``path`` as given (``filename``), never the temporary file;
+        its ``strerror`` is ``"cannot write: <reason>"`` and its ``errno`` (hence its
+        subclass, e.g. ``FileNotFoundError``) that of the failure, which is chained
+        as ``__cause__``.
 
     """
     if isinstance(data, str):
@@ -54,9 +59,20 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
     else:
         raise TypeError(f"data must be bytes or str, got {type(data).__name__}")
 
-    target = os.path.abspath(os.fspath(path))
+    shown = os.fspath(path)
+    try:
+        _write(os.path.abspath(shown), payload)
+    except OSError as error:
+        raise _naming_target(error, shown) from error
+
+
+def _write(target: str, payload: bytes) -> None:
+    """Write ``payload`` to the absolute path ``target`` by temporary file and rename."""
     directory, name = os.path.split(target)
-    os.makedirs(directory, exist_ok=True)
+    try:
+        os.makedirs(directory, exist_ok=True)
+    except FileExistsError:  # the directory's name is taken by a file
+        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), directory) from None
     mode = _existing_mode(target)
 
     temporary = _create_temporary(directory, name)
@@ -73,6 +89,16 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
             os.unlink(temporary)
         raise
     _fsync_directory(directory)
+
+
+def _naming_target(error: OSError, path: str) -> OSError:
+    """Return the same failure (same errno and subclass) about ``path``, not a temp file.
+
+    The command-line tools print ``<filename>: <strerror>``, so the user reads
+    ``<path>: cannot write: <reason>``.
+    """
+    reason = error.strerror or str(error) or type(error).__name__
+    return OSError(error.errno, f"cannot write: {reason}", path)
 
 
 def _existing_mode(target: str) -> int | None:
@@ -100,7 +126,7 @@ def _create_temporary(directory: str, name: str) -> str:
             continue
         os.close(fd)
         return candidate
-    raise FileExistsError(f"could not create a temporary file for {name!r} in {directory!r}")
+    raise FileExistsError(errno.EEXIST, "no free name for a temporary file", directory)
 
 
 def _fsync_directory(directory: str) -> None:

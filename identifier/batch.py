@@ -33,7 +33,9 @@ and ``OUT/summary.csv`` + ``OUT/summary.md``: vessel, status (``ok`` identified 
 this run, ``skipped`` up to date from an earlier run, ``failed``), number of logs and
 samples, model, RMS of the EKF's filtered track against the logged one (position [m],
 heading [deg]), number of coefficients the logs do not identify (of all), seconds.
-Every file is written atomically (``fmu_model.atomic.write_atomic``).
+Every file is written atomically (``fmu_model.atomic.write_atomic``); a file that
+cannot be written is reported by its own name (``<file>: cannot write: <reason>``),
+never by the name of its temporary file.
 
 Resuming
 --------

@@ -30,6 +30,17 @@ def _positive(text: str) -> float:
     return value
 
 
+def _positive_or_inf(text: str) -> float:
+    """Parse a positive number or ``inf`` (``math.inf``); reject 0, negatives and nan."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number or inf, got {text!r}") from None
+    if not value > 0.0:  # also false for nan
+        raise argparse.ArgumentTypeError(f"expected a positive number or inf, got {text!r}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of ``python -m identifier``."""
     parser = argparse.ArgumentParser(
@@ -57,7 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     fit.add_argument(
         "--max-substep-s",
-        type=_positive,
+        type=_positive_or_inf,
         default=0.1,
         help="largest Euler substep of the EKF [s] (inf: one step per sample, the paper)",
     )
@@ -123,7 +134,8 @@ def _fit(args: argparse.Namespace) -> int:
         if result.refinement is not None:
             r = result.refinement
             print(
-                f"output error: kept {r.kept} estimate; cost {r.initial.cost:.4g} -> "
+                f"output error from the {r.initial_method} estimate: kept the {r.kept} one; "
+                f"cost {r.initial.cost:.4g} -> "
                 f"{r.refined.cost:.4g}, position RMS {r.initial.position_rms_L:.3f} -> "
                 f"{r.refined.position_rms_L:.3f} L"
             )

@@ -47,6 +47,9 @@ _KIND_PATTERNS = (
     ("zigzag", re.compile(r"zig[-_ ]?zag", re.IGNORECASE)),
 )
 _ZIGZAG_ANGLES = re.compile(r"zig[-_ ]?zag[-_ ]?(\d+(?:\.\d+)?)[-_/](\d+(?:\.\d+)?)", re.I)
+# ``identifier convert`` names its outputs <input stem>_<k>.csv (k = 1, 2, ...: the pieces
+# between gaps), so a ``_<digits>`` just before ``.csv`` is a piece number, not an angle.
+_PIECE_SUFFIX = re.compile(r"_\d+(?=\.csv\Z)", re.IGNORECASE)
 _TURNING_METRICS = ("advance_m", "transfer_m", "tactical_diameter_m")
 _ZIGZAG_METRICS = ("first_overshoot_deg", "second_overshoot_deg")
 
@@ -229,13 +232,15 @@ def zigzag_angles(log: ManeuverLog) -> tuple[float, float]:
     δ and Z from ``zigzag-δ-Z`` in the source or file name when there, else δ as the
     largest logged rudder angle (0.1° resolution) and Z as the whole degree of heading
     change crossed when the rudder first moves back; the sign of δ is that of the first
-    rudder movement.
+    rudder movement. In the file name, a ``_<digits>`` before ``.csv`` is the piece
+    number ``identifier convert`` appends (``zigzag-10_1.csv``), not an angle.
     """
     k = execute_index(log)
     after = log.rudder_rad[k:] - log.rudder_rad[0]
     moved = np.flatnonzero(np.abs(after) > math.radians(0.5))
     sign = 1.0 if not moved.size or after[moved[0]] > 0.0 else -1.0
-    for text in (log.metadata.get("source", ""), Path(log.path or "").name):
+    name = _PIECE_SUFFIX.sub("", Path(log.path or "").name)
+    for text in (log.metadata.get("source", ""), name):
         match = _ZIGZAG_ANGLES.search(text)
         if match:
             return sign * math.radians(float(match[1])), math.radians(float(match[2]))
@@ -585,6 +590,17 @@ def run_cross_validation(
 # --------------------------------------------------------------------------------------
 
 
+def _positive(text: str) -> float:
+    """Argument type of ``--length-m``: a positive finite number (as ``fit``'s)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Add the ``crossval`` command to the subparsers ``sub`` of ``python -m identifier``."""
     cv = sub.add_parser(
@@ -615,7 +631,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     cv.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     cv.add_argument("--refine", action="store_true", help="output-error refinement after the EKF")
-    cv.add_argument("--length-m", type=float, help="ship length [m] (default: from logs)")
+    cv.add_argument("--length-m", type=_positive, help="ship length [m] (default: from logs)")
     cv.add_argument("--json", metavar="OUT", help="write the results as JSON")
     cv.add_argument("--quiet", action="store_true", help="no table on stdout")
     return cv

@@ -23,8 +23,15 @@ What happens to a recording
    position fixes in it, or a grid of ``rate_hz`` aligned to multiples of
    ``1 / rate_hz`` after the first fix. Heading, rudder and propeller speed are
    interpolated linearly (heading on the unwrapped angle), positions too on a
-   ``rate_hz`` grid. Nothing is extrapolated: a piece starts and ends where all
-   streams have samples.
+   ``rate_hz`` grid. A piece spans the time all streams have samples, widened by at
+   most one time-base sample at each end: a stream whose first sample comes after a
+   fix (grid time), by no more than one of the stream's own sample intervals and half
+   of ``max_gap_s``, is extrapolated back to it along the line through its first two
+   samples; the same after its last sample (noted, with the largest extrapolation of
+   each stream). So the first fix of an NMEA recording is kept although its heading,
+   rudder and RPM sentences follow it and get times just after it, and the last fix
+   although the sentences after it have no later time stamp and are dropped.
+   Positions are never extrapolated.
 6. Pieces with fewer than ``min_samples`` samples are dropped with a note; the rest
    become logs, numbered in time order.
 
@@ -179,6 +186,7 @@ _SNIFF_LINES: Final = 50
 _MAX_HEADING_RAD: Final = math.radians(36000.0)  # a continuous heading of up to 100 turns
 _MAX_RUDDER_RAD: Final = math.pi / 2.0
 _MAX_SHOWN_CHARS: Final = 40
+_SAME_TIME_S: Final = 1e-9  # closer time stamps are one instant (round-off of sensor times)
 
 _DECIMAL: Final = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)", re.ASCII)
 _NUMBER: Final = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
@@ -227,7 +235,8 @@ class ConversionResult:
         Overlapping gaps of different streams are merged.
     notes : tuple of str
         Human-readable, one-line remarks: gaps per stream, dropped pieces, ignored
-        sentence types, invalid readings, conventions applied.
+        sentence types, invalid readings, extrapolation at the ends of pieces,
+        conventions applied.
     origin_lat_deg, origin_lon_deg : float
         Latitude and longitude of the first valid fix, the tangent-plane origin [deg].
     time_origin_utc : str or None
@@ -1240,8 +1249,8 @@ def _csv_columns(
     unit = heading_name.removeprefix("heading").removeprefix("_") or heading_unit or "deg"
     if heading_unit is not None and unit != heading_unit:
         raise LogFormatError(
-            f"column {heading_name!r} is in {unit}, but heading_unit={heading_unit!r} was given; "
-            "expected a heading column in that unit, or 'heading'",
+            f"its name says {unit}, but heading_unit={heading_unit!r} was given; expected a "
+            f"column 'heading_{heading_unit}', or 'heading' (unit from heading_unit)",
             path=path,
             line=line,
             column=heading_name,
@@ -1513,6 +1522,93 @@ def _time_base(start: float, end: float, fix_t: _FloatArray, rate_hz: float | No
     return np.arange(first, last + 1, dtype=np.float64) / rate_hz
 
 
+def _base_before(time: float, fix_t: _FloatArray, rate_hz: float | None) -> float | None:
+    """Return the last time-base sample (fix or grid time) at or before ``time`` [s]."""
+    if rate_hz is not None:
+        return math.floor(time * rate_hz + 1e-9) / rate_hz
+    k = int(np.searchsorted(fix_t, time + _SAME_TIME_S, side="right")) - 1
+    return float(fix_t[k]) if k >= 0 else None
+
+
+def _base_after(time: float, fix_t: _FloatArray, rate_hz: float | None) -> float | None:
+    """Return the first time-base sample (fix or grid time) at or after ``time`` [s]."""
+    if rate_hz is not None:
+        return math.ceil(time * rate_hz - 1e-9) / rate_hz
+    k = int(np.searchsorted(fix_t, time - _SAME_TIME_S, side="left"))
+    return float(fix_t[k]) if k < fix_t.size else None
+
+
+def _stretch(
+    covered: list[tuple[float, float]],
+    times: _FloatArray,
+    fix_t: _FloatArray,
+    options: _Options,
+) -> list[tuple[float, float]]:
+    """Widen a stream's covered intervals by one time-base sample at each end, if near.
+
+    An interval that starts at the stream's sample ``t0`` (next sample ``t1``) is
+    widened to the time-base sample ``b <= t0`` just before it when
+    ``t0 - b <= min(t1 - t0, max_gap_s / 2)``: within one of the stream's own sample
+    intervals, and never so far that the intervals on the two sides of a gap (longer
+    than ``max_gap_s``) could meet. The same at the end. An interval of one sample is
+    not widened. :func:`_resample` then continues the stream's edge line there.
+    """
+    widened = []
+    for start, end in covered:
+        i = int(np.searchsorted(times, start))  # covered ends are sample times
+        j = int(np.searchsorted(times, end))
+        if j > i:
+            reach = min(float(times[i + 1] - times[i]), options.max_gap_s / 2.0)
+            before = _base_before(start, fix_t, options.rate_hz)
+            if before is not None and start - before <= reach + _SAME_TIME_S:
+                start = min(start, before)
+            reach = min(float(times[j] - times[j - 1]), options.max_gap_s / 2.0)
+            after = _base_after(end, fix_t, options.rate_hz)
+            if after is not None and after - end <= reach + _SAME_TIME_S:
+                end = max(end, after)
+        widened.append((start, end))
+    return widened
+
+
+def _resample(
+    time: _FloatArray, times: _FloatArray, values: _FloatArray, max_gap_s: float
+) -> tuple[_FloatArray, float]:
+    """Values of one stream at ``time``, and how far any of them was extrapolated [s].
+
+    Linear interpolation between the stream's samples; a time before the first (after
+    the last) sample of a stretch without a gap longer than ``max_gap_s`` gets the
+    line through the stretch's first (last) two samples, continued (a stretch of one
+    sample: its value). Only the times :func:`_stretch` admits are asked for, at most
+    one sample interval of the stream away from a sample.
+    """
+    result = np.interp(time, times, values)
+    n = times.size
+    # split[k]: times[k - 1] and times[k] are not joined (a gap; k = 0 and n: the ends)
+    split = np.ones(n + 1, dtype=bool)
+    split[1:-1] = np.diff(times) > max_gap_s
+    index = np.searchsorted(times, time)  # times[k - 1] < time <= times[k]
+    farthest = 0.0
+    for i in np.flatnonzero(split[index]):
+        k = int(index[i])
+        if k < n and time[i] == times[k]:
+            continue
+        if k == n or (k > 0 and time[i] - times[k - 1] < times[k] - time[i]):
+            a, b = k - 2, k - 1  # after the stretch that ends at times[k - 1]
+            single = a < 0 or bool(split[b])
+            edge = b
+        else:
+            a, b = k, k + 1  # before the stretch that starts at times[k]
+            single = b >= n or bool(split[b])
+            edge = a
+        if single:
+            result[i] = values[edge]
+        else:
+            slope = (values[b] - values[a]) / (times[b] - times[a])
+            result[i] = values[edge] + slope * (time[i] - times[edge])
+        farthest = max(farthest, abs(float(time[i] - times[edge])))
+    return result, farthest
+
+
 def _assemble(recording: _Recording, options: _Options) -> ConversionResult:
     """Project, split at gaps, resample and build the logs of one recording."""
     path, notes = recording.path, list(recording.notes)
@@ -1545,7 +1641,7 @@ def _assemble(recording: _Recording, options: _Options) -> ConversionResult:
         covered, gaps = _coverage(times, options.max_gap_s)
         _note_gaps(name, gaps, options.max_gap_s, notes)
         all_gaps += gaps
-        pieces = _intersect(pieces, covered)
+        pieces = _intersect(pieces, _stretch(covered, times, fix_t, options))
         late, early = float(times[0]), float(fix_t[-1] - times[-1])
         if late > options.max_gap_s:
             notes.append(f"{name} starts {late:.1f} s after the first fix")
@@ -1568,8 +1664,13 @@ def _assemble(recording: _Recording, options: _Options) -> ConversionResult:
         instant = recording.epoch + dt.timedelta(seconds=t0)
         time_origin = instant.isoformat(timespec="milliseconds").replace("+00:00", "Z")
     logs = []
+    extrapolated = dict.fromkeys(streams, 0.0)
     for k, time in enumerate(kept, start=1):
-        heading = np.interp(time, *streams[_HEADING]) + np.interp(time, fix_t, north)
+        sampled = {}
+        for name, (times, values) in streams.items():
+            sampled[name], farthest = _resample(time, times, values, options.max_gap_s)
+            extrapolated[name] = max(extrapolated[name], farthest)
+        heading = sampled[_HEADING] + np.interp(time, fix_t, north)
         heading -= 2.0 * np.pi * np.floor(heading[0] / (2.0 * np.pi))  # start in [0, 2π)
         piece = f"piece {k} of {len(kept)}"
         metadata = _metadata(
@@ -1581,10 +1682,21 @@ def _assemble(recording: _Recording, options: _Options) -> ConversionResult:
                 x_m=np.interp(time, fix_t, x_m),
                 y_m=np.interp(time, fix_t, y_m),
                 heading_rad=heading,
-                rudder_rad=np.interp(time, *streams[_RUDDER]),
-                n_rps=np.interp(time, *streams[_RPM]),
+                rudder_rad=sampled[_RUDDER],
+                n_rps=sampled[_RPM],
                 metadata=metadata,
             )
+        )
+    if any(extrapolated.values()):
+        base = "fix" if options.rate_hz is None else "grid time"
+        amounts = ", ".join(
+            f"{name} by up to {farthest:.3g} s"
+            for name, farthest in extrapolated.items()
+            if farthest
+        )
+        notes.append(
+            f"extrapolated linearly to the {base} just before a stream's first or after its "
+            f"last sample (within one of its sample intervals): {amounts}"
         )
     return ConversionResult(
         logs=tuple(logs),
@@ -1698,9 +1810,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         description=(
             "Convert NMEA 0183 (GGA/RMC/ZDA, HDT/THS, RSA, RPM) or latitude/longitude CSV "
             "recordings into trial logs: x North, y East [m] about the first fix, split at "
-            "gaps. Writes DIR/<input stem>_<k>.csv, or FILE when there is one log (FILE_<k>.csv "
-            "for several). Exit 0 on success, 1 on unusable input (nothing written), 2 on a "
-            "usage error."
+            "gaps. Heading, rudder and rpm are interpolated linearly at the fix times (or the "
+            "--rate-hz grid); at the ends of a piece, a stream is extrapolated along its edge "
+            "line to the one fix (grid time) just before its first or after its last sample "
+            "when that is within one of its sample intervals, so that the first and last "
+            "fixes are kept. Writes DIR/<input stem>_<k>.csv, or FILE when there is one log "
+            "(FILE_<k>.csv for several). Exit 0 on success, 1 on unusable input (nothing "
+            "written), 2 on a usage error."
         ),
     )
     convert.add_argument("inputs", nargs="+", metavar="INPUT", help="recordings to convert")

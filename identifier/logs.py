@@ -93,6 +93,9 @@ _METADATA_LINE: Final = re.compile(r"#\s*([A-Za-z_][A-Za-z0-9_.\-]*)\s*:(.*)", r
 _MAX_SHOWN_CHARS: Final = 40
 _MAX_SHOWN_HEADER_CHARS: Final = 160
 _SECONDS_PER_MINUTE: Final = 60.0
+_NMEA_HINT: Final = (
+    " (an NMEA recording? convert it first: python -m identifier convert FILE -o DIR)"
+)
 
 _FloatArray = npt.NDArray[np.float64]
 
@@ -380,6 +383,23 @@ def _show(text: str, limit: int = _MAX_SHOWN_CHARS) -> str:
     return repr(text)
 
 
+def _looks_like_nmea(path: str | None, first_line: str) -> bool:
+    """Whether a file is probably an NMEA 0183 recording given to the trial-log reader.
+
+    True for a ``.nmea`` file name or a first line starting with ``$`` or ``!`` (an
+    NMEA sentence; a trial log starts with ``#`` comments or its header).
+    """
+    named = path is not None and path.lower().endswith(".nmea")
+    return named or first_line.lstrip().startswith(("$", "!"))
+
+
+def _binary_hint(raw: bytes, path: str) -> str:
+    """Return the NMEA hint for a file that is not UTF-8 text, if it looks like NMEA."""
+    stripped = raw.removeprefix(b"\xef\xbb\xbf").lstrip()
+    first_line = stripped.partition(b"\n")[0].decode("latin-1")
+    return _NMEA_HINT if _looks_like_nmea(path, first_line) else ""
+
+
 def _decode(raw: bytes, path: str) -> str:
     """Decode a file's bytes as UTF-8 (optional BOM), or explain why it is not text."""
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
@@ -393,7 +413,8 @@ def _decode(raw: bytes, path: str) -> str:
     nul = raw.find(b"\0")
     if nul >= 0:
         raise LogFormatError(
-            f"not a text file: NUL byte at offset {nul}; expected UTF-8 text",
+            f"not a text file: NUL byte at offset {nul}; expected UTF-8 text"
+            + _binary_hint(raw, path),
             path=path,
             line=raw.count(b"\n", 0, nul) + 1,
             expected="UTF-8 text",
@@ -403,7 +424,7 @@ def _decode(raw: bytes, path: str) -> str:
     except UnicodeDecodeError as error:
         raise LogFormatError(
             f"not a text file: invalid UTF-8 byte 0x{raw[error.start]:02x} at offset "
-            f"{error.start}; expected UTF-8 text",
+            f"{error.start}; expected UTF-8 text" + _binary_hint(raw, path),
             path=path,
             line=raw.count(b"\n", 0, error.start) + 1,
             expected="UTF-8 text",
@@ -537,9 +558,10 @@ class _Parser:
         if missing:
             plural = "s" if len(missing) > 1 else ""
             shown = _show(line.strip(), _MAX_SHOWN_HEADER_CHARS)
+            hint = _NMEA_HINT if _looks_like_nmea(self.path, line) else ""
             raise self.error(
                 f"missing column{plural} {', '.join(map(repr, missing))}; expected a header "
-                f"with {', '.join(LOG_COLUMNS)} (in any order), got {shown}",
+                f"with {', '.join(LOG_COLUMNS)} (in any order), got {shown}{hint}",
                 number,
                 expected=f"columns {', '.join(LOG_COLUMNS)}",
             )

@@ -36,9 +36,9 @@ replays its 10/10 zig-zag to 0.1° heading RMS with it, 0.45° without) or held
 (``"hold"``: bit-for-bit ``fmu_model.simulate(method="rk4")``). It runs in numba on
 the regressor kernels generated from the model structure (``NumericModel.kernels``),
 batched over coefficient vectors; the Jacobian is a batched forward difference in z.
-The covariance of the refined coefficients is s² (JᵀJ)⁻¹ at the optimum (J including
-the prior rows), s² = Σ r² / (m − p); the residuals of a replayed track are strongly
-correlated in time, so this covariance is optimistic.
+The covariance of the refined coefficients is the Newey–West sandwich at the optimum
+(:func:`_sandwich_covariance`): the residuals of a replayed track are strongly
+correlated in time, and s² (JᵀJ)⁻¹ would be optimistic by about their correlation time.
 
 Guards (reference/model_structures.md, §6 and §7): output error on zig-zags alone is
 unreliable for turns. After refining, hard-over (35°) turns both ways are simulated
@@ -61,6 +61,7 @@ from typing import Any
 import numba
 import numpy as np
 from scipy.optimize import least_squares
+from statsmodels.stats.sandwich_covariance import S_hac_simple
 
 from fmu_model import ModelParameters, numeric_model
 from identifier.errors import IdentificationError
@@ -1162,14 +1163,7 @@ def refine_output_error(
             "diverges or does not pass 360 deg"
         )
     opt = objective.solve(z0, settings.max_nfev)
-    J = opt.jac
-    n = objective.size
-    s2 = 2.0 * float(opt.cost) / max(J.shape[0] - n, 1)
-    info = J.T @ J
-    try:
-        cov_z = s2 * np.linalg.inv(info)
-    except np.linalg.LinAlgError:
-        cov_z = s2 * np.linalg.pinv(info)
+    cov_z = _sandwich_covariance(objective, opt.jac, objective.replays(opt.x)[0])
     C = objective.whiten
     cov = C @ cov_z[:p, :p] @ C.T
     refined_params = params.with_vector(objective.theta(opt.x), 0.5 * (cov + cov.T))
@@ -1205,6 +1199,67 @@ def _objective(
         theta0=params.to_vector().copy(),
         whiten=_whitening(params),
     )
+
+
+def _sandwich_covariance(objective: _Objective, J: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Covariance of z at the optimum from the objective's Jacobian and data residuals."""
+    blocks, row = [], 0
+    for d in objective.data:
+        channels = d.target.shape[1]
+        rows = d.target.shape[0] * channels
+        blocks.append((J[row : row + rows], r[row : row + rows], channels))
+        row += rows
+    return newey_west_covariance(blocks, J[row:])
+
+
+def newey_west_covariance(
+    blocks: Sequence[tuple[np.ndarray, np.ndarray, int]], prior_jacobian: np.ndarray
+) -> np.ndarray:
+    """Least-squares covariance robust to residuals correlated in time (Newey–West).
+
+    A replayed track's residuals are far from white (a model error persists for
+    minutes), so s² (JᵀJ)⁻¹ is optimistic by about the correlation time in samples.
+    The sandwich A⁻¹ S A⁻¹, A = JᵀJ over all rows, sums per block (one log) the lagged
+    products of the per-sample scores g_k = Σ_channels J_kᵀ r_k with Bartlett weights
+    (``statsmodels`` ``S_hac_simple``) over Andrews' automatic bandwidth
+    (:func:`_bartlett_lags`); the prior rows add J_pᵀ J_p (unit variance).
+
+    Parameters
+    ----------
+    blocks : sequence of (J, r, channels)
+        Per log: Jacobian rows (m, n) and residuals (m,), time-major with ``channels``
+        residuals per sample.
+    prior_jacobian : numpy.ndarray
+        Jacobian rows of the prior (q, n), residuals of unit variance.
+
+    """
+    info = prior_jacobian.T @ prior_jacobian
+    meat = info.copy()
+    for J, r, channels in blocks:
+        info += J.T @ J
+        scores = (J * r[:, None]).reshape(-1, channels, J.shape[1]).sum(axis=1)
+        meat += S_hac_simple(scores, nlags=_bartlett_lags(r.reshape(-1, channels)))
+    try:
+        bread = np.linalg.inv(info)
+    except np.linalg.LinAlgError:
+        bread = np.linalg.pinv(info)
+    return bread @ meat @ bread
+
+
+def _bartlett_lags(residuals: np.ndarray) -> int:
+    """Bandwidth of the Bartlett window for (N, C) residuals: Andrews (1991), AR(1) rule.
+
+    L = 1.1447 (α N)^⅓ with α = 4ρ² / ((1 − ρ)² (1 + ρ)²) and ρ the channels' mean lag-1
+    autocorrelation (Andrews, Econometrica 59(3), eq. (6.4) and Table I), at most N − 1.
+    """
+    centred = residuals - residuals.mean(axis=0)
+    n = centred.shape[0]
+    power = float(np.sum(centred**2))
+    if n < 3 or power == 0.0:
+        return 0
+    rho = min(max(float(np.sum(centred[1:] * centred[:-1])) / power, 0.0), 0.999)
+    alpha = 4.0 * rho**2 / ((1.0 - rho) ** 2 * (1.0 + rho) ** 2)
+    return min(int(1.1447 * (alpha * n) ** (1.0 / 3.0)), n - 1)
 
 
 def _candidate_disagreement(

@@ -177,6 +177,11 @@ def _angle_list(text: str) -> tuple[float, ...]:
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of ``python -m scenarios``."""
+    return _build_parsers()[0]
+
+
+def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser]]:
+    """Return the parser of ``python -m scenarios`` and its subcommands' parsers by name."""
     parser = argparse.ArgumentParser(
         prog=PROG,
         description="Manoeuvres, IMO criteria and validation reports for ship FMUs.",
@@ -264,7 +269,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--heading-deg", type=_positive, default=10.0, metavar="DEG", help="check heading [deg]"
     )
     p.add_argument("--port-first", action="store_true", help="first rudder to port")
-    p.add_argument("--reversals", type=int, default=4, help="rudder reversals (default 4)")
+    p.add_argument(
+        "--reversals",
+        type=_positive_count,
+        default=4,
+        metavar="N",
+        help="rudder reversals (default 4)",
+    )
 
     p = sub.add_parser("spiral", parents=[outputs], help="Dieudonné spiral on an FMU")
     p.add_argument(
@@ -305,7 +316,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dt-s", type=_positive, default=0.1, metavar="S", help="step [s]")
     band = p.add_argument_group(
         "uncertainty",
-        "95 %% intervals of the predicted quantities from the coefficient covariance "
+        "95 % intervals of the predicted quantities from the coefficient covariance "
         "(identification noise only, not model-structure error)",
     )
     band.add_argument(
@@ -346,7 +357,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", parents=[common], help="the whole pipeline on KVLCC2")
     p.add_argument("--out", default="build/demo", metavar="DIR", help="output folder")
     p.add_argument("--quick", action="store_true", help="shorter configuration (tests)")
-    return parser
+    return parser, dict(sub.choices)
 
 
 # ------------------------------------------------------------------------ helpers
@@ -554,8 +565,6 @@ def _zigzag(args: argparse.Namespace) -> int:
     info = read_fmu_info(args.fmu)
     rudder = math.radians(args.rudder_deg) * (-1.0 if args.port_first else 1.0)
     check_rudder(info, rudder)
-    if args.reversals < 1:
-        raise ScenarioError(f"--reversals must be at least 1, got {args.reversals}")
     condition = _condition(args, info)
     program = zigzag(
         rudder,
@@ -862,7 +871,7 @@ _COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
 
 
 def _check_validate_usage(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """Exit 2 (argparse) for uncertainty options that cannot take effect without --params."""
+    """Exit 2 (``parser``, the validate subparser) for options that need --params."""
     if args.params is not None:
         return
     if args.uncertainty_samples:
@@ -882,10 +891,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Usage errors exit through argparse with status 2.
     """
-    parser = build_parser()
+    parser, commands = _build_parsers()
     args = parser.parse_args(argv)
     if args.command == "validate":
-        _check_validate_usage(parser, args)
+        _check_validate_usage(commands["validate"], args)
     try:
         return _COMMANDS[args.command](args)
     except (

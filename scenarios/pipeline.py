@@ -932,6 +932,15 @@ def run_demo(
         )
     finally:
         bar.close()
+    trained = ", ".join(config.maneuvers)
+    validation = replace(
+        validation,
+        warnings=(
+            *validation.warnings,
+            f"the model was identified from the logs {trained} only: every other "
+            "manoeuvre below is a prediction of one it has not seen",
+        ),
+    )
     stage_done(
         "validate",
         start,

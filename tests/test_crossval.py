@@ -20,6 +20,7 @@ from identifier.crossval import (
 )
 from identifier.errors import IdentificationError
 from identifier.identify import FitSettings
+from identifier.ingest import output_paths
 from identifier.logs import ManeuverLog, read_log, write_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
@@ -164,3 +165,34 @@ def test_cli_crossval_exit_codes(log_files: list[Path], tmp_path: Path, capsys) 
     assert main(["crossval", files[0], "--train", files[0], "--test", files[0]]) == 1
     assert "both trained on and held out" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_converted_logs_segment_suffix_is_not_read_as_an_angle(
+    logs: dict[str, ManeuverLog], tmp_path: Path
+) -> None:
+    # ``identifier convert`` numbers its outputs <stem>_1.csv, <stem>_2.csv, ...
+    arrays = [getattr(logs["zigzag-10"], k) for k in _ARRAYS]
+    first, _ = output_paths(tmp_path, "zigzag-10", 2)
+    assert first.name == "zigzag-10_1.csv"
+    converted = ManeuverLog(*arrays, metadata={}, path=str(first))
+    assert maneuver_kind(converted) == "zigzag"
+    rudder, heading = zigzag_angles(converted)  # from the data: 10/10, not 10/1
+    assert (math.degrees(rudder), math.degrees(heading)) == pytest.approx((10.0, 10.0))
+    # angles in the name before the suffix are still read (5 deg: not what the data say)
+    _, second = output_paths(tmp_path, "zigzag-10-5", 2)
+    named = ManeuverLog(*arrays, metadata={}, path=str(second))
+    assert Path(named.path or "").name == "zigzag-10-5_2.csv"
+    rudder, heading = zigzag_angles(named)
+    assert (math.degrees(rudder), math.degrees(heading)) == pytest.approx((10.0, 5.0))
+
+
+@pytest.mark.parametrize("length", ["-5", "0", "nan", "inf", "abc"])
+def test_cli_crossval_length_must_be_a_positive_number(
+    log_files: list[Path], length: str, capsys
+) -> None:
+    files = list(map(str, log_files))
+    with pytest.raises(SystemExit) as info:
+        main(["crossval", *files, "--train", "zigzag", "--length-m", length])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "crossval: error: argument --length-m: expected" in err

@@ -638,3 +638,34 @@ def test_build_fmu_rejects_corrupt_params_with_one_line(
     assert re.search(message, lines[0]), lines[0]
     assert not output.exists()
     assert not output.parent.exists() or list(output.parent.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("output", "reason"),
+    [
+        pytest.param("taken/ship.fmu", "Not a directory", id="directory is a file"),
+        pytest.param(
+            "/proc/ship.fmu",
+            "No such file or directory",
+            id="temporary file cannot be created",
+            marks=pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="Linux /proc"),
+        ),
+    ],
+)
+def test_build_fmu_write_error_names_the_output_not_a_temporary_file(
+    tmp_path: Path, output: str, reason: str
+) -> None:
+    params = tmp_path / "params.json"
+    params.write_text(json.dumps(_valid_document()))
+    (tmp_path / "taken").write_text("a file")
+    done = subprocess.run(
+        [sys.executable, str(REPO / "build_fmu.py"), "--params", str(params), "-o", output],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 1
+    assert done.stdout == ""
+    assert done.stderr == f"build_fmu.py: error: {output}: cannot write: {reason}\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["params.json", "taken"]

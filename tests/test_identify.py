@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters, load_params
-from identifier.cli import main
+from identifier.cli import build_parser, main
 from identifier.errors import IdentificationError
 from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.logs import ManeuverLog, read_log, write_log
@@ -194,3 +194,49 @@ def test_cli_usage_error_exits_2(capsys) -> None:
     with pytest.raises(SystemExit) as info:
         main(["fit", "x.csv"])
     assert info.value.code == 2
+
+
+def test_cli_max_substep_accepts_inf_and_rejects_zero_negative_nan(capsys) -> None:
+    parser = build_parser()
+
+    def parse(value: str) -> float:
+        return parser.parse_args(
+            ["fit", "x.csv", "-o", "p.json", f"--max-substep-s={value}"]
+        ).max_substep_s
+
+    assert parse("inf") == math.inf  # the paper's one Euler step per sample
+    assert parse("0.05") == 0.05
+    for bad in ("0", "-0.1", "-inf", "nan"):
+        with pytest.raises(SystemExit) as info:
+            parse(bad)
+        assert info.value.code == 2
+        err = capsys.readouterr().err
+        assert f"--max-substep-s: expected a positive number or inf, got '{bad}'" in err
+    with pytest.raises(SystemExit) as info:
+        parse("abc")
+    assert info.value.code == 2
+    assert "expected a number or inf, got 'abc'" in capsys.readouterr().err
+
+
+def test_cli_fit_with_max_substep_inf_writes_params(
+    log_files: list[Path], tmp_path: Path, capsys
+) -> None:
+    out = tmp_path / "params.json"
+    args = ["--model", "shi2009", "--max-substep-s", "inf", "-o", str(out), "--quiet"]
+    assert main(["fit", str(log_files[0]), *args]) == 0
+    params = load_params(out)
+    assert params.model == "shi2009"
+    assert params.identification["settings"]["max_substep_s"] == "inf"
+
+
+def test_cli_fit_on_an_nmea_recording_says_to_convert_it(tmp_path: Path, capsys) -> None:
+    nmea = tmp_path / "zigzag-10.nmea"
+    nmea.write_text("$HEHDT,340.100,T*29\n$IIRSA,-7.960,A,,V*5C\n")
+    out = tmp_path / "params.json"
+    assert main(["fit", str(nmea), "-o", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"error: {nmea}:1: missing columns")
+    assert err.endswith(
+        "(an NMEA recording? convert it first: python -m identifier convert FILE -o DIR)\n"
+    )
+    assert not out.exists()

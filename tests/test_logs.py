@@ -651,6 +651,41 @@ def test_error_messages_are_one_line_with_optional_parts() -> None:
     assert str(pickle.loads(pickle.dumps(ident))) == str(ident)
 
 
+# --------------------------------------------------------------------------- NMEA given to fit
+
+_GGA = "$GPGGA,235830.00,6325.8300000,N,01023.7060000,E,1,09,0.9,12.0,M,41.0,M,,*5D"
+_HINT = r" \(an NMEA recording\? convert it first: python -m identifier convert FILE -o DIR\)$"
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        pytest.param("rec.nmea", f"{_GGA}\n$HEHDT,340.100,T*29\n", "missing columns", id="nmea"),
+        pytest.param("rec.csv", f"\n{_GGA}\n", "missing columns", id="$ line in a csv"),
+        pytest.param(
+            "ais.txt", "!AIVDM,1,1,,A,13aEOK?P00PD2wVMdLDRhgvL289?,0*26\n", "missing", id="!"
+        ),
+        pytest.param(
+            "rec.nmea", f"{_GGA}\n\xff\n".encode("latin-1"), "invalid UTF-8", id="binary nmea"
+        ),
+        pytest.param("REC.NMEA", "lat,lon\n1,2\n", "missing columns", id="named .nmea"),
+    ],
+)
+def test_an_nmea_recording_read_as_a_log_says_to_convert_it(
+    tmp_path: Path, name: str, content: str | bytes, message: str
+) -> None:
+    path = _write(tmp_path, content, name)
+    with pytest.raises(LogFormatError, match=message + ".*" + _HINT):
+        read_log(path)
+
+
+def test_a_csv_with_a_missing_column_gets_no_nmea_hint(tmp_path: Path) -> None:
+    path = _write(tmp_path, "time_s,x_m,y_m,heading_deg,rudder_deg\n0,0,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"missing column 'rpm'") as info:
+        read_log(path)
+    assert "NMEA" not in str(info.value)
+
+
 # --------------------------------------------------------------------------- write_atomic
 
 
@@ -729,6 +764,47 @@ def test_write_atomic_failure_leaves_previous_file_and_no_temporary(
     monkeypatch.undo()
     assert target.read_text() == "previous content"
     assert os.listdir(tmp_path) == ["params.json"]
+
+
+def _no_temporary_named(error: OSError) -> None:
+    assert ".tmp" not in str(error) and ".tmp" not in (error.strerror or "")
+    assert error.filename2 is None
+
+
+def test_write_atomic_error_names_the_target_when_its_directory_is_a_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _write(tmp_path, "a file", "taken")
+    monkeypatch.chdir(tmp_path)
+    for target in ("taken/out.json", "taken/sub/out.json"):
+        with pytest.raises(NotADirectoryError) as info:
+            write_atomic(target, "new")
+        assert info.value.filename == target  # as given, not made absolute
+        assert info.value.strerror == "cannot write: Not a directory"
+        _no_temporary_named(info.value)
+    assert sorted(os.listdir(tmp_path)) == ["taken"]
+
+
+def test_write_atomic_error_names_the_target_not_the_temporary_file(tmp_path: Path) -> None:
+    target = tmp_path / "a directory"
+    (target / "inside").mkdir(parents=True)
+    with pytest.raises(IsADirectoryError) as info:  # the rename of the temporary file fails
+        write_atomic(target, "new")
+    assert info.value.filename == str(target)
+    assert info.value.strerror == "cannot write: Is a directory"
+    assert isinstance(info.value.__cause__, IsADirectoryError)  # the original, for debugging
+    _no_temporary_named(info.value)
+    assert sorted(os.listdir(tmp_path)) == ["a directory"]  # the temporary file is gone
+    assert os.listdir(target) == ["inside"]
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux /proc")
+def test_write_atomic_error_when_the_temporary_file_cannot_be_created() -> None:
+    with pytest.raises(OSError) as info:  # no file can be created in /proc, even by root
+        write_atomic("/proc/x.fmu", "new")
+    assert info.value.filename == "/proc/x.fmu"
+    assert info.value.strerror == "cannot write: No such file or directory"
+    _no_temporary_named(info.value)
 
 
 # --------------------------------------------------------------------------- properties

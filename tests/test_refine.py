@@ -14,6 +14,7 @@ from identifier.refine import (
     RefinementResult,
     execute_index,
     fit_initial_state,
+    newey_west_covariance,
     refine_output_error,
     replay,
     turn_spread,
@@ -209,3 +210,19 @@ def test_identify_with_refine_carries_both_fits(logs: dict[str, ManeuverLog]) ->
     assert summary["kept"] == r.kept
     assert {"method", "cost_before", "cost_after", "initial", "refined"} <= set(summary)
     assert result.params.identification["settings"]["refine"] is True
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.9])
+def test_newey_west_covariance_of_a_mean_in_ar1_noise(rho: float) -> None:
+    # Estimating a constant from AR(1) residuals: Var(mean) -> σ²/n · (1 + ρ)/(1 − ρ),
+    # where s² (JᵀJ)⁻¹ would give σ²/n whatever ρ.
+    rng = np.random.default_rng(3)
+    n, sigma = 200_000, 1.0
+    e = rng.normal(0.0, sigma * math.sqrt(1.0 - rho**2), n)
+    r = np.empty(n)
+    r[0] = rng.normal(0.0, sigma)
+    for k in range(1, n):
+        r[k] = rho * r[k - 1] + e[k]
+    cov = newey_west_covariance([(np.ones((n, 1)), r, 1)], np.zeros((0, 1)))
+    expected = sigma**2 / n * (1.0 + rho) / (1.0 - rho)
+    assert cov[0, 0] == pytest.approx(expected, rel=0.1)

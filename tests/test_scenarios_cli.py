@@ -16,7 +16,7 @@ import pytest
 from fmu_model import ModelParameters
 from fmu_model.export_native import build_native_fmu
 from identifier.logs import read_log
-from scenarios.cli import main
+from scenarios.cli import PROG, main
 from scenarios.maneuvers import turning_circle, zigzag
 from scenarios.metrics import turning_metrics, zigzag_metrics
 from scenarios.pipeline import maneuver_seed, read_fmu_info, reference_runs
@@ -332,11 +332,45 @@ def test_file_that_is_not_an_fmu(tmp_path, capsys):
         ["turning-circle", "--fmu", "x.fmu", "--rudder-deg", "0"],
         ["zigzag", "--fmu", "x.fmu", "--heading-deg", "nan"],
         ["validate", "--fmu", "x.fmu"],  # --report missing
+        ["zigzag", "--fmu", "x.fmu", "--reversals", "0"],
+        ["zigzag", "--fmu", "x.fmu", "--reversals", "two"],
     ],
-    ids=["unknown-maneuver", "zero-rudder", "nan-heading", "missing-option"],
+    ids=[
+        "unknown-maneuver",
+        "zero-rudder",
+        "nan-heading",
+        "missing-option",
+        "no-reversals",
+        "reversals-not-a-number",
+    ],
 )
 def test_usage_errors_exit_2(argv, capsys):
     with pytest.raises(SystemExit) as excinfo:
         main(argv)
     assert excinfo.value.code == 2
     assert "error:" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("option", "value"), [("--uncertainty-samples", "5"), ("--scheduler", "tcp://h:8786")]
+)
+def test_validate_options_without_params_are_the_subcommands_usage_error(option, value, capsys):
+    with pytest.raises(SystemExit) as excinfo:
+        main(["validate", "--fmu", "x.fmu", "--report", "r", option, value])
+    assert excinfo.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"usage: {PROG} validate ")
+    assert (
+        err.splitlines()[-1]
+        == f"{PROG} validate: error: {option} needs --params (the FMU's params.json)"
+    )
+
+
+def test_validate_help_shows_single_percent_signs(capsys):
+    with pytest.raises(SystemExit) as excinfo:
+        main(["validate", "--help"])
+    assert excinfo.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
+    assert "%%" not in out
+    assert "95 % intervals of the predicted quantities" in out
+    assert "exceeds P % (overshoot angles" in out
