@@ -11,25 +11,15 @@ compiles with ``$CC`` when it is set.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from fmu_model import argtypes
 from fmu_model.errors import FmuBuildError
 from fmu_model.params import ParamsFormatError, load_params
 
 DEFAULT_PARAMS = Path("build") / "params.json"
-
-
-def _positive_seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
-    return value
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -53,7 +43,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--max-step-s",
-        type=_positive_seconds,
+        type=argtypes.positive,
         default=None,
         metavar="S",
         help="largest internal RK4 step inside doStep [s] (default 0.05)",

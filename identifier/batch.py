@@ -81,7 +81,14 @@ from typing import Any
 
 import numpy as np
 
-from fmu_model import ModelParameters, ParamsFormatError, get_model, model_names, save_params
+from fmu_model import (
+    ModelParameters,
+    ParamsFormatError,
+    argtypes,
+    get_model,
+    model_names,
+    save_params,
+)
 from fmu_model.atomic import write_atomic
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_native import build_native_fmu, osp_sidecar_path
@@ -820,16 +827,6 @@ def format_failures(summary: BatchSummary) -> Sequence[str]:
 # --------------------------------------------------------------------------- command line
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected at least 1, got {text!r}")
-    return value
-
-
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Add the ``batch`` command to the subparsers ``sub`` of ``python -m identifier``."""
     batch = sub.add_parser(
@@ -843,7 +840,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--scheduler", metavar="ADDRESS", help="existing dask scheduler (default: LocalCluster)"
     )
     batch.add_argument(
-        "--workers", type=_positive_int, default=2, metavar="N", help="LocalCluster workers"
+        "--workers", type=argtypes.count(1), default=2, metavar="N", help="LocalCluster workers"
     )
     batch.add_argument(
         "--model", choices=model_names(), help=f"default model (default: {DEFAULT_MODEL})"

@@ -13,32 +13,11 @@ from collections.abc import Sequence
 
 from tqdm import tqdm
 
-from fmu_model import DEFAULT_MODEL, ParamsFormatError, model_names, save_params
+from fmu_model import DEFAULT_MODEL, ParamsFormatError, argtypes, model_names, save_params
 from identifier import batch, crossval, ingest
 from identifier.errors import IdentificationError, LogFormatError
 from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.logs import read_log
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
-def _positive_or_inf(text: str) -> float:
-    """Parse a positive number or ``inf`` (``math.inf``); reject 0, negatives and nan."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number or inf, got {text!r}") from None
-    if not value > 0.0:  # also false for nan
-        raise argparse.ArgumentTypeError(f"expected a positive number or inf, got {text!r}")
-    return value
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -52,14 +31,16 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("logs", nargs="+", metavar="LOG.csv", help="trial logs (DESIGN.md format)")
     fit.add_argument("-o", "--output", required=True, metavar="params.json")
     fit.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
-    fit.add_argument("--length-m", type=_positive, help="ship length [m] (default: from logs)")
+    fit.add_argument(
+        "--length-m", type=argtypes.positive, help="ship length [m] (default: from logs)"
+    )
     fit.add_argument(
         "--initial",
         choices=("equation-error", "zero"),
         default="equation-error",
         help="EKF start: least-squares fit (default) or the paper's zero start with P0 = alpha I",
     )
-    fit.add_argument("--alpha", type=_positive, default=1.0, help="alpha of --initial zero")
+    fit.add_argument("--alpha", type=argtypes.positive, default=1.0, help="alpha of --initial zero")
     fit.add_argument(
         "--measurements",
         choices=("track", "velocities"),
@@ -68,13 +49,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     fit.add_argument(
         "--max-substep-s",
-        type=_positive_or_inf,
+        type=argtypes.positive_or_inf,
         default=0.1,
         help="largest Euler substep of the EKF [s] (inf: one step per sample, the paper)",
     )
     fit.add_argument("--param-random-walk", type=float, default=1e-4, metavar="RHO")
-    fit.add_argument("--position-noise-m", type=_positive, help="logger position noise [m]")
-    fit.add_argument("--heading-noise-deg", type=_positive, help="logger heading noise [deg]")
+    fit.add_argument("--position-noise-m", type=argtypes.positive, help="logger position noise [m]")
+    fit.add_argument(
+        "--heading-noise-deg", type=argtypes.positive, help="logger heading noise [deg]"
+    )
     fit.add_argument("--plot", metavar="DIR", help="write track, velocity, convergence PNGs")
     fit.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     fit.add_argument(

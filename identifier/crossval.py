@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from fmu_model import DEFAULT_MODEL, ModelParameters, ParamsFormatError, model_names
+from fmu_model import DEFAULT_MODEL, ModelParameters, ParamsFormatError, argtypes, model_names
 from fmu_model.atomic import write_atomic
 from identifier.errors import IdentificationError, LogFormatError
 from identifier.identify import FitSettings, identify
@@ -590,17 +590,6 @@ def run_cross_validation(
 # --------------------------------------------------------------------------------------
 
 
-def _positive(text: str) -> float:
-    """Argument type of ``--length-m``: a positive finite number (as ``fit``'s)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Add the ``crossval`` command to the subparsers ``sub`` of ``python -m identifier``."""
     cv = sub.add_parser(
@@ -631,7 +620,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     cv.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     cv.add_argument("--refine", action="store_true", help="output-error refinement after the EKF")
-    cv.add_argument("--length-m", type=_positive, help="ship length [m] (default: from logs)")
+    cv.add_argument(
+        "--length-m", type=argtypes.positive, help="ship length [m] (default: from logs)"
+    )
     cv.add_argument("--json", metavar="OUT", help="write the results as JSON")
     cv.add_argument("--quiet", action="store_true", help="no table on stdout")
     return cv

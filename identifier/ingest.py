@@ -153,6 +153,7 @@ import numpy.typing as npt
 import pynmea2
 import pyproj
 
+from fmu_model import argtypes
 from identifier.errors import LogFormatError
 from identifier.logs import MIN_SAMPLES, ManeuverLog, write_log
 
@@ -1761,29 +1762,6 @@ def _metadata(
 # --------------------------------------------------------------------------- command line
 
 
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
-def _count(minimum: int) -> Callable[[str], int]:
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text!r}")
-        return value
-
-    return parse
-
-
 def _vessel(text: str) -> str:
     if not text.strip() or text != text.strip() or any(c in text for c in "\r\n\0"):
         raise argparse.ArgumentTypeError(f"expected a one-line name, got {text!r}")
@@ -1825,7 +1803,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--format", choices=("auto", "nmea", "csv"), default="auto", help="default: from content"
     )
     convert.add_argument("--vessel", type=_vessel, help="written as '# vessel:'")
-    convert.add_argument("--length-m", type=_positive_float, help="ship length [m]")
+    convert.add_argument("--length-m", type=argtypes.positive, help="ship length [m]")
     convert.add_argument(
         "--rudder-positive",
         choices=("starboard", "port"),
@@ -1839,22 +1817,22 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="CSV 'heading' column unit (default deg; heading_deg/heading_rad: from the name)",
     )
     convert.add_argument(
-        "--rate-hz", type=_positive_float, help="resample at this rate [Hz] (default: fix times)"
+        "--rate-hz", type=argtypes.positive, help="resample at this rate [Hz] (default: fix times)"
     )
     convert.add_argument(
         "--max-gap-s",
-        type=_positive_float,
+        type=argtypes.positive,
         default=DEFAULT_MAX_GAP_S,
         help=f"split where a stream has no sample for longer [s] (default {DEFAULT_MAX_GAP_S:g})",
     )
     convert.add_argument(
         "--min-samples",
-        type=_count(2),
+        type=argtypes.count(2),
         default=MIN_SAMPLES,
         help=f"drop shorter pieces (default {MIN_SAMPLES})",
     )
     convert.add_argument(
-        "--shaft", type=_count(0), help="NMEA RPM shaft number (default: the only one)"
+        "--shaft", type=argtypes.count(0), help="NMEA RPM shaft number (default: the only one)"
     )
     convert.add_argument(
         "--allow-missing-checksum",

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from fmu_model import ParamsFormatError
+from fmu_model import ParamsFormatError, argtypes
 from fmu_model.errors import FmuBuildError
 from identifier.errors import IdentificationError, LogFormatError
 from scenarios.imo import Criterion
@@ -105,59 +105,11 @@ _STEADY_FRACTION = 0.3
 # ---------------------------------------------------------------- argument types
 
 
-def _number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return value
-
-
-def _positive(text: str) -> float:
-    value = _number(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
-def _non_negative(text: str) -> float:
-    value = _number(text)
-    if value < 0.0:
-        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
-    return value
-
-
 def _non_zero(text: str) -> float:
-    value = _number(text)
+    value = argtypes.finite(text)
     if value == 0.0:
         raise argparse.ArgumentTypeError("expected a non-zero angle (the sign gives the side)")
     return value
-
-
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a seed >= 0, got {text!r}")
-    return value
-
-
-def _count(text: str, minimum: int = 0) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < minimum:
-        raise argparse.ArgumentTypeError(f"expected a number >= {minimum}, got {text!r}")
-    return value
-
-
-def _positive_count(text: str) -> int:
-    return _count(text, 1)
 
 
 def _angle_list(text: str) -> tuple[float, ...]:
@@ -195,20 +147,26 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     fmu_run = argparse.ArgumentParser(add_help=False, parents=[common])
     fmu_run.add_argument("--fmu", required=True, metavar="F", help="FMI 2.0 co-simulation FMU")
     fmu_run.add_argument(
-        "--speed-mps", type=_positive, metavar="U", help="approach speed [m/s] (default: u0)"
+        "--speed-mps",
+        type=argtypes.positive,
+        metavar="U",
+        help="approach speed [m/s] (default: u0)",
     )
     fmu_run.add_argument(
-        "--rpm", type=_non_negative, metavar="N", help="propeller speed [rpm] (default: start)"
+        "--rpm",
+        type=argtypes.non_negative,
+        metavar="N",
+        help="propeller speed [rpm] (default: start)",
     )
     fmu_run.add_argument(
         "--rudder-rate-deg-s",
-        type=_positive,
+        type=argtypes.positive,
         default=DEFAULT_RUDDER_RATE_DEG_S,
         metavar="R",
         help=f"steering-gear rate [deg/s] (default {DEFAULT_RUDDER_RATE_DEG_S})",
     )
     fmu_run.add_argument(
-        "--dt-s", type=_positive, default=0.1, metavar="S", help="communication step [s]"
+        "--dt-s", type=argtypes.positive, default=0.1, metavar="S", help="communication step [s]"
     )
 
     outputs = argparse.ArgumentParser(add_help=False, parents=[fmu_run])
@@ -216,11 +174,11 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     outputs.add_argument("--csv", metavar="OUT", help="write the trajectory as a trial log")
     outputs.add_argument("--plot", metavar="PNG", help="write a figure")
     outputs.add_argument(
-        "--max-time-s", type=_positive, metavar="S", help="time limit (default 60 L/U)"
+        "--max-time-s", type=argtypes.positive, metavar="S", help="time limit (default 60 L/U)"
     )
     outputs.add_argument(
         "--approach-s",
-        type=_non_negative,
+        type=argtypes.non_negative,
         default=0.0,
         metavar="S",
         help="straight run before execute, recorded with negative times [s] (default 0)",
@@ -238,11 +196,13 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
         help="manoeuvre to log (repeat for several)",
     )
     p.add_argument("--scale", choices=("full", "model"), default="full")
-    p.add_argument("--rate-hz", type=_positive, default=1.0, help="logger rate [Hz]")
-    p.add_argument("--position-noise-m", type=_non_negative, default=1.0, metavar="S")
-    p.add_argument("--heading-noise-deg", type=_non_negative, default=0.1, metavar="S")
-    p.add_argument("--seed", type=_seed, default=0, help="run seed; each manoeuvre derives its own")
-    p.add_argument("--approach-s", type=_non_negative, default=60.0, help="approach [s]")
+    p.add_argument("--rate-hz", type=argtypes.positive, default=1.0, help="logger rate [Hz]")
+    p.add_argument("--position-noise-m", type=argtypes.non_negative, default=1.0, metavar="S")
+    p.add_argument("--heading-noise-deg", type=argtypes.non_negative, default=0.1, metavar="S")
+    p.add_argument(
+        "--seed", type=argtypes.count(0), default=0, help="run seed; each manoeuvre derives its own"
+    )
+    p.add_argument("--approach-s", type=argtypes.non_negative, default=60.0, help="approach [s]")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
 
     p = sub.add_parser("turning-circle", parents=[outputs], help="turning circle on an FMU")
@@ -255,7 +215,7 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     )
     p.add_argument(
         "--heading-change-deg",
-        type=_positive,
+        type=argtypes.positive,
         metavar="DEG",
         default=540.0,
         help="stop after this heading change [deg] (default 540)",
@@ -263,15 +223,23 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
 
     p = sub.add_parser("zigzag", parents=[outputs], help="zig-zag test on an FMU")
     p.add_argument(
-        "--rudder-deg", type=_positive, default=10.0, metavar="DEG", help="rudder angle [deg]"
+        "--rudder-deg",
+        type=argtypes.positive,
+        default=10.0,
+        metavar="DEG",
+        help="rudder angle [deg]",
     )
     p.add_argument(
-        "--heading-deg", type=_positive, default=10.0, metavar="DEG", help="check heading [deg]"
+        "--heading-deg",
+        type=argtypes.positive,
+        default=10.0,
+        metavar="DEG",
+        help="check heading [deg]",
     )
     p.add_argument("--port-first", action="store_true", help="first rudder to port")
     p.add_argument(
         "--reversals",
-        type=_positive_count,
+        type=argtypes.count(1),
         default=4,
         metavar="N",
         help="rudder reversals (default 4)",
@@ -285,7 +253,7 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
         metavar="LIST",
         help=f'rudder angles in order [deg] (default "{DEFAULT_SPIRAL_STEPS_DEG}")',
     )
-    p.add_argument("--hold-s", type=_positive, help="hold per step [s] (default 15 L/U)")
+    p.add_argument("--hold-s", type=argtypes.positive, help="hold per step [s] (default 15 L/U)")
 
     p = sub.add_parser("pullout", parents=[outputs], help="pull-out test on an FMU")
     p.add_argument(
@@ -295,8 +263,10 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
         metavar="DEG",
         help="rudder [deg], < 0 to port",
     )
-    p.add_argument("--turn-s", type=_positive, help="steady turn before release [s] (15 L/U)")
-    p.add_argument("--release-s", type=_positive, help="run after release [s] (15 L/U)")
+    p.add_argument(
+        "--turn-s", type=argtypes.positive, help="steady turn before release [s] (15 L/U)"
+    )
+    p.add_argument("--release-s", type=argtypes.positive, help="run after release [s] (15 L/U)")
 
     p = sub.add_parser("imo", parents=[fmu_run], help="IMO MSC.137(76) criteria of an FMU")
     p.add_argument("--strict", action="store_true", help="exit 3 when any criterion fails")
@@ -309,11 +279,11 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     p.add_argument("--report", required=True, metavar="DIR", help="report folder")
     p.add_argument(
         "--max-error-pct",
-        type=_non_negative,
+        type=argtypes.non_negative,
         metavar="P",
         help="exit 3 when any |error| exceeds P %% (overshoot angles: relative error too)",
     )
-    p.add_argument("--dt-s", type=_positive, default=0.1, metavar="S", help="step [s]")
+    p.add_argument("--dt-s", type=argtypes.positive, default=0.1, metavar="S", help="step [s]")
     band = p.add_argument_group(
         "uncertainty",
         "95 % intervals of the predicted quantities from the coefficient covariance "
@@ -326,19 +296,21 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     )
     band.add_argument(
         "--uncertainty-samples",
-        type=_count,
+        type=argtypes.count(0),
         metavar="N",
         help=f"Monte-Carlo samples (default {DEFAULT_UNCERTAINTY_SAMPLES} with --params; "
         "0: no intervals)",
     )
     band.add_argument(
         "--uncertainty-dt-s",
-        type=_positive,
+        type=argtypes.positive,
         default=0.5,
         metavar="S",
         help="step of the Monte-Carlo runs [s] (default 0.5)",
     )
-    band.add_argument("--seed", type=_seed, default=0, help="seed of the draw (default 0)")
+    band.add_argument(
+        "--seed", type=argtypes.count(0), default=0, help="seed of the draw (default 0)"
+    )
     band.add_argument(
         "--scheduler",
         metavar="ADDRESS",
@@ -346,7 +318,7 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     )
     band.add_argument(
         "--workers",
-        type=_positive_count,
+        type=argtypes.count(1),
         default=2,
         metavar="K",
         help="workers of the local cluster (default 2)",

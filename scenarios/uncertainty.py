@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from fmu_model import ModelParameters, numeric_model, rk4_step
+from fmu_model import ModelParameters, argtypes, numeric_model, rk4_step
 from scenarios.maneuvers import DEFAULT_RUDDER_RATE_DEG_S, Program, standard_set
 from scenarios.metrics import MetricsError, turning_metrics, zigzag_metrics
 from scenarios.trajectory import empty_trajectory
@@ -882,46 +882,6 @@ def monte_carlo_metrics(
 _PROG = "python -m scenarios uncertainty"
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
-def _non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be non-negative, got {value}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
-    return value
-
-
-def _non_negative_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(value) and value >= 0.0):
-        raise argparse.ArgumentTypeError(f"must be a non-negative number, got {text!r}")
-    return value
-
-
 def add_uncertainty_command(subparsers: Any) -> None:
     """Add ``uncertainty`` to the subparsers of ``python -m scenarios``.
 
@@ -941,9 +901,9 @@ def add_uncertainty_command(subparsers: Any) -> None:
     )
     p.add_argument("--params", required=True, metavar="FILE", help="params.json with covariance")
     p.add_argument(
-        "--samples", type=_positive_int, default=200, metavar="N", help="samples (default 200)"
+        "--samples", type=argtypes.count(1), default=200, metavar="N", help="samples (default 200)"
     )
-    p.add_argument("--seed", type=_non_negative_int, default=0, metavar="S", help="draw seed")
+    p.add_argument("--seed", type=argtypes.count(0), default=0, metavar="S", help="draw seed")
     p.add_argument(
         "--scheduler",
         metavar="ADDRESS",
@@ -951,27 +911,27 @@ def add_uncertainty_command(subparsers: Any) -> None:
     )
     p.add_argument(
         "--workers",
-        type=_positive_int,
+        type=argtypes.count(1),
         default=2,
         metavar="K",
         help="workers of the local cluster (default 2)",
     )
-    p.add_argument("--chunk-size", type=_positive_int, metavar="M", help="samples per task")
+    p.add_argument("--chunk-size", type=argtypes.count(1), metavar="M", help="samples per task")
     p.add_argument(
-        "--speed-mps", type=_positive_float, metavar="U", help="approach speed (default nominal)"
+        "--speed-mps", type=argtypes.positive, metavar="U", help="approach speed (default nominal)"
     )
     p.add_argument(
-        "--rpm", type=_non_negative_float, metavar="N", help="propeller speed (default nominal)"
+        "--rpm", type=argtypes.non_negative, metavar="N", help="propeller speed (default nominal)"
     )
     p.add_argument(
         "--rudder-rate-deg-s",
-        type=_positive_float,
+        type=argtypes.positive,
         default=math.degrees(DEFAULT_RUDDER_RATE_RADPS),
         metavar="R",
         help="steering-gear rate [deg/s] (default 2.34)",
     )
     p.add_argument(
-        "--dt-s", type=_positive_float, default=0.5, metavar="S", help="step [s] (default 0.5)"
+        "--dt-s", type=argtypes.positive, default=0.5, metavar="S", help="step [s] (default 0.5)"
     )
     p.add_argument("--json", metavar="OUT", help="write the statistics as JSON")
     p.add_argument(

@@ -1,0 +1,65 @@
+"""Argument types shared by the command lines (``identifier``, ``scenarios``, ``build_fmu.py``).
+
+Each turns one command-line word into a value or raises ``argparse.ArgumentTypeError``
+with the message argparse prints after ``argument --name:`` (exit status 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+
+
+def finite(text: str) -> float:
+    """Parse a finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def positive(text: str) -> float:
+    """Parse a positive finite number."""
+    value = finite(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def non_negative(text: str) -> float:
+    """Parse a finite number ≥ 0."""
+    value = finite(text)
+    if value < 0.0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
+    return value
+
+
+def positive_or_inf(text: str) -> float:
+    """Parse a positive number or ``inf`` (``math.inf``); reject 0, negatives and nan."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number or inf, got {text!r}") from None
+    if not value > 0.0:  # also false for nan
+        raise argparse.ArgumentTypeError(f"expected a positive number or inf, got {text!r}")
+    return value
+
+
+def count(minimum: int) -> Callable[[str], int]:
+    """Return a parser of whole numbers ≥ ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected a whole number >= {minimum}, got {text!r}")
+        return value
+
+    parse.__name__ = f"count(minimum={minimum})"
+    return parse
