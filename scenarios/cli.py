@@ -87,7 +87,11 @@ from scenarios.report import (
     write_report,
 )
 from scenarios.synthesize import MANEUVERS
-from scenarios.uncertainty import add_uncertainty_command, run_uncertainty_command
+from scenarios.uncertainty import (
+    add_cluster_arguments,
+    add_uncertainty_command,
+    run_uncertainty_command,
+)
 
 PROG = "python -m scenarios"
 EXIT_DATA_ERROR = 1
@@ -311,18 +315,7 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     band.add_argument(
         "--seed", type=argtypes.count(0), default=0, help="seed of the draw (default 0)"
     )
-    band.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="dask scheduler, e.g. tcp://host:8786 (default: a local cluster)",
-    )
-    band.add_argument(
-        "--workers",
-        type=argtypes.count(1),
-        default=2,
-        metavar="K",
-        help="workers of the local cluster (default 2)",
-    )
+    add_cluster_arguments(band)
 
     add_uncertainty_command(sub)
 

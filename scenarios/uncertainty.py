@@ -882,6 +882,22 @@ def monte_carlo_metrics(
 _PROG = "python -m scenarios uncertainty"
 
 
+def add_cluster_arguments(parser: Any) -> None:
+    """Add ``--scheduler`` and ``--workers`` (where the Monte-Carlo samples run)."""
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="dask scheduler address, e.g. tcp://host:8786 (default: a local cluster)",
+    )
+    parser.add_argument(
+        "--workers",
+        type=argtypes.count(1),
+        default=2,
+        metavar="K",
+        help="workers of the local cluster (default 2)",
+    )
+
+
 def add_uncertainty_command(subparsers: Any) -> None:
     """Add ``uncertainty`` to the subparsers of ``python -m scenarios``.
 
@@ -904,18 +920,7 @@ def add_uncertainty_command(subparsers: Any) -> None:
         "--samples", type=argtypes.count(1), default=200, metavar="N", help="samples (default 200)"
     )
     p.add_argument("--seed", type=argtypes.count(0), default=0, metavar="S", help="draw seed")
-    p.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="dask scheduler address, e.g. tcp://host:8786 (default: a local cluster)",
-    )
-    p.add_argument(
-        "--workers",
-        type=argtypes.count(1),
-        default=2,
-        metavar="K",
-        help="workers of the local cluster (default 2)",
-    )
+    add_cluster_arguments(p)
     p.add_argument("--chunk-size", type=argtypes.count(1), metavar="M", help="samples per task")
     p.add_argument(
         "--speed-mps", type=argtypes.positive, metavar="U", help="approach speed (default nominal)"
