@@ -21,9 +21,9 @@ _FAMILIES: dict[str, ModelFamily] = {}
 
 DEFAULT_MODEL = "prime-rudder"
 """The default structure: the one that best predicts held-out manoeuvres
-(benchmarks/fidelity.md: trained on KVLCC2 zig-zags only and refined, it predicts the
-35° turns within 6.1 %, where prime-modulus, prime-cubic and shi2009 miss by 98 %,
-never turn through 180° and 45 %). The shape constants are chosen from the data."""
+(benchmarks/fidelity.md: trained on KVLCC2 zig-zags only, it predicts advance, transfer
+and tactical diameter of both 35° turns within 6.1 %, where prime-modulus, prime-cubic
+and shi2009 miss by 98 %, never turn through 180° and 45 %)."""
 
 
 def register_model(structure: ModelStructure) -> ModelStructure:
@@ -346,9 +346,10 @@ PRIME_MODULUS = register_model(
 # propeller slipstream, u_R² = u² + k·(nL)², and the effective angle of attack reduced
 # by the flow straightened at the rudder, α_R = δ + atan(γ_eff·w/u_R) with w = v + l·r·L
 # the hull's transverse velocity at the rudder (x_R = l·L). The straightening differs
-# with the side the flow comes from (Yasukawa & Yoshimura (2015), eqs. (24)–(27), γ_R
-# for β_R < 0 and β_R > 0; KVLCC2: 0.395 and 0.640), written γ_eff·w = γ·w − Δγ·|w|:
-# γ_eff = γ − Δγ for w > 0, γ + Δγ for w < 0. ε, κ and the wake are folded into k and γ.
+# with the side the flow comes from (the MMG rudder model of Yasukawa & Yoshimura (2015),
+# reference/kvlcc2_mmg.md §5: γ_R⁺ for β_R > 0, i.e. w < 0, γ_R⁻ for w > 0; KVLCC2 0.640
+# and 0.395), written γ_eff·w = γ·w − Δγ·|w|: γ_eff = γ − Δγ for w > 0, γ + Δγ for
+# w < 0. ε, κ and the wake are folded into k and γ, and F_N ∝ u_R² neglects v_R².
 # F_N·sin δ enters surge, F_N·cos δ sway and F_N·cos δ/L yaw, one gain each (X_R, Y_R,
 # N_R). The shape (k, γ, Δγ, l) is fixed before identification, inside physical
 # bounds, by the smallest equation-error residual (``identifier.shape``): the u² and n²

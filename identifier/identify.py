@@ -7,7 +7,10 @@ smoothed states (eq. (9)), and the coefficients are estimated by the augmented-s
 EKF (``identifier.ekf``). Where the paper starts the EKF from zero coefficients with
 P(0) = α I, the default here starts from the equation-error least-squares fit on the
 same smoothed data (``identifier.equation_error``), with its covariance inflated as
-prior; ``initial="zero"`` gives the paper's start.
+prior; ``initial="zero"`` gives the paper's start. For a model family
+(``prime-rudder``) the shape constants not given in the model name are chosen first
+from the same data (``identifier.shape``); ``refine`` adds the output-error
+refinement (``identifier.refine``).
 """
 
 from __future__ import annotations
@@ -261,11 +264,11 @@ def identify(
             progress(log.n_samples)
 
     nominal_speed_mps, nominal_n_rps = _nominal(logs, tracks)
-    family = parse_family(settings.model)
+    family, fixed = parse_family(settings.model) or (None, {})
     shape = None
-    if family is not None and len(family[1]) < len(family[0].shape):
+    if family is not None and len(fixed) < len(family.shape):  # a family, shape to choose
         shape = select_shape(
-            family[0], segments, length, nominal_speed_mps, nominal_n_rps, fixed=family[1]
+            family, segments, length, nominal_speed_mps, nominal_n_rps, fixed=fixed
         )
     model = settings.model if shape is None else shape.model
     structure = get_model(model)
