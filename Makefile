@@ -26,8 +26,12 @@ test: lint
 	$(PY) -m pytest -n 2 -q
 
 bench: $(STAMP)
-	$(PY) benchmarks/identify.py
 	$(PY) benchmarks/fmu_step.py
+	$(PY) benchmarks/identify.py
+	$(PY) benchmarks/batch.py
+	$(PY) benchmarks/uncertainty.py
+	$(PY) benchmarks/fidelity.py
+	$(PY) benchmarks/sensitivity.py
 
 clean:
 	rm -rf $(VENV) build

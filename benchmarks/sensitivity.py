@@ -26,7 +26,8 @@ from the reference approach through the driver of ``benchmarks/fidelity.py``
 the same driver: advance, transfer and tactical diameter of the 35° turn
 (predicted/true − 1 [%]) and first and second overshoot of both zig-zags
 (predicted − true [°]). Cells are mean ± standard deviation over the realisations; the
-worst columns are the largest magnitude over all realisations. The identification wall
+worst columns are the largest magnitude over all realisations (the turning one also
+over the tactical diameter of the held-out port turn). The identification wall
 time is the mean per realisation, after a warm-up fit (numba compilation not timed).
 
 Prints a markdown table and writes it to ``--out``; progress goes to stderr.
@@ -332,7 +333,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "rate [Hz]",
         *(f"{key} [%]" for key in TURNING),
         *(f"{key} [°]" for key in OVERSHOOTS),
-        "worst adv/trf/TD [%]",
+        "worst adv/trf/TD, both turns [%]",
         "worst OS [°]",
         "identification [s]",
     ]
@@ -355,7 +356,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
         "Errors: distances predicted/true − 1 [%], overshoots predicted − true [°], "
         "mean ± standard deviation over the realisations; worst = largest magnitude over "
-        "all realisations and indices of the group; n/a = the run diverged, never reached "
+        "all realisations and indices of the group, the turning one including the held-out "
+        "35° port turn; n/a = the run diverged, never reached "
         "the index, or the identification failed. The varied setting is in bold. "
         "Identification = mean wall time of one fit of the three logs.",
         "",

@@ -938,7 +938,7 @@ def run_demo(
         warnings=(
             *validation.warnings,
             f"the model was identified from the logs {trained} only: every other "
-            "manoeuvre below is a prediction of one it has not seen",
+            "manoeuvre in the comparison is a prediction of one it has not seen",
         ),
     )
     stage_done(

@@ -46,6 +46,8 @@ def test_quick_demo_produces_logs_params_fmu_and_report(tmp_path, capsys):
     text = (report / "report.md").read_text()
     assert "| 35° port turn: tactical diameter |" in text
     assert "IMO MSC.137(76)" in text
+    trained = ", ".join(config.maneuvers)
+    assert f"identified from the logs {trained} only" in text  # the rest are predictions
     for png in ("turning-circles.png", "zigzag-10-10-stbd.png", "zigzag-20-20-stbd.png"):
         assert (report / png).read_bytes().startswith(PNG_MAGIC), png
     doc = json.loads((report / "validation.json").read_text())
