@@ -114,6 +114,12 @@ class ShapeConstant:
         Physical bounds (inclusive).
     default : float
         Value of the bare family name.
+    grid : tuple of float
+        Starting points of the identifier's search (``identifier.shape``), in units of
+        ``grid_unit``.
+    grid_unit : {"1", "slipstream"}
+        "1": the grid is in the constant's own value; "slipstream": in units of
+        (U₀/(n₀L))², so that the grid means the same share of the inflow on every ship.
 
     """
 
@@ -121,6 +127,8 @@ class ShapeConstant:
     lower: float
     upper: float
     default: float
+    grid: tuple[float, ...]
+    grid_unit: str = "1"
 
     @property
     def name(self) -> str:
@@ -374,11 +382,14 @@ PRIME_RUDDER = register_family(
         shape=(
             # k: (nL)² share of the rudder inflow; 4e-4 is a single-screw ship at an
             # advance ratio of about 0.5 with D/L = 0.03. Bounds: none to a rudder
-            # that sees 25 × U² at the nominal point of a fast small ship.
-            ShapeConstant(SLIPSTREAM_K, 0.0, 0.05, 4e-4),
-            ShapeConstant(STRAIGHTENING_GAMMA, 0.0, 1.0, 0.5),
-            ShapeConstant(STRAIGHTENING_ASYMMETRY, -0.3, 0.3, 0.0),
-            ShapeConstant(RUDDER_POSITION_L, -1.5, -0.5, -1.0),
+            # that sees 25 × U² at the nominal point of a fast small ship. Its grid is
+            # the slipstream part k(n₀L)² of the inflow as a multiple of U₀².
+            ShapeConstant(
+                SLIPSTREAM_K, 0.0, 0.05, 4e-4, (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0), "slipstream"
+            ),
+            ShapeConstant(STRAIGHTENING_GAMMA, 0.0, 1.0, 0.5, (0.0, 0.25, 0.5, 0.75, 1.0)),
+            ShapeConstant(STRAIGHTENING_ASYMMETRY, -0.3, 0.3, 0.0, (-0.3, 0.0, 0.3)),
+            ShapeConstant(RUDDER_POSITION_L, -1.5, -0.5, -1.0, (-1.5, -1.0, -0.5)),
         ),
         surge=(
             *_SURGE_PRIME[:6],

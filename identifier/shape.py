@@ -10,10 +10,11 @@ three equations relative to their signal,
 
     J(shape) = Σ_j ‖a_j − Φ_j(shape) θ̂_j(shape)‖² / ‖a_j‖²,   j ∈ {u, v, r},
 
-first on a grid, then polished from the best grid point with a bounded Powell search
-(``scipy.optimize.minimize``). Nothing of a held-out manoeuvre is used. The slipstream
-share is searched as κ = k (n₀L/U₀)², the (nL)² part of the rudder inflow relative
-to U₀² at the nominal approach, so that one grid fits every ship.
+first on the grid each constant declares (``ShapeConstant.grid``), then polished from
+the best grid point with a bounded Powell search (``scipy.optimize.minimize``). Nothing
+of a held-out manoeuvre is used. The slipstream share k is searched as κ = k (n₀L/U₀)²,
+the (nL)² part of the rudder inflow relative to U₀² at the nominal approach, so that one
+grid fits every ship.
 """
 
 from __future__ import annotations
@@ -28,14 +29,9 @@ from scipy.optimize import minimize
 
 from fmu_model import get_model
 from fmu_model.numeric import family_regressors
-from fmu_model.variants import ModelFamily
+from fmu_model.variants import ModelFamily, ShapeConstant
 from identifier.ekf import EkfSegment
 from identifier.equation_error import fit_regression, regression_samples
-
-# Grid of the search (the polish then moves freely inside the bounds).
-KAPPA_GRID = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
-FRACTION_GRID = (0.0, 0.25, 0.5, 0.75, 1.0)  # for constants bounded in [0, 1]
-OTHER_GRID = 3  # points across the bounds of any other constant
 
 
 @dataclass(frozen=True)
@@ -64,13 +60,9 @@ class ShapeSelection:
     evaluations: int
 
 
-def _axis(family: ModelFamily, index: int, kappa_to_k: float) -> list[float]:
-    c = family.shape[index]
-    if c.name == "k":
-        return [min(kappa * kappa_to_k, c.upper) for kappa in KAPPA_GRID]
-    if (c.lower, c.upper) == (0.0, 1.0):
-        return list(FRACTION_GRID)
-    return list(np.linspace(c.lower, c.upper, OTHER_GRID))
+def _unit(constant: ShapeConstant, slipstream: float) -> float:
+    """Value of one grid unit of ``constant`` (``ShapeConstant.grid_unit``)."""
+    return (slipstream or 1.0) if constant.grid_unit == "slipstream" else 1.0
 
 
 def select_shape(
@@ -124,15 +116,18 @@ def select_shape(
         return values
 
     n_l = nominal_n_rps * length_m
-    kappa_to_k = (nominal_speed_mps / n_l) ** 2 if n_l > 0.0 else 0.0
-    axes = [_axis(family, i, kappa_to_k) for i in free]
+    slipstream = (nominal_speed_mps / n_l) ** 2 if n_l > 0.0 else 0.0  # (U₀/(n₀L))²
+    constants = [family.shape[i] for i in free]
+    scale = np.array([_unit(c, slipstream) for c in constants])
+    axes = [
+        [min(max(g * s, c.lower), c.upper) for g in c.grid]
+        for c, s in zip(constants, scale, strict=True)
+    ]
     scores = {values: residual(full(values)) for values in itertools.product(*axes)}
     best = np.asarray(min(scores, key=scores.__getitem__), dtype=float)
     best_score = min(scores.values())
     if free:
-        # Powell on unit-scaled constants: k is of order (U₀/n₀L)², the others of order 1.
-        constants = [family.shape[i] for i in free]
-        scale = np.array([(kappa_to_k or 1.0) if c.name == "k" else 1.0 for c in constants])
+        # Powell in grid units, where every constant is of order 1.
         polish = minimize(
             lambda z: residual(full(z * scale)),
             best / scale,
