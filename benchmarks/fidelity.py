@@ -46,7 +46,13 @@ from scenarios.metrics import MetricsError, turning_metrics, zigzag_metrics
 from scenarios.run import ModelPlant, Plant, run_program
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
 
-MODELS = ("shi2009", "prime-cubic", "prime-modulus", "prime-rudder[dgamma=0]", "prime-rudder")
+MODELS = (
+    "shi2009",
+    "prime-cubic",
+    "prime-modulus",
+    "prime-rudder[dgamma=0,dwake=0]",
+    "prime-rudder",
+)
 TRAINING = {
     "zig-zags": ("zigzag-10", "zigzag-20"),
     "all three": ("turning-35", "zigzag-10", "zigzag-20"),

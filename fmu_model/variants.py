@@ -351,24 +351,38 @@ PRIME_MODULUS = register_model(
 
 # --- Rudder force of fixed physical shape, modulus hull (reference/model_structures.md §4)
 # The rudder normal force F_N = u_R²·sin α_R with the rudder inflow mixing ship speed and
-# propeller slipstream, u_R² = u² + k·(nL)², and the effective angle of attack reduced
+# propeller slipstream, u_R² = u_P² + k·(nL)², and the effective angle of attack reduced
 # by the flow straightened at the rudder, α_R = δ + atan(γ_eff·w/u_R) with w = v + l·r·L
 # the hull's transverse velocity at the rudder (x_R = l·L). The straightening differs
 # with the side the flow comes from (the MMG rudder model of Yasukawa & Yoshimura (2015),
 # reference/kvlcc2_mmg.md §5: γ_R⁺ for β_R > 0, i.e. w < 0, γ_R⁻ for w > 0; KVLCC2 0.640
 # and 0.395), written γ_eff·w = γ·w − Δγ·|w|: γ_eff = γ − Δγ for w > 0, γ + Δγ for
 # w < 0. ε, κ and the wake are folded into k and γ, and F_N ∝ u_R² neglects v_R².
+# The ship-speed part of the inflow, u_P = u·(1 − w_P)/(1 − w_P0), recovers wake in a
+# drift as in the MMG propeller model (reference/kvlcc2_mmg.md §4):
+# (1 − w_P)/(1 − w_P0) = 1 + (1 − exp(−C₁|β_P|))·(C₂ − 1), C₂ = C₂⁺ for β_P > 0 else C₂⁻;
+# here with the saturation C₁|β|/(1 + C₁|β|) (same slope at 0, same limit, smooth but at
+# 0), C₁ = 2 (KVLCC2), β_P taken at the rudder, β = −w/U, and
+# C₂ − 1 = wake + dwake·sign(β) (KVLCC2: wake 0.35, dwake 0.25). In hard turns this
+# asymmetry offsets the one of γ (port and starboard turns of KVLCC2 differ by < 1 %).
 # F_N·sin δ enters surge, F_N·cos δ sway and F_N·cos δ/L yaw, one gain each (X_R, Y_R,
-# N_R). The shape (k, γ, Δγ, l) is fixed before identification, inside physical
-# bounds, by the smallest equation-error residual (``identifier.shape``): the u² and n²
-# parts of free rudder terms are not separable from zig-zags, a rudder force of fixed
-# shape is. Hull: the modulus basis; surge: propeller and resistance.
+# N_R). The shape (k, γ, Δγ, l, wake, dwake) is fixed before identification, inside
+# physical bounds, by the smallest equation-error residual (``identifier.shape``): the
+# u² and n² parts of free rudder terms are not separable from zig-zags, a rudder force
+# of fixed shape is. Hull: the modulus basis; surge: propeller and resistance.
 SLIPSTREAM_K = sp.Symbol("k", nonnegative=True)
 STRAIGHTENING_GAMMA = sp.Symbol("gamma", nonnegative=True)
 STRAIGHTENING_ASYMMETRY = sp.Symbol("dgamma", real=True)
 RUDDER_POSITION_L = sp.Symbol("l", real=True)
-_uR = sp.sqrt(u**2 + SLIPSTREAM_K * (n * L) ** 2)
+WAKE_RECOVERY = sp.Symbol("wake", nonnegative=True)
+WAKE_ASYMMETRY = sp.Symbol("dwake", real=True)
+WAKE_C1 = 2  # C₁ of the MMG wake model (KVLCC2, reference/kvlcc2_mmg.md §6)
 _wR = v + RUDDER_POSITION_L * r * L
+_betaR = -_wR / sp.sqrt(u**2 + v**2)
+_wake = 1 + WAKE_C1 * (WAKE_RECOVERY * sp.Abs(_betaR) + WAKE_ASYMMETRY * _betaR) / (
+    1 + WAKE_C1 * sp.Abs(_betaR)
+)
+_uR = sp.sqrt((u * _wake) ** 2 + SLIPSTREAM_K * (n * L) ** 2)
 _alphaR = delta + sp.atan((STRAIGHTENING_GAMMA * _wR - STRAIGHTENING_ASYMMETRY * sp.Abs(_wR)) / _uR)
 _FN = _uR**2 * sp.sin(_alphaR)  # rudder normal force per ½ρA_R [m²/s²]
 
@@ -376,9 +390,10 @@ PRIME_RUDDER = register_family(
     ModelFamily(
         name="prime-rudder",
         description="speed-dependent non-dimensional model, modulus hull basis, rudder force "
-        "of fixed physical shape (k, gamma, dgamma, l chosen from the data), 21 coefficients",
-        reference="Yasukawa & Yoshimura (2015) rudder model; Norrbin (1970) modulus form; "
-        "reference/model_structures.md section 4",
+        "of fixed physical shape (k, gamma, dgamma, l, wake, dwake chosen from the data), "
+        "21 coefficients",
+        reference="Yasukawa & Yoshimura (2015) rudder and wake model; Norrbin (1970) modulus "
+        "form; reference/model_structures.md section 4",
         shape=(
             # k: (nL)² share of the rudder inflow; 4e-4 is a single-screw ship at an
             # advance ratio of about 0.5 with D/L = 0.03. Bounds: none to a rudder
@@ -390,6 +405,8 @@ PRIME_RUDDER = register_family(
             ShapeConstant(STRAIGHTENING_GAMMA, 0.0, 1.0, 0.5, (0.0, 0.25, 0.5, 0.75, 1.0)),
             ShapeConstant(STRAIGHTENING_ASYMMETRY, -0.3, 0.3, 0.0, (-0.3, 0.0, 0.3)),
             ShapeConstant(RUDDER_POSITION_L, -1.5, -0.5, -1.0, (-1.5, -1.0, -0.5)),
+            ShapeConstant(WAKE_RECOVERY, 0.0, 1.0, 0.0, (0.0, 0.35, 0.7)),
+            ShapeConstant(WAKE_ASYMMETRY, -0.5, 0.5, 0.0, (-0.25, 0.0, 0.25)),
         ),
         surge=(
             *_SURGE_PRIME[:6],

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from fmu_model import ModelParameters, get_model, model_names, simulate
+from fmu_model import ModelParameters, get_model, model_names, numeric_model, simulate
 from fmu_model.structure import unit_string
 from fmu_model.variants import PRIME_RUDDER, parse_family
 from identifier.ekf import EkfSegment
@@ -24,7 +24,7 @@ COEFFICIENTS = {
     "N_v": -3.294, "N_r": -0.918, "N_vav": 11.57, "N_rar": -1.616, "N_var": -1.687,
     "N_avr": 1.906, "N_R": 0.511,
 }  # fmt: skip
-TRUE_SHAPE = {"k": 1.5e-4, "gamma": 0.52, "dgamma": 0.12, "l": -0.7}
+TRUE_SHAPE = {"k": 1.5e-4, "gamma": 0.52, "dgamma": 0.12, "l": -0.7, "wake": 0.35, "dwake": 0.25}
 LENGTH_M, SPEED_MPS, N_RPS = 320.0, 8.0, 1.75
 
 
@@ -42,12 +42,12 @@ def _truth() -> ModelParameters:
 def test_family_names_carry_their_shape() -> None:
     assert "prime-rudder" in model_names()
     default = get_model("prime-rudder")
-    assert default.name == "prime-rudder[k=0.0004,gamma=0.5,dgamma=0,l=-1]"
+    assert default.name == "prime-rudder[k=0.0004,gamma=0.5,dgamma=0,l=-1,wake=0,dwake=0]"
     assert default.n_coefficients == 21
     # Every gain is dimensionless: the regressors carry the units.
     assert set(map(unit_string, default.coefficient_units().values())) == {"1"}
     partial = get_model("prime-rudder[dgamma=0.1]")
-    assert partial.name == "prime-rudder[k=0.0004,gamma=0.5,dgamma=0.1,l=-1]"
+    assert partial.name == "prime-rudder[k=0.0004,gamma=0.5,dgamma=0.1,l=-1,wake=0,dwake=0]"
     family, fixed = parse_family("prime-rudder[dgamma=0.1, l=-0.6]") or (None, None)
     assert family is PRIME_RUDDER and fixed == {"dgamma": 0.1, "l": -0.6}
     assert parse_family("prime-modulus") is None
@@ -69,17 +69,19 @@ def test_malformed_family_names_are_rejected(name: str, message: str) -> None:
         get_model(name)
 
 
-def test_asymmetric_straightening_changes_the_rudder_force_with_the_flow_side() -> None:
-    # w = v + l r L > 0 straightens with γ − Δγ, w < 0 with γ + Δγ (variants.py).
-    phi = _truth()
-    from fmu_model import numeric_model
-
-    model = numeric_model(phi.model)
-    i = phi.names.index("Y_R")
-    u, delta = 6.0, math.radians(10.0)
+def test_rudder_force_depends_on_the_side_of_the_flow_as_in_mmg() -> None:
+    # w = v + l r L > 0 straightens with γ − Δγ, w < 0 with γ + Δγ; the wake recovers
+    # with C₂ − 1 = wake ± dwake for β = −w/U ≷ 0, saturating as C₁|β|/(1 + C₁|β|).
+    params = _truth()
+    model = numeric_model(params.model)
+    i = params.names.index("Y_R")
+    u, delta, c1 = 6.0, math.radians(10.0), 2.0
     for w in (0.3, -0.3):
         gamma = TRUE_SHAPE["gamma"] - math.copysign(TRUE_SHAPE["dgamma"], w)
-        u_r2 = u**2 + TRUE_SHAPE["k"] * (N_RPS * LENGTH_M) ** 2
+        beta = -w / math.hypot(u, w)
+        c2_minus_1 = TRUE_SHAPE["wake"] + math.copysign(TRUE_SHAPE["dwake"], beta)
+        u_p = u * (1.0 + c2_minus_1 * c1 * abs(beta) / (1.0 + c1 * abs(beta)))
+        u_r2 = u_p**2 + TRUE_SHAPE["k"] * (N_RPS * LENGTH_M) ** 2
         alpha = delta + math.atan(gamma * w / math.sqrt(u_r2))
         expected = u_r2 * math.sin(alpha) * math.cos(delta) / LENGTH_M
         got = model.regressors(u, w, 0.0, delta, N_RPS, LENGTH_M)[i]
@@ -127,6 +129,8 @@ def test_shape_search_finds_the_slipstream_share_and_fits_as_well_as_the_truth()
     assert found.residual < 0.01 * found.default_residual
     assert found.shape["k"] == pytest.approx(TRUE_SHAPE["k"], rel=0.05)
     assert found.shape["dgamma"] == pytest.approx(TRUE_SHAPE["dgamma"], abs=0.03)
+    assert found.shape["wake"] == pytest.approx(TRUE_SHAPE["wake"], abs=0.05)
+    assert found.shape["dwake"] == pytest.approx(TRUE_SHAPE["dwake"], abs=0.03)
     assert found.model == PRIME_RUDDER.structure_name(found.shape)
     # γ and l trade off along a ridge (γ·(v + l r L)); with l known, γ is found.
     known_l = select_shape(
