@@ -24,6 +24,7 @@ East) and heading ``psi`` [rad] clockwise from North.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -150,6 +151,12 @@ class ModelStructure:
 
     def coefficient_units(self) -> dict[str, tuple[int, int]]:
         """SI dimension (metre, second exponents) of every coefficient."""
+        return dict(self._coefficient_units)
+
+    @cached_property
+    def _coefficient_units(self) -> dict[str, tuple[int, int]]:
+        # Derived once per structure: sympy's simplification of a rudder regressor takes
+        # seconds, and params, FMU description and codegen all ask.
         return {
             term.coefficient: coefficient_unit(term.regressor, EQUATIONS[eq])
             for term, eq in zip(self.terms, self.equation_index, strict=True)
@@ -159,27 +166,37 @@ class ModelStructure:
 def regressor_dimension(expr: sp.Expr) -> tuple[int, int]:
     """SI dimension of a regressor as exponents of (metre, second).
 
-    Found by scaling every symbol by its unit (``u -> u·M/S`` …) and reading off the
-    factor by which the expression changes; raises ``ValueError`` when the expression
-    is not dimensionally homogeneous (e.g. ``u + r``).
+    Found by scaling every symbol by its unit, metres by 2 (``u -> 2u``, ``L -> 2L``)
+    and then seconds by 2 (``u -> u/2``, ``r -> r/2``, ``n -> n/2``), and reading off
+    the factors 2^dm and 2^ds by which the expression changes, at three points of
+    the state space; raises ``ValueError`` when the expression is not dimensionally
+    homogeneous (e.g. ``u + r``: the factor is not a power of 2, or not the same at
+    every point). Numeric, because simplifying ``f(scaled)/f`` symbolically takes
+    seconds for a rudder-force regressor.
     """
-    metre, second = sp.symbols("metre second", positive=True)
-    scaled = expr.subs(
-        {s: s * metre**dm * second**ds for s, (dm, ds) in _DIMENSIONS.items()},
-        simultaneous=True,
-    )
-    factor = sp.simplify(sp.powsimp(sp.powdenest(scaled / expr, force=True), force=True))
-    powers = sp.Mul.make_args(factor)
-    dims = [0, 0]
-    for p in powers:
-        base, exp = p.as_base_exp()
-        if base == metre and exp.is_integer:
-            dims[0] += int(exp)
-        elif base == second and exp.is_integer:
-            dims[1] += int(exp)
-        elif p != 1:
-            raise ValueError(f"regressor {expr} is not dimensionally homogeneous ({factor})")
-    return dims[0], dims[1]
+    symbols = sorted(expr.free_symbols, key=lambda s: s.name)
+    unknown = [s for s in symbols if s not in _DIMENSIONS]
+    if unknown:
+        raise ValueError(f"regressor {expr} has symbols without a unit: {unknown}")
+    f = sp.lambdify(symbols, expr, modules="math")
+    points = ((0.7, 1.3, 0.9, 1.1, 0.8, 1.2), (1.21, 0.53, 1.37, 0.61, 1.05, 0.77),
+              (0.45, 0.95, 0.55, 1.45, 1.15, 0.65))  # fmt: skip
+    found: set[tuple[int, int]] = set()
+    for point in points:
+        values = dict(zip(symbols, point, strict=False))
+        base = f(*values.values())
+        exponents = []
+        for axis in (0, 1):
+            scaled = [v * 2.0 ** _DIMENSIONS[s][axis] for s, v in values.items()]
+            ratio = f(*scaled) / base if base != 0.0 else math.nan
+            exponent = math.log2(ratio) if ratio > 0.0 else math.nan
+            if not abs(exponent - round(exponent)) < 1e-9:  # also for nan
+                raise ValueError(f"regressor {expr} is not dimensionally homogeneous")
+            exponents.append(round(exponent))
+        found.add((exponents[0], exponents[1]))
+    if len(found) != 1:
+        raise ValueError(f"regressor {expr} is not dimensionally homogeneous")
+    return found.pop()
 
 
 def coefficient_unit(regressor: sp.Expr, equation: str) -> tuple[int, int]:
