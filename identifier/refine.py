@@ -1138,14 +1138,13 @@ def refine_output_error(
         for name, candidate in candidates.items()
     }
     start_costs = {name: o.cost(np.zeros(o.size)) for name, o in objectives.items()}
-    method = min(start_costs, key=lambda name: _finite_or_inf(start_costs[name]))
+    method = min(start_costs, key=start_costs.__getitem__)  # a diverging replay costs inf
     params, objective = candidates[method], objectives[method]
     p = params.to_vector().size
     warnings: list[str] = []
     z0 = np.zeros(objective.size)
     label = _label(method)
-    warnings.extend(_candidate_disagreement(candidates, method, approach, settings))
-    if not math.isfinite(objective.cost(z0)):
+    if not math.isfinite(start_costs[method]):
         initial = _summarise(objective, z0, params, approach)
         reason = (
             f"the {label} estimate diverges replaying "
@@ -1157,6 +1156,8 @@ def refine_output_error(
             "not run", [reason], settings,
         )  # fmt: skip
     initial = _summarise(objective, z0, params, approach)
+    others = {name: p for name, p in candidates.items() if name != method}
+    warnings.extend(_candidate_disagreement(method, initial.turns, others, approach, settings))
     if not all(t.sane for t in initial.turns):
         warnings.append(
             f"the {label} estimate fails the sanity guard: a virtual hard-over turn "
@@ -1263,45 +1264,42 @@ def _bartlett_lags(residuals: np.ndarray) -> int:
 
 
 def _candidate_disagreement(
-    candidates: Mapping[str, ModelParameters],
     start: str,
+    start_turns: Sequence[VirtualTurn],
+    others: Mapping[str, ModelParameters],
     approach: tuple[float, float, float],
     settings: RefineSettings,
 ) -> list[str]:
-    """Warn when the candidate starts predict different hard-over turns.
+    """Warn when another candidate start predicts a different hard-over turn.
 
-    Estimates that fit the training logs alike but turn differently mean that the logs
-    do not determine the turn (reference/model_structures.md §8): only a turning log, or
+    Estimates from the same logs that turn differently mean that the logs do not
+    determine the turn (reference/model_structures.md §8): only a turning log, or
     cross-validation, can tell which is right.
     """
-    if len(candidates) < 2:
-        return []
     speed, n, rate = approach
-    turns = {
-        name: virtual_turns(
-            p,
-            speed_mps=speed,
-            n_rps=n,
-            rudder_rate_radps=rate,
-            duration_factor=settings.turn_duration_factor,
-            max_step_s=settings.max_step_s,
+    spreads = {
+        name: turn_spread(
+            start_turns,
+            virtual_turns(
+                p,
+                speed_mps=speed,
+                n_rps=n,
+                rudder_rate_radps=rate,
+                duration_factor=settings.turn_duration_factor,
+                max_step_s=settings.max_step_s,
+            ),
         )
-        for name, p in candidates.items()
+        for name, p in others.items()
     }
-    spreads = {name: turn_spread(turns[start], t) for name, t in turns.items() if name != start}
-    worst = max(spreads, key=lambda name: spreads[name])
-    if spreads[worst] <= settings.turn_tolerance:
+    worst = max(spreads, key=spreads.__getitem__, default=None)
+    if worst is None or spreads[worst] <= settings.turn_tolerance:
         return []
     amount = "through 180 deg" if math.isinf(spreads[worst]) else f"by {spreads[worst]:.0%}"
     return [
-        f"the {_label(start)} and {_label(worst)} estimates fit the logs alike but their "
-        f"virtual 35 deg turns differ {amount}: these logs do not determine the turning "
-        "circle; add a turning log or check with 'identifier crossval'"
+        f"the {_label(start)} and {_label(worst)} estimates from these logs predict virtual "
+        f"35 deg turns that differ {amount}: the logs do not determine the turning circle; "
+        "add a turning log or check with 'identifier crossval'"
     ]
-
-
-def _finite_or_inf(value: float) -> float:
-    return value if math.isfinite(value) else math.inf
 
 
 def _label(method: str) -> str:

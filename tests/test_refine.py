@@ -226,3 +226,18 @@ def test_newey_west_covariance_of_a_mean_in_ar1_noise(rho: float) -> None:
     cov = newey_west_covariance([(np.ones((n, 1)), r, 1)], np.zeros((0, 1)))
     expected = sigma**2 / n * (1.0 + rho) / (1.0 - rho)
     assert cov[0, 0] == pytest.approx(expected, rel=0.1)
+
+
+def test_candidates_that_turn_differently_are_reported(logs: dict[str, ManeuverLog]) -> None:
+    truth = _truth()
+    theta = truth.to_vector().copy()
+    theta[truth.names.index("c3")] *= 1.3  # more rudder yaw moment: a tighter turn
+    tighter = truth.with_vector(theta, truth.covariance)
+    alike = refine_output_error(truth, list(logs.values()), alternatives={"x": truth}, max_nfev=1)
+    assert not any("predict virtual 35 deg turns" in w for w in alike.warnings)
+    result = refine_output_error(
+        truth, list(logs.values()), alternatives={"equation-error": tighter}, max_nfev=1
+    )
+    assert result.initial_method == "ekf"  # the truth replays its own logs best
+    (warning,) = [w for w in result.warnings if "predict virtual 35 deg turns" in w]
+    assert warning.startswith("the EKF and equation-error estimates") and "differ by" in warning
