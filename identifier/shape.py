@@ -3,10 +3,10 @@
 A family (``fmu_model.variants.ModelFamily``, e.g. ``prime-rudder``) is linear in its
 coefficients once a few shape constants are fixed: for ``prime-rudder`` the slipstream
 share k of the rudder inflow, the flow-straightening factor γ and its port/starboard
-asymmetry Δγ, and the rudder position l (in L) of reference/model_structures.md §4
-(``fmu_model.variants``). They are chosen, inside their physical
-bounds, by the smallest equation-error residual on the training data, summed over the
-three equations relative to their signal,
+asymmetry Δγ, the rudder position l (in L) of reference/model_structures.md §4, and the
+wake recovery in a drift and its asymmetry (wake, dwake; ``fmu_model.variants``). They
+are chosen, inside their physical bounds, by the smallest equation-error residual on
+the training data, summed over the three equations relative to their signal,
 
     J(shape) = Σ_j ‖a_j − Φ_j(shape) θ̂_j(shape)‖² / ‖a_j‖²,   j ∈ {u, v, r},
 
