@@ -109,18 +109,29 @@ def indices(plant: Plant, ship: TruthShip, dt_s: float) -> Indices:
     return Indices(values)
 
 
-def errors(predicted: Indices, truth: Indices) -> list[str]:
-    """Table cells: relative error of distances, difference of overshoots."""
-    cells = []
-    for key in COLUMNS:
+def index_errors(
+    predicted: Indices, truth: Indices, keys: Sequence[str] = COLUMNS
+) -> dict[str, float | None]:
+    """Return the error of each index in ``keys``; None where either was not reached.
+
+    Distances: predicted/true − 1 [%]; overshoots: predicted − true [deg].
+    """
+    out: dict[str, float | None] = {}
+    for key in keys:
         p, t = predicted.values[key], truth.values[key]
         if p is None or t is None:
-            cells.append("n/a")
-        elif "OS" in key:
-            cells.append(f"{p - t:+.2f}°")
+            out[key] = None
         else:
-            cells.append(f"{p / t - 1.0:+.1%}")
-    return cells
+            out[key] = p - t if "OS" in key else 100.0 * (p / t - 1.0)
+    return out
+
+
+def errors(predicted: Indices, truth: Indices) -> list[str]:
+    """Table cells of :func:`index_errors`."""
+    return [
+        "n/a" if e is None else f"{e:+.2f}°" if "OS" in key else f"{e:+.1f}%"
+        for key, e in index_errors(predicted, truth).items()
+    ]
 
 
 def worst_turning_error(predicted: Indices, truth: Indices) -> float:

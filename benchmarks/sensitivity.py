@@ -44,7 +44,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from fidelity import SEEDS, Indices, indices, worst_turning_error
+from fidelity import SEEDS, Indices, index_errors, indices, worst_turning_error
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, model_names
@@ -159,25 +159,6 @@ def trial_logs(ship: TruthShip, quality: LogQuality, realisation: int) -> list[M
     ]
 
 
-def index_errors(predicted: Indices, truth: Indices) -> dict[str, float | None]:
-    """Return the error of each ``REPORTED`` index: distances [%], overshoots [deg].
-
-    Parameters
-    ----------
-    predicted, truth : Indices
-        Indices of the identified model and of the reference ship (same driver).
-
-    """
-    out: dict[str, float | None] = {}
-    for key in REPORTED:
-        p, t = predicted.values[key], truth.values[key]
-        if p is None or t is None:
-            out[key] = None
-        else:
-            out[key] = p - t if key in OVERSHOOTS else 100.0 * (p / t - 1.0)
-    return out
-
-
 def evaluate(
     ship: TruthShip,
     truth: Indices,
@@ -223,7 +204,7 @@ def evaluate(
             seconds.append(time.perf_counter() - start)
             bar.update()
         predicted = indices(ModelPlant(result.params), ship, dt_s)
-        errors.append(index_errors(predicted, truth))
+        errors.append(index_errors(predicted, truth, REPORTED))
         worst.append(worst_turning_error(predicted, truth))
     return Outcome(tuple(errors), tuple(worst), tuple(seconds), tuple(failures))
 
