@@ -273,9 +273,10 @@ def identify(
     model = settings.model if shape is None else shape.model
     structure = get_model(model)
     ls = equation_error_fit(model, segments, length)
+    ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
     if settings.initial == "equation-error":
         theta0 = ls.theta
-        cov0 = ls.covariance * settings.prior_inflation**2
+        cov0 = ls_prior
     else:
         theta0 = np.zeros(structure.n_coefficients)
         cov0 = settings.alpha * np.eye(structure.n_coefficients)
@@ -354,7 +355,7 @@ def identify(
         )
     refinement = None
     if settings.refine:
-        equation_error = params.with_vector(ls.theta, ls.covariance * settings.prior_inflation**2)
+        equation_error = params.with_vector(ls.theta, ls_prior)
         refinement = refine_output_error(
             params, logs, tracks=tracks, alternatives={"equation-error": equation_error}
         )
