@@ -268,7 +268,8 @@ class TangentPlane:
     (Karney's algorithm): for every point, ``hypot(x, y)`` is the geodesic distance
     from the origin and ``atan2(y, x)`` the geodesic azimuth at the origin, both
     exact to round-off (PROJ puts points within 1e-10 rad, 0.6 mm, of the origin
-    onto it). Distances between two points that are not the origin are
+    onto it, and an origin within 1e-10 rad of the equator or the prime meridian onto
+    that line). Distances between two points that are not the origin are
     stretched across the radial direction by up to ``(s / R)**2 / 6`` at distance
     ``s`` from the origin (``R`` ~ 6371 km); measured between two points at 90 deg
     azimuth apart: 2e-9 (3 µm) at 1 km, 5e-8 (0.4 mm) at 5 km, 8e-7 (2 cm) at
