@@ -27,8 +27,8 @@ from distributed import Client, LocalCluster
 from fmu_step import demo_params
 
 from identifier.batch import BatchSummary, run_batch
-from identifier.logs import write_log
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, reference_ship, synthesize_log
+from trials.logs import write_log
 
 MANEUVER_NAMES = ("turning-35", "zigzag-10", "zigzag-20")
 
@@ -58,7 +58,7 @@ def make_fleet(root: Path, n_vessels: int, rate_hz: float) -> int:
 def _warm_up(path: str) -> float:
     """Identify one log in this worker process (numba compilation); return seconds."""
     from identifier.identify import identify
-    from identifier.logs import read_log
+    from trials.logs import read_log
 
     start = time.perf_counter()
     identify([read_log(path)])

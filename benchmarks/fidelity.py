@@ -11,11 +11,11 @@ starboard turning circle. For every model structure and two training sets
 (b) all three manoeuvres;
 
 the coefficients are identified (equation-error least squares, then the EKF) and
-refined by output error (``identifier.refine``) from whichever of the two replays the
+refined by output error (``identifier.output_error``) from whichever of the two replays the
 training logs better (the ``(start)`` row). The table shows all three estimates, the
 refined one even when the guards of reference/model_structures.md §6–§7 reject it,
 and says which one ``identify(refine=True)`` keeps. Each coefficient set then sails the standard
-manoeuvres from the reference approach condition (``scenarios.run.run_program`` with
+manoeuvres from the reference approach condition (``trials.run.run_program`` with
 ``ModelPlant``, closed-loop zig-zags, as the FMU validation does), and its indices are
 compared with the reference ship's own run through the same driver:
 35° starboard advance, transfer and tactical diameter (and the port tactical
@@ -40,11 +40,11 @@ import numpy as np
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
-from identifier.logs import ManeuverLog
-from scenarios.maneuvers import Program, turning_circle, zigzag
-from scenarios.metrics import MetricsError, turning_metrics, zigzag_metrics
-from scenarios.run import ModelPlant, Plant, run_program
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
+from trials.logs import ManeuverLog
+from trials.maneuvers import Program, turning_circle, zigzag
+from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
+from trials.run import ModelPlant, Plant, run_program
 
 MODELS = (
     "shi2009",

@@ -41,12 +41,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from fmu_model import get_model
 from identifier.ekf import EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import equation_error_fit
 from identifier.identify import identify
-from identifier.logs import ManeuverLog
 from identifier.smoothing import smooth_track
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from trials.logs import ManeuverLog
 
 MODEL = "shi2009"
 MANEUVER_NAMES = ("turning-35", "zigzag-10", "zigzag-20")
@@ -143,7 +144,7 @@ def ekf_rate(
     segs: Sequence[EkfSegment], length_m: float, measurements: str, max_substep_s: float
 ) -> tuple[float, float]:
     """(first-call seconds, updates per second of a later call) of ``ekf_identify``."""
-    ls = equation_error_fit(MODEL, segs, length_m)
+    ls = equation_error_fit(get_model(MODEL), segs, length_m)
     settings = EkfSettings(
         state_process_std=(
             float(ls.residual_std[0]),
@@ -157,7 +158,7 @@ def ekf_rate(
 
     def run() -> float:
         start = time.perf_counter()
-        ekf_identify(MODEL, segs, ls.theta, cov0, length_m, settings)
+        ekf_identify(get_model(MODEL), segs, ls.theta, cov0, length_m, settings)
         return time.perf_counter() - start
 
     first = run()

@@ -48,11 +48,11 @@ from fidelity import SEEDS, Indices, index_errors, indices, worst_turning_error
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, model_names
-from identifier.errors import IdentificationError
 from identifier.identify import FitSettings, identify
-from identifier.logs import ManeuverLog
-from scenarios.run import ModelPlant
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
+from trials.errors import IdentificationError
+from trials.logs import ManeuverLog
+from trials.run import ModelPlant
 
 TURNING = ("adv", "trf", "TD")
 OVERSHOOTS = ("10/10 OS1", "10/10 OS2", "20/20 OS1", "20/20 OS2")

@@ -10,7 +10,7 @@ the default structure with output-error refinement (``fmu_model.DEFAULT_MODEL``,
 
 For every worker count a ``LocalCluster`` (one thread per worker process) is started,
 warmed up (each worker compiles the model once) and then timed on the Monte-Carlo run
-of the standard set (``scenarios.maneuvers.standard_set``). Printed: the timings side
+of the standard set (``trials.maneuvers.standard_set``). Printed: the timings side
 by side with their ratio, whether the runs agree, the statistics table, and whether
 the 95 % intervals contain the KVLCC2 values — from ``reference/kvlcc2_mmg.md`` §11
 (canonical, fine step) and from the reference ship driven at the same step here.
@@ -28,12 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
-from fmu_model import DEFAULT_MODEL, ModelParameters, load_params, save_params
-from scenarios.maneuvers import standard_set
-from scenarios.metrics import turning_metrics, zigzag_metrics
-from scenarios.run import run_program
+from fmu_model import DEFAULT_MODEL, ModelParameters, ModelStructure, load_params, save_params
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
-from scenarios.uncertainty import UncertaintyResult, monte_carlo_metrics
+from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
+from scenarios.uncertainty.results import UncertaintyResult
+from trials.maneuvers import standard_set
+from trials.metrics import turning_metrics, zigzag_metrics
+from trials.run import run_program
 
 LOGS = ("turning-35", "turning-35-port", "zigzag-10", "zigzag-20")
 
@@ -95,12 +96,12 @@ def reference_at_step(dt_s: float) -> dict[tuple[str, str], float]:
     return out
 
 
-def _warm_up(model: str) -> None:
-    """Import the Monte-Carlo module and compile ``model`` in a worker."""
-    import scenarios.uncertainty  # noqa: F401
+def _warm_up(structure: ModelStructure) -> None:
+    """Import the Monte-Carlo module and compile ``structure`` in a worker."""
+    import scenarios.uncertainty.monte_carlo  # noqa: F401
     from fmu_model import numeric_model
 
-    numeric_model(model)
+    numeric_model(structure)
 
 
 def timed_run(
@@ -122,7 +123,7 @@ def timed_run(
         Client(cluster) as client,
     ):
         t1 = time.perf_counter()
-        client.run(_warm_up, params.model)
+        client.run(_warm_up, params.structure)
         t2 = time.perf_counter()
         result = monte_carlo_metrics(
             params, n_samples=samples, seed=seed, dt_s=dt_s, client=client, chunk_size=chunk

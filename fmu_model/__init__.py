@@ -1,5 +1,6 @@
 """Ship manoeuvring models: the equations (once), parameter sets, simulation, FMU export."""
 
+from fmu_model.integrate import n_substeps
 from fmu_model.numeric import NumericModel, numeric_model
 from fmu_model.params import (
     ModelParameters,
@@ -8,7 +9,7 @@ from fmu_model.params import (
     params_from_json_dict,
     save_params,
 )
-from fmu_model.simulate import euler_step, n_substeps, rk4_step, simulate
+from fmu_model.simulate import euler_step, rk4_step, simulate
 from fmu_model.structure import ModelStructure, Term
 from fmu_model.variants import DEFAULT_MODEL, get_model, model_names, register_model
 

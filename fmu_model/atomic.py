@@ -4,6 +4,11 @@ A reader (or a crash, or a full disk) must never see a half-written params.json,
 or report: the data go to a temporary file in the target's directory, are flushed to
 disk, and the temporary file is then renamed over the target with ``os.replace``,
 which is atomic on POSIX and Windows when both names are on the same file system.
+
+A writer killed between creating its temporary file and the rename (``kill -9``, a
+power cut) cannot remove it. The next write to the same target does: it removes the
+temporary files of this module's naming pattern for that target (``.<name>.<12 hex
+digits>.tmp``) that nothing has touched for :data:`STALE_TEMPORARY_AGE_S`.
 """
 
 from __future__ import annotations
@@ -11,12 +16,23 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import re
 import secrets
 import stat
+import time
 
-__all__ = ["write_atomic"]
+__all__ = ["STALE_TEMPORARY_AGE_S", "write_atomic"]
 
 _MAX_NAME_ATTEMPTS = 100
+# Hex digits of the random part of a temporary file's name.
+_TOKEN_BYTES = 6
+# A temporary file unchanged for this long belongs to a writer that died [s]. A live
+# writer creates, fills, flushes and renames its file within seconds (an 8 MB params
+# or report file: well under one); ten minutes leaves room for a stalled network file
+# system and still cleans up after a crash on the next write. The age, not the writer's
+# process id, decides: a process id says nothing about a writer on another host sharing
+# the directory.
+STALE_TEMPORARY_AGE_S = 600.0
 
 
 def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
@@ -27,7 +43,9 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
     ``os.replace``; the directory is ``fsync``-ed afterwards where the platform
     allows it. If anything fails (or the write is interrupted) the temporary file is
     removed, a previous file at ``path`` is left untouched, and the exception
-    propagates.
+    propagates. Before writing, temporary files of earlier writes to ``path`` that
+    were left behind (their writer was killed) and are older than
+    :data:`STALE_TEMPORARY_AGE_S` are removed; other files are never touched.
 
     Parameters
     ----------
@@ -74,6 +92,7 @@ def _write(target: str, payload: bytes) -> None:
     except FileExistsError:  # the directory's name is taken by a file
         raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), directory) from None
     mode = _existing_mode(target)
+    _remove_stale_temporaries(directory, name)
 
     temporary = _create_temporary(directory, name)
     try:
@@ -119,7 +138,7 @@ def _create_temporary(directory: str, name: str) -> str:
     """
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
     for _ in range(_MAX_NAME_ATTEMPTS):
-        candidate = os.path.join(directory, f".{name}.{secrets.token_hex(6)}.tmp")
+        candidate = os.path.join(directory, f".{name}.{secrets.token_hex(_TOKEN_BYTES)}.tmp")
         try:
             fd = os.open(candidate, flags, 0o666)
         except FileExistsError:
@@ -127,6 +146,29 @@ def _create_temporary(directory: str, name: str) -> str:
         os.close(fd)
         return candidate
     raise FileExistsError(errno.EEXIST, "no free name for a temporary file", directory)
+
+
+def _remove_stale_temporaries(directory: str, name: str) -> None:
+    """Remove the left-over temporary files of writes to ``name`` in ``directory``.
+
+    Only regular files named as :func:`_create_temporary` names them for this target,
+    and unchanged for :data:`STALE_TEMPORARY_AGE_S`, are removed. Nothing here fails a
+    write: a file that vanishes or cannot be removed is left to the next write.
+    """
+    pattern = re.compile(re.escape(f".{name}.") + f"[0-9a-f]{{{2 * _TOKEN_BYTES}}}" + r"\.tmp")
+    oldest = time.time() - STALE_TEMPORARY_AGE_S
+    try:
+        with os.scandir(directory) as listing:
+            entries = list(listing)
+    except OSError:
+        return
+    for entry in entries:
+        if not pattern.fullmatch(entry.name):
+            continue
+        with contextlib.suppress(OSError):
+            status = entry.stat(follow_symlinks=False)
+            if stat.S_ISREG(status.st_mode) and status.st_mtime < oldest:
+                os.unlink(entry.path)
 
 
 def _fsync_directory(directory: str) -> None:

@@ -23,7 +23,7 @@ RHS_SIGNATURE = (
 def generate_model_c(structure: ModelStructure) -> str:
     """Return the C translation unit of ``structure``'s equations.
 
-    The file defines ``MODEL_IDENTIFIER_NAME``, ``MODEL_N_COEFFICIENTS``,
+    The file defines ``MODEL_STRUCTURE_NAME``, ``MODEL_N_COEFFICIENTS``,
     ``MODEL_COEFFICIENT_NAMES`` and ``model_rhs`` with the signature
     :data:`RHS_SIGNATURE`: ``theta`` the coefficients in structure order, ``length`` [m],
     ``x`` the state (u, v, r, x, y, ψ), ``rudder`` [rad], ``n_rps`` [rev/s], ``dx`` the

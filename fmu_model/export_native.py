@@ -4,8 +4,10 @@ The FMU is the hand-written FMI layer ``fmu_model/c/fmi2_cosimulation.c`` (with 
 contract ``ship_fmu.h``) compiled together with two generated headers:
 
 * ``model_equations.h`` - the right-hand side from :func:`fmu_model.codegen.generate_model_c`;
-* ``model_config.h`` - GUID, value-reference layout and the variable table (start, min,
-  max, causality) from :func:`fmu_model.interface.fmu_variables`.
+* ``model_config.h`` - GUID, value-reference layout, the variable table (start, min,
+  max, causality) from :func:`fmu_model.interface.fmu_variables`, and the rules and
+  messages of :mod:`fmu_model.interface` (divergence, largest step, least start speed,
+  restored states).
 
 All four files go into the FMU's ``sources/`` (``fmi2_cosimulation.c`` is the one file
 listed in ``<SourceFiles>``; the FMI headers come from the importing tool, e.g. fmpy), so
@@ -15,9 +17,10 @@ Behaviour of the FMU (details in the header comment of ``fmi2_cosimulation.c``):
 state u, v, r, x, y, ψ follows the parameters u0 ... ψ0 until
 ``fmi2ExitInitializationMode`` and then evolves by ``fmi2DoStep`` with RK4 in
 ``n_substeps(h, max_step)`` equal steps, inputs held (as ``fmu_model.simulate``).
-Non-finite or out-of-range values, fixed parameters set after initialisation, bad step
-sizes and unsupported calls give ``fmi2Error`` and leave the instance unchanged; a
-diverging state gives ``fmi2Discard``. Messages go to the logger callback.
+Non-finite or out-of-range values (set or in a restored FMU state), fixed parameters set
+after initialisation, bad step sizes, a start below the model's least speed and
+unsupported calls give ``fmi2Error`` and leave the instance unchanged; a diverging state
+and a status the FMU cannot give give ``fmi2Discard``. Messages go to the logger callback.
 """
 
 from __future__ import annotations
@@ -25,23 +28,34 @@ from __future__ import annotations
 import io
 import math
 import os
-import re
 import shlex
 import shutil
 import subprocess
 import sys
 import tempfile
 import zipfile
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-
-import numpy as np
 
 from fmu_model.atomic import write_atomic
 from fmu_model.codegen import generate_model_c
 from fmu_model.errors import FmuBuildError
-from fmu_model.interface import DEFAULT_MAX_STEP_S, FmuVariable, fmu_variables
+from fmu_model.interface import (
+    DIVERGENCE_FORMAT,
+    MAX_SPEED_MPS,
+    MAX_SUBSTEPS,
+    MAX_YAW_RATE_RADPS,
+    START_SPEED_FORMAT,
+    STATE_NONFINITE_FORMAT,
+    STATE_RANGE_FORMAT,
+    SUBSTEP_LIMIT_FORMAT,
+    TIME_STALL_FORMAT,
+    FmuVariable,
+    fmu_variables,
+    min_start_speed_mps,
+    model_identifier,
+)
 from fmu_model.model_description import (
     GUID_PLACEHOLDER,
     content_guid,
@@ -51,7 +65,6 @@ from fmu_model.model_description import (
 )
 from fmu_model.params import ModelParameters
 from fmu_model.structure import STATE_NAMES, ModelStructure
-from fmu_model.variants import get_model
 
 __all__ = [
     "C_DIR",
@@ -60,7 +73,7 @@ __all__ = [
     "build_native_fmu",
     "fmi_headers_dir",
     "generate_sources",
-    "model_identifier",
+    "model_identifier",  # of fmu_model.interface, for the callers that name the .fmu
     "osp_sidecar_path",
     "render_native_fmu",
 ]
@@ -72,25 +85,8 @@ CONFIG_HEADER = "model_config.h"
 EQUATIONS_HEADER = "model_equations.h"
 # -ffp-contract=off: no fused multiply-add, so the RK4 rounds as numpy does.
 CFLAGS = ("-shared", "-fPIC", "-O2", "-std=c99", "-ffp-contract=off", "-fvisibility=hidden")
-# Smallest max_step the FMU accepts [s] (the variable's declared min).
-MIN_MAX_STEP_S = 1e-6
 # Binary folder and library suffix of FMI 2.0 per sys.platform.
 _PLATFORMS = {"linux": ("linux64", ".so"), "darwin": ("darwin64", ".dylib")}
-
-
-def model_identifier(vessel_name: str) -> str:
-    """C-safe model identifier (and library name) for a vessel name.
-
-    ASCII letters, digits and ``_`` are kept, everything else becomes ``_``; runs of
-    ``_`` collapse; a leading digit gets the prefix ``ship_``; an empty result is ``ship``.
-    """
-    identifier = re.sub(r"[^A-Za-z0-9_]", "_", vessel_name.strip())
-    identifier = re.sub(r"_+", "_", identifier).strip("_")
-    if not identifier:
-        return "ship"
-    if identifier[0].isdigit():
-        identifier = "ship_" + identifier
-    return identifier
 
 
 def osp_sidecar_path(fmu_path: str | os.PathLike[str]) -> Path:
@@ -110,7 +106,7 @@ def fmi_headers_dir() -> Path:
 
 
 def _c_string(text: str) -> str:
-    """C string literal of ASCII text (anything else escaped in octal)."""
+    """C string literal of text (anything but printable ASCII escaped in octal UTF-8)."""
     out = []
     for char in text:
         code = ord(char)
@@ -119,7 +115,11 @@ def _c_string(text: str) -> str:
         elif 32 <= code < 127:
             out.append(char)
         else:
-            out.extend(f"\\{byte:03o}" for byte in char.encode("utf-8"))
+            try:
+                encoded = char.encode("utf-8")
+            except UnicodeEncodeError:  # a lone surrogate: not Unicode text
+                raise FmuBuildError(f"cannot write {text!r} as C: U+{code:04X}") from None
+            out.extend(f"\\{byte:03o}" for byte in encoded)
     return '"' + "".join(out) + '"'
 
 
@@ -161,7 +161,11 @@ def _layout(variables: tuple[FmuVariable, ...], structure: ModelStructure) -> di
 
 
 def _config_header(
-    identifier: str, guid: str, variables: tuple[FmuVariable, ...], layout: dict[str, int]
+    identifier: str,
+    guid: str,
+    variables: tuple[FmuVariable, ...],
+    layout: dict[str, int],
+    min_start_speed: float,
 ) -> str:
     causality = {"input": "SHIP_INPUT", "output": "SHIP_OUTPUT", "parameter": "SHIP_PARAMETER"}
     lines = [
@@ -176,6 +180,25 @@ def _config_header(
         f"#define MODEL_IDENTIFIER_NAME {_c_string(identifier)}",
         f"#define MODEL_N_VARIABLES {len(variables)}",
         *(f"#define {key} {value}" for key, value in layout.items()),
+        "",
+        "/* Divergence rule (fmu_model.interface): a state that is non-finite or beyond these",
+        "   bounds [m/s, rad/s] ends fmi2DoStep with fmi2Discard and this message. */",
+        f"#define DIVERGENCE_MAX_SPEED {_c_double(MAX_SPEED_MPS)}",
+        f"#define DIVERGENCE_MAX_YAW_RATE {_c_double(MAX_YAW_RATE_RADPS)}",
+        f"#define DIVERGENCE_FORMAT {_c_string(DIVERGENCE_FORMAT)}",
+        "",
+        "/* Rules of fmi2DoStep and of the start (fmu_model.interface): the largest number of",
+        "   internal steps of one call, a step that must advance the time, the least start",
+        "   speed sqrt(u0^2 + v0^2) [m/s] (0: the model starts from rest). */",
+        f"#define MAX_SUBSTEPS {_c_double(float(MAX_SUBSTEPS))}",
+        f"#define SUBSTEP_LIMIT_FORMAT {_c_string(SUBSTEP_LIMIT_FORMAT)}",
+        f"#define TIME_STALL_FORMAT {_c_string(TIME_STALL_FORMAT)}",
+        f"#define MIN_START_SPEED {_c_double(min_start_speed)}",
+        f"#define START_SPEED_FORMAT {_c_string(START_SPEED_FORMAT)}",
+        "",
+        "/* Messages of a restored FMU state with a value fmi2SetReal would refuse. */",
+        f"#define STATE_RANGE_FORMAT {_c_string(STATE_RANGE_FORMAT)}",
+        f"#define STATE_NONFINITE_FORMAT {_c_string(STATE_NONFINITE_FORMAT)}",
         "",
         "/* name, causality, start, has_min, min, has_max, max; index = value reference */",
         "static const ShipVariable MODEL_VARIABLES[MODEL_N_VARIABLES] = {",
@@ -198,35 +221,43 @@ def _config_header(
     return "\n".join(lines)
 
 
-def _interface(params: ModelParameters, max_step_s: float) -> tuple[FmuVariable, ...]:
-    """``fmu_variables(params)`` with the start value of ``max_step`` set."""
-    return tuple(
-        replace(v, start=max_step_s) if v.name == "max_step" else v for v in fmu_variables(params)
-    )
-
-
 def generate_sources(
-    params: ModelParameters, *, max_step_s: float = DEFAULT_MAX_STEP_S, guid: str = GUID_PLACEHOLDER
+    params: ModelParameters, *, max_step_s: float | None = None, guid: str = GUID_PLACEHOLDER
 ) -> dict[str, str]:
     """Return the files of the FMU's ``sources/`` folder, by name.
+
+    Parameters
+    ----------
+    params : ModelParameters
+        Identified model: structure, coefficients, vessel.
+    max_step_s : float, optional
+        Start value of ``max_step`` [s]; default ``fmu_model.interface.DEFAULT_MAX_STEP_S``.
+    guid : str
+        The FMU's GUID, written into ``model_config.h``.
+
+    Returns
+    -------
+    dict of str to str
+        ``fmi2_cosimulation.c``, ``ship_fmu.h``, ``model_config.h`` and
+        ``model_equations.h``.
 
     Raises
     ------
     FmuBuildError
-        For an unknown model or an interface the C layer cannot serve.
+        For parameters :func:`fmu_model.interface.fmu_variables` rejects or an interface
+        the C layer cannot serve.
 
     """
-    try:
-        structure = get_model(params.model)
-    except KeyError as exc:
-        raise FmuBuildError(str(exc.args[0])) from None
-    variables = _interface(params, max_step_s)
+    structure = params.structure
+    variables = fmu_variables(params, max_step_s)
     identifier = model_identifier(params.vessel_name)
     layout = _layout(variables, structure)
     return {
         LAYER_SOURCE: (C_DIR / LAYER_SOURCE).read_text(encoding="utf-8"),
         LAYER_HEADER: (C_DIR / LAYER_HEADER).read_text(encoding="utf-8"),
-        CONFIG_HEADER: _config_header(identifier, guid, variables, layout),
+        CONFIG_HEADER: _config_header(
+            identifier, guid, variables, layout, min_start_speed_mps(structure)
+        ),
         EQUATIONS_HEADER: generate_model_c(structure),
     }
 
@@ -294,22 +325,6 @@ def _zip(entries: list[tuple[str, bytes]], stamp: datetime) -> bytes:
     return buffer.getvalue()
 
 
-def _check_params(params: ModelParameters) -> None:
-    theta = np.asarray(params.coefficients, dtype=float)
-    bad = [name for name, value in zip(params.names, theta, strict=True) if not np.isfinite(value)]
-    if bad:
-        raise FmuBuildError(f"coefficients {bad} are not finite")
-    for what, value in (
-        ("length_m", params.length_m),
-        ("nominal_speed_mps", params.nominal_speed_mps),
-        ("nominal_n_rps", params.nominal_n_rps),
-    ):
-        if not math.isfinite(value):
-            raise FmuBuildError(f"{what} must be finite, got {value!r}")
-    if params.length_m <= 0.0:
-        raise FmuBuildError(f"length_m must be positive, got {params.length_m!r}")
-
-
 @dataclass(frozen=True)
 class NativeFmuText:
     """Everything of a native FMU except its binary (see :func:`render_native_fmu`).
@@ -348,23 +363,13 @@ def render_native_fmu(params: ModelParameters, *, max_step_s: float | None = Non
     Raises
     ------
     FmuBuildError
-        Unknown model, non-finite coefficients or vessel data, a bad ``max_step_s``.
+        Non-finite coefficients or vessel data, a bad ``max_step_s``.
 
     """
-    try:
-        get_model(params.model)
-    except KeyError as exc:
-        raise FmuBuildError(str(exc.args[0])) from None
-    _check_params(params)
-    max_step = DEFAULT_MAX_STEP_S if max_step_s is None else float(max_step_s)
-    if not (math.isfinite(max_step) and max_step >= MIN_MAX_STEP_S):
-        raise FmuBuildError(
-            f"max_step_s must be a finite number >= {MIN_MAX_STEP_S}, got {max_step}"
-        )
+    variables = fmu_variables(params, max_step_s)
     identifier = model_identifier(params.vessel_name)
-    variables = _interface(params, max_step)
     created = generation_time(params)
-    sources = generate_sources(params, max_step_s=max_step)
+    sources = generate_sources(params, max_step_s=max_step_s)
     try:
         description = model_description_xml(
             params,
@@ -425,7 +430,7 @@ def build_native_fmu(
     Raises
     ------
     FmuBuildError
-        Unknown model, non-finite coefficients, a bad ``max_step_s``, no C compiler, a
+        Non-finite coefficients or vessel data, a bad ``max_step_s``, no C compiler, a
         compile failure (with the compiler's first error line), an unsupported platform.
         Nothing is written then.
 

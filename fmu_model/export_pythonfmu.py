@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import io
 import json
-import math
 import shutil
 import sys
 import tempfile
@@ -45,10 +44,10 @@ from pathlib import Path
 
 from fmu_model.atomic import write_atomic
 from fmu_model.errors import FmuBuildError
-from fmu_model.interface import DEFAULT_MAX_STEP_S, FmuVariable
+from fmu_model.interface import FmuVariable, fmu_variables
 from fmu_model.model_description import generation_tool, model_description_xml
 from fmu_model.params import ModelParameters, save_params
-from fmu_model.pythonfmu_slave import PARAMS_RESOURCE, SETTINGS_RESOURCE, slave_variables
+from fmu_model.pythonfmu_slave import PARAMS_RESOURCE, SETTINGS_RESOURCE
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 _SLAVE_SCRIPT = _PACKAGE_DIR / "pythonfmu_slave.py"
@@ -77,15 +76,14 @@ def build_pythonfmu_fmu(
     Raises
     ------
     FmuBuildError
-        ``max_step_s`` is not a positive finite number, pythonfmu fails, or its
-        modelDescription.xml does not match ``fmu_variables``.
+        Non-finite coefficients or vessel data, a bad ``max_step_s`` (the checks of
+        :func:`fmu_model.interface.fmu_variables`), pythonfmu fails, or its
+        modelDescription.xml does not match ``fmu_variables``. Nothing is written then.
 
     """
-    max_step = DEFAULT_MAX_STEP_S if max_step_s is None else float(max_step_s)
-    if not (math.isfinite(max_step) and max_step > 0.0):
-        raise FmuBuildError(f"max_step_s must be a positive number of seconds, got {max_step_s}")
     output = Path(output)
-    variables = slave_variables(params, max_step)
+    variables = fmu_variables(params, max_step_s)
+    max_step = next(v.start for v in variables if v.name == "max_step")
     with tempfile.TemporaryDirectory(prefix="shipfmu_pythonfmu_") as tmp:
         stage = Path(tmp, "stage")
         stage.mkdir()

@@ -20,15 +20,17 @@ from datetime import UTC, datetime
 from importlib import metadata
 
 from fmu_model.interface import FmuVariable
-from fmu_model.params import ModelParameters
-from fmu_model.structure import unit_string
-from fmu_model.variants import get_model
+from fmu_model.params import ModelParameters, text_problem
+from fmu_model.structure import ModelStructure, unit_string
 
 # Log categories of the native FMU, in the order of fmu_model/c/fmi2_cosimulation.c.
 LOG_CATEGORIES: tuple[tuple[str, str], ...] = (
     ("logStatusWarning", "Warnings"),
-    ("logStatusDiscard", "fmi2DoStep discarded: the state diverged"),
-    ("logStatusError", "Errors: rejected values, calls in the wrong state, unsupported calls"),
+    ("logStatusDiscard", "fmi2Discard: a diverged step, or a status this FMU cannot give"),
+    (
+        "logStatusError",
+        "Errors: rejected values and FMU states, calls in the wrong state, unsupported calls",
+    ),
     ("logStatusFatal", "Fatal errors (never raised by this FMU)"),
     ("logAll", "Trace of every FMI call"),
 )
@@ -51,7 +53,8 @@ DEFAULT_STOP_TIME_S = 1000.0
 DEFAULT_STEP_SIZE_S = 0.1
 
 _GUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://shipid.invalid/fmu")
-_GUID_PLACEHOLDER = "{00000000-0000-0000-0000-000000000000}"
+# GUID of a document rendered before its content GUID is known (see content_guid).
+GUID_PLACEHOLDER = "{00000000-0000-0000-0000-000000000000}"
 OSP_NAMESPACE = "https://open-simulation-platform.com/OspModelDescription/1.0.0"
 
 
@@ -87,14 +90,14 @@ _ANGULAR_UNITS = (
 _STATE_DIMENSIONS = ((1, 0), (0, 1), (1, -1))
 
 
-def unit_table(model: str) -> dict[str, FmiUnit]:
-    """All units an FMU of ``model`` may use, by name.
+def unit_table(structure: ModelStructure) -> dict[str, FmiUnit]:
+    """All units an FMU of ``structure`` may use, by name.
 
-    The SI units come from the dimension tuples of the states and of the model's
+    The SI units come from the dimension tuples of the states and of the structure's
     coefficients (``ModelStructure.coefficient_units``); the angular ones are fixed.
     """
     table = {unit.name: unit for unit in _ANGULAR_UNITS}
-    dimensions = [*_STATE_DIMENSIONS, *get_model(model).coefficient_units().values()]
+    dimensions = [*_STATE_DIMENSIONS, *structure.coefficient_units().values()]
     for dimension in dimensions:
         if dimension != (0, 0):
             unit = _si_unit(dimension)
@@ -102,7 +105,7 @@ def unit_table(model: str) -> dict[str, FmiUnit]:
     return table
 
 
-def units_of(variables: Iterable[FmuVariable], model: str) -> tuple[FmiUnit, ...]:
+def units_of(variables: Iterable[FmuVariable], structure: ModelStructure) -> tuple[FmiUnit, ...]:
     """Return the units the variables use, in order of first use.
 
     Raises
@@ -111,7 +114,7 @@ def units_of(variables: Iterable[FmuVariable], model: str) -> tuple[FmiUnit, ...
         When a variable has a unit (or display unit) that :func:`unit_table` does not know.
 
     """
-    table = unit_table(model)
+    table = unit_table(structure)
     used: dict[str, FmiUnit] = {}
     for var in variables:
         if var.unit is None:
@@ -168,9 +171,6 @@ def content_guid(parts: Iterable[tuple[str, bytes]]) -> str:
     return "{" + str(uuid.uuid5(_GUID_NAMESPACE, digest.hexdigest())) + "}"
 
 
-GUID_PLACEHOLDER = _GUID_PLACEHOLDER
-
-
 def _number(value: float) -> str:
     """Shortest text that parses back to the same double (XML and C)."""
     if not math.isfinite(value):
@@ -201,6 +201,16 @@ def _unit_definitions(parent: ET.Element, units: Sequence[FmiUnit], *, osp: bool
 
 
 def _to_text(root: ET.Element) -> str:
+    """Serialise ``root``; ValueError for text that XML 1.0 cannot carry.
+
+    ElementTree writes any string, also control characters and lone surrogates, which
+    would make a document no XML parser reads (and no FMU importer loads).
+    """
+    for element in root.iter():
+        for name, value in element.attrib.items():
+            problem = text_problem(value)
+            if problem is not None:
+                raise ValueError(f"{element.tag} {name} {value!r} {problem}")
     ET.indent(root, space="  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
@@ -252,11 +262,13 @@ def model_description_xml(
     Raises
     ------
     ValueError
-        For a unit this module cannot declare or a non-finite start value.
+        For a unit this module cannot declare, a non-finite start value, or text XML
+        cannot carry (a control character or lone surrogate, e.g. in the vessel name or
+        the identification method).
 
     """
-    structure = get_model(params.model)
-    units = units_of(variables, params.model)
+    structure = params.structure
+    units = units_of(variables, structure)
     stamp = created if created is not None else generation_time(params)
     method = params.identification.get("method") if params.identification else None
     description = f"{params.vessel_name}: {structure.description}"
@@ -370,7 +382,7 @@ def osp_model_description_xml(params: ModelParameters, variables: Sequence[FmuVa
     wanted = [by_name[name] for _, _, names in _OSP_GROUPS for name in names]
     # Default namespace (as in the OSP and libcosim examples); every element is in it.
     root = ET.Element("OspModelDescription", xmlns=OSP_NAMESPACE, version="1.0")
-    _unit_definitions(root, units_of(wanted, params.model), osp=True)
+    _unit_definitions(root, units_of(wanted, params.structure), osp=True)
     groups = ET.SubElement(root, "VariableGroups")
     for element, group_name, names in _OSP_GROUPS:
         group = ET.SubElement(groups, element, name=group_name)

@@ -32,7 +32,7 @@ from fmu_model.structure import (
     ModelStructure,
     psi,
 )
-from fmu_model.variants import get_model, parse_family
+from fmu_model.variants import ModelFamily
 
 _ARGS = (*VELOCITY_SYMBOLS, *INPUT_SYMBOLS, L)
 
@@ -41,7 +41,10 @@ def _stack(values: list[Any], shape: tuple[int, ...]) -> np.ndarray:
     """Stack lambdify's list output, broadcasting constant entries to ``shape``."""
     if not shape:
         return np.array(values, dtype=float)
-    return np.stack([np.broadcast_to(np.asarray(v, dtype=float), shape) for v in values])
+    out = np.empty((len(values), *shape))
+    for i, value in enumerate(values):
+        out[i] = value  # broadcasts the constant entries
+    return out
 
 
 @dataclass(frozen=True)
@@ -159,10 +162,18 @@ def _weight(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return theta.reshape(theta.shape + (1,) * (phi.ndim - theta.ndim)) * phi
 
 
-@cache
-def numeric_model(name: str) -> NumericModel:
-    """Compile the registered structure ``name`` into numpy functions (cached)."""
-    structure = get_model(name)
+def numeric_model(structure: ModelStructure) -> NumericModel:
+    """Compile a model structure into numpy functions (cached by the structure's name)."""
+    compiled = _COMPILED.get(structure.name)
+    if compiled is None or compiled.structure != structure:
+        compiled = _COMPILED[structure.name] = _compile(structure)
+    return compiled
+
+
+_COMPILED: dict[str, NumericModel] = {}
+
+
+def _compile(structure: ModelStructure) -> NumericModel:
     regressors = [t.regressor for t in structure.terms]
     gradients = [[sp.diff(expr, s) for s in VELOCITY_SYMBOLS] for expr in regressors]
     mask = np.zeros((3, structure.n_coefficients))
@@ -182,17 +193,13 @@ def numeric_model(name: str) -> NumericModel:
 
 
 @cache
-def family_regressors(name: str) -> Callable[..., np.ndarray]:
-    """Regressors of the family ``name`` with its shape constants as trailing arguments.
+def family_regressors(family: ModelFamily) -> Callable[..., np.ndarray]:
+    """Regressors of ``family`` with its shape constants as trailing arguments.
 
     Returns ``phi(u, v, r, rudder_rad, n_rps, length_m, *shape) -> (p, …)``, shape in the
     order of ``ModelFamily.shape``: one compiled function for a search over shapes,
     from the same symbolic terms as the structures the family instantiates.
     """
-    spec = parse_family(name)
-    if spec is None:
-        raise KeyError(f"{name!r} is not a model family")
-    family = spec[0]
     regressors = [t.regressor for t in family.terms]
     shape_symbols = tuple(c.symbol for c in family.shape)
     fn = sp.lambdify((*_ARGS, *shape_symbols), regressors, modules="numpy", cse=True)

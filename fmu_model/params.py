@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import unicodedata
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -18,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from fmu_model.atomic import write_atomic
+from fmu_model.structure import ModelStructure
 from fmu_model.variants import get_model
 
 PARAMS_FORMAT = "ship-maneuvering-params"
@@ -40,7 +42,8 @@ class ModelParameters:
     Parameters
     ----------
     model : str
-        Registered structure name (``fmu_model.variants``).
+        Registered structure name (``fmu_model.variants``); resolved once, on
+        construction, into :attr:`structure`.
     coefficients : numpy.ndarray
         Coefficient vector θ (p,), SI units (see ``units()``).
     length_m : float
@@ -66,9 +69,12 @@ class ModelParameters:
     nominal_n_rps: float = 0.0
     covariance: np.ndarray | None = None
     identification: Mapping[str, Any] = field(default_factory=dict)
+    structure: ModelStructure = field(init=False, repr=False)
+    """The model structure named by ``model``."""
 
     def __post_init__(self) -> None:
         structure = get_model(self.model)
+        object.__setattr__(self, "structure", structure)
         theta = np.array(self.coefficients, dtype=float)
         if theta.shape != (structure.n_coefficients,):
             raise ValueError(
@@ -87,7 +93,7 @@ class ModelParameters:
     @property
     def names(self) -> tuple[str, ...]:
         """Coefficient names in vector order."""
-        return get_model(self.model).coefficient_names
+        return self.structure.coefficient_names
 
     @property
     def std(self) -> np.ndarray | None:
@@ -121,7 +127,7 @@ class ModelParameters:
         """SI unit of every coefficient, e.g. ``{"a1": "1/m", ...}``."""
         from fmu_model.structure import unit_string
 
-        return {k: unit_string(d) for k, d in get_model(self.model).coefficient_units().items()}
+        return {k: unit_string(d) for k, d in self.structure.coefficient_units().items()}
 
     def to_json_dict(self) -> dict[str, Any]:
         """Return the params.json document (DESIGN.md) as a dict."""
@@ -152,9 +158,96 @@ def _require(
 
 
 def _finite(value: Any, what: str, path: str | None) -> float:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
         raise ParamsFormatError(path, f"{what} must be a finite number, got {value!r}")
-    return float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # an integer beyond the floating-point range (JSON allows it)
+        raise ParamsFormatError(
+            path, f"{what} must be a finite number, got {_huge(int(value))}"
+        ) from None
+    if not math.isfinite(number):
+        raise ParamsFormatError(path, f"{what} must be a finite number, got {value!r}")
+    return number
+
+
+def _huge(value: int) -> str:
+    """Describe an integer too large for a float without printing its digits."""
+    try:
+        digits = f"{len(str(abs(value)))} digits"
+    except ValueError:  # beyond Python's int-to-text limit
+        digits = "thousands of digits"
+    return f"an integer of {digits} (beyond the floating-point range)"
+
+
+def _covariance_matrix(covariance: Any, path: str | None) -> np.ndarray:
+    """Return the covariance as floats, or raise a one-line ParamsFormatError."""
+    try:
+        return np.array(covariance, dtype=float)
+    except OverflowError:
+        message = _huge_entry(covariance)
+    except (TypeError, ValueError):
+        message = "covariance must be a matrix of numbers"
+    raise ParamsFormatError(path, message)
+
+
+def _huge_entry(matrix: Any) -> str:
+    """Name the first integer entry of a nested list that no float can hold."""
+    rows = matrix if isinstance(matrix, list) else []
+    for i, row in enumerate(rows):
+        for j, entry in enumerate(row if isinstance(row, list) else []):
+            if isinstance(entry, int) and not isinstance(entry, bool):
+                try:
+                    float(entry)
+                except OverflowError:
+                    return f"covariance[{i}][{j}] must be a finite number, got {_huge(entry)}"
+    return "covariance has a number beyond the floating-point range"
+
+
+def text_problem(text: str) -> str | None:
+    """Return why ``text`` cannot be a name in an FMU (``None`` when it can).
+
+    A vessel name becomes the FMU's ``modelName`` (XML) and a string in its C source:
+    it must be Unicode text (no lone surrogate, which UTF-8 cannot encode) without
+    control characters (C0, DEL, C1: invalid in XML 1.0 or a terminal escape) and
+    without the non-characters U+FFFE and U+FFFF (invalid in XML).
+
+    Parameters
+    ----------
+    text : str
+        The name.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"contains a control character U+001B at character 7; expected printable
+        text"``, or ``None``.
+
+    """
+    for position, char in enumerate(text, start=1):
+        code = ord(char)
+        if 0xD800 <= code <= 0xDFFF:
+            what = "a lone surrogate"
+        elif unicodedata.category(char) == "Cc":
+            what = "a control character"
+        elif code in (0xFFFE, 0xFFFF):
+            what = "the non-character"
+        else:
+            continue
+        return f"contains {what} U+{code:04X} at character {position}; expected printable text"
+    return None
+
+
+def _vessel_name(vessel: Mapping[str, Any], path: str | None) -> str:
+    name = vessel.get("name")
+    if name is None or name == "":
+        return "ship"
+    if not isinstance(name, str):
+        raise ParamsFormatError(path, f"vessel.name must be a string, got {type(name).__name__}")
+    problem = text_problem(name)
+    if problem is not None:
+        raise ParamsFormatError(path, f"vessel.name {problem}")
+    return name
 
 
 def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
@@ -164,8 +257,10 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
     ------
     ParamsFormatError
         Wrong format or version, unknown model, missing or extra coefficients, a
-        non-finite number, a negative length, a covariance that is not a symmetric
-        p × p matrix of finite numbers with a non-negative diagonal.
+        non-finite number (also an integer beyond the floating-point range), a negative
+        length, a vessel name that is not a string or has a control character or a lone
+        surrogate (:func:`text_problem`), a covariance that is not a symmetric p × p
+        matrix of finite numbers with a non-negative diagonal.
 
     """
     if not isinstance(doc, Mapping):
@@ -199,10 +294,7 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
     covariance = doc.get("covariance")
     cov: np.ndarray | None = None
     if covariance is not None:
-        try:
-            cov = np.array(covariance, dtype=float)
-        except (TypeError, ValueError):
-            raise ParamsFormatError(path, "covariance must be a matrix of numbers") from None
+        cov = _covariance_matrix(covariance, path)
         p = len(names)
         if cov.shape != (p, p):
             raise ParamsFormatError(path, f"covariance must be {p}x{p}, got shape {cov.shape}")
@@ -220,7 +312,7 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
         model=model,
         coefficients=theta,
         length_m=length,
-        vessel_name=str(vessel.get("name") or "ship"),
+        vessel_name=_vessel_name(vessel, path),
         nominal_speed_mps=_finite(nominal.get("speed_mps", 0.0), "nominal.speed_mps", path),
         nominal_n_rps=_finite(nominal.get("rpm", 0.0), "nominal.rpm", path) / 60.0,
         covariance=cov,

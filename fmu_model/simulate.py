@@ -1,5 +1,7 @@
 """Fixed-step simulation of a model: RK4 (as inside the FMU) and the paper's forward Euler.
 
+RK4 is the project's one integrator, ``fmu_model.integrate.rk4_into``.
+
 Input convention: rudder angle and propeller speed are given at the sample times
 ``time_s``. RK4 holds each input constant over its step (zero-order hold), exactly as
 an FMU does between communication points. Forward Euler uses the step's averaged
@@ -8,24 +10,23 @@ inputs, s̄(k) = (s(k) + s(k+1)) / 2 (Shi et al. 2009, eq. (4)).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
+from fmu_model.integrate import n_substeps, rk4_into
 from fmu_model.numeric import NumericModel, numeric_model
 from fmu_model.params import ModelParameters
 
 
-def n_substeps(step_s: float, max_step_s: float | None) -> int:
-    """Return the number of equal internal steps of a communication step (as the C FMU).
-
-    ``ceil(step / max_step)`` with a 1e-12 relative guard so that, e.g., 0.3 / 0.1
-    gives 3 and not 4.
-    """
-    if max_step_s is None or step_s <= max_step_s:
-        return 1
-    return max(1, math.ceil(step_s / max_step_s * (1.0 - 1e-12)))
+def _model_derivative(
+    state: np.ndarray, context: tuple[NumericModel, np.ndarray, float], inputs: Any, out: np.ndarray
+) -> None:
+    """ṡ of the model (``NumericModel.rhs``) into ``out``; inputs (rudder [rad], n [rev/s])."""
+    model, theta, length_m = context
+    rudder_rad, n_rps = inputs
+    out[...] = model.rhs(state, rudder_rad, n_rps, theta, length_m)
 
 
 def rk4_step(
@@ -33,36 +34,43 @@ def rk4_step(
     theta: np.ndarray,
     length_m: float,
     state: np.ndarray,
-    rudder_rad: float,
-    n_rps: float,
+    rudder_rad: Any,
+    n_rps: Any,
     step_s: float,
 ) -> np.ndarray:
     """Advance the 6-state by one classical Runge–Kutta step with inputs held constant.
+
+    :func:`fmu_model.integrate.rk4_into` on the model's right-hand side; broadcasts over
+    a trailing batch dimension (state (6, K), θ (p, K), inputs (K,)).
 
     Parameters
     ----------
     model : NumericModel
         Compiled model structure.
     theta : numpy.ndarray
-        Coefficient vector (p,).
+        Coefficient vector (p,) or (p, K).
     length_m : float
         Ship length [m].
     state : numpy.ndarray
-        (u [m/s], v [m/s], r [rad/s], x [m], y [m], ψ [rad]).
-    rudder_rad : float
+        (u [m/s], v [m/s], r [rad/s], x [m], y [m], ψ [rad]), shape (6,) or (6, K).
+    rudder_rad : float or numpy.ndarray
         Rudder angle [rad], held over the step.
-    n_rps : float
+    n_rps : float or numpy.ndarray
         Propeller speed [rev/s], held over the step.
     step_s : float
         Step [s].
 
+    Returns
+    -------
+    numpy.ndarray
+        The state after the step (a new array).
+
     """
-    half = 0.5 * step_s
-    k1 = model.rhs(state, rudder_rad, n_rps, theta, length_m)
-    k2 = model.rhs(state + half * k1, rudder_rad, n_rps, theta, length_m)
-    k3 = model.rhs(state + half * k2, rudder_rad, n_rps, theta, length_m)
-    k4 = model.rhs(state + step_s * k3, rudder_rad, n_rps, theta, length_m)
-    return state + (step_s / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    new = np.array(state, dtype=float)
+    inputs = (rudder_rad, n_rps)
+    work = np.empty((5, *new.shape))
+    rk4_into(_model_derivative, new, step_s, (model, theta, length_m), inputs, inputs, inputs, work)
+    return new
 
 
 def euler_step(
@@ -122,7 +130,7 @@ def simulate(
         raise ValueError("time_s must be strictly increasing")
     if method not in ("rk4", "euler"):
         raise ValueError(f"unknown method {method!r} (use 'rk4' or 'euler')")
-    model = numeric_model(params.model)
+    model = numeric_model(params.structure)
     theta = params.to_vector()
     states = np.empty((t.size, 6))
     states[0] = np.asarray(initial_state, dtype=float)

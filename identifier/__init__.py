@@ -1,1 +1,1 @@
-"""Identification of manoeuvring models from trial logs: reading, smoothing, EKF."""
+"""Identification of manoeuvring models from trial logs: smoothing, shape, EKF, output error."""

@@ -3,27 +3,24 @@
 Zig-zag overshoots do not tell a model that extrapolates well from one that does not
 (reference/model_structures.md, §8); only held-out manoeuvres do. For each held-out
 log the identified model is replayed with the log's own rudder and propeller speed
-(``identifier.refine.replay``, RK4, inputs interpolated between samples) from the
+(``fmu_model.replay.replay``, RK4, inputs interpolated between samples) from the
 execute point on, from the state the model itself gives there when fitted to the
-approach (``identifier.refine.execute_state``; nothing after execute is used). Then
+approach (``identifier.output_error.execute_state``; nothing after execute is used). Then
 
 * the RMS position error from execute to the end of the log, in ship lengths, and
 * the manoeuvre's own indices computed the same way on both the logged (smoothed)
   track and the prediction: advance, transfer and tactical diameter of a turning
-  circle, first and second overshoot of a zig-zag (``scenarios.metrics``).
+  circle, first and second overshoot of a zig-zag (``trials.metrics``).
 
-This module is the one place where the identifier uses ``scenarios``: the metric
-definitions (pure functions of a trajectory) exist once, there. Nothing here knows
-about FMI.
+The metric definitions (pure functions of a trajectory) exist once, in
+``trials.metrics``. Nothing here knows about FMI, and nothing here prints: the
+command line is ``python -m identifier crossval`` (:mod:`identifier.cli.crossval`).
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import re
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,15 +28,15 @@ from typing import Any
 
 import numpy as np
 
-from fmu_model import DEFAULT_MODEL, ModelParameters, ParamsFormatError, argtypes, model_names
-from fmu_model.atomic import write_atomic
-from identifier.errors import IdentificationError, LogFormatError
+from fmu_model import ModelParameters
+from fmu_model.replay import replay
 from identifier.identify import FitSettings, identify
-from identifier.logs import ManeuverLog, read_log
-from identifier.refine import execute_index, execute_state, replay, smooth_log
+from identifier.output_error import execute_index, execute_state, smooth_log
 from identifier.smoothing import SmoothedTrack
-from scenarios.metrics import MetricsError, turning_metrics, zigzag_metrics
-from scenarios.trajectory import empty_trajectory
+from trials.errors import IdentificationError
+from trials.logs import ManeuverLog
+from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
+from trials.trajectory import empty_trajectory
 
 KINDS = ("turning", "zigzag")
 _KIND_PATTERNS = (
@@ -285,7 +282,7 @@ def predict_log(
     """Replay the model with a log's inputs from its state at execute.
 
     The state at execute comes from the approach alone
-    (``identifier.refine.execute_state``); from there on the model runs open loop on
+    (``identifier.output_error.execute_state``); from there on the model runs open loop on
     the logged rudder [rad] and propeller speed [rev/s].
 
     Parameters
@@ -307,7 +304,7 @@ def predict_log(
     track = track or smooth_log(log)
     k, state = execute_state(params, log, track)
     states = replay(
-        params.model,
+        params.structure,
         params.to_vector(),
         params.length_m,
         log.time_s[k:],
@@ -583,88 +580,3 @@ def run_cross_validation(
             ),
         )
     return CrossValidation(model=settings.model, refine=settings.refine, folds=folds)
-
-
-# --------------------------------------------------------------------------------------
-# Command line: python -m identifier crossval
-# --------------------------------------------------------------------------------------
-
-
-def add_parser(sub: Any) -> argparse.ArgumentParser:
-    """Add the ``crossval`` command to the subparsers ``sub`` of ``python -m identifier``."""
-    cv = sub.add_parser(
-        "crossval",
-        help="identify on some logs, predict the held-out ones",
-        description=(
-            "Cross-validate a model structure: identify on the training logs, replay the "
-            "held-out logs' rudder and rpm, and compare track and manoeuvre indices."
-        ),
-    )
-    cv.add_argument("logs", nargs="+", metavar="LOG.csv", help="trial logs (DESIGN.md format)")
-    cv.add_argument(
-        "--train",
-        nargs="+",
-        metavar="KIND|FILE",
-        default=[],
-        help="training logs: turning, zigzag or log files (given here or among LOGS)",
-    )
-    cv.add_argument(
-        "--test",
-        nargs="+",
-        metavar="KIND|FILE",
-        default=[],
-        help="held-out logs (default: every log not trained on)",
-    )
-    cv.add_argument(
-        "--leave-one-out", action="store_true", help="one fold per log, trained on all others"
-    )
-    cv.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
-    cv.add_argument("--refine", action="store_true", help="output-error refinement after the EKF")
-    cv.add_argument(
-        "--length-m", type=argtypes.positive, help="ship length [m] (default: from logs)"
-    )
-    cv.add_argument("--json", metavar="OUT", help="write the results as JSON")
-    cv.add_argument("--quiet", action="store_true", help="no table on stdout")
-    return cv
-
-
-def main(args: argparse.Namespace) -> int:
-    """Run ``python -m identifier crossval`` for parsed ``args``; return the exit status."""
-    if args.leave_one_out and (args.train or args.test):
-        print("error: --leave-one-out takes no --train/--test", file=sys.stderr)
-        return 2
-    if not args.leave_one_out and not args.train:
-        print("error: give --train KIND|FILE... or --leave-one-out", file=sys.stderr)
-        return 2
-    try:
-        paths = list(dict.fromkeys(args.logs))
-        known = {Path(p).resolve() for p in paths}
-        for item in (*args.train, *args.test):
-            if item not in KINDS and Path(item).resolve() not in known:
-                paths.append(item)
-                known.add(Path(item).resolve())
-        logs = [read_log(p) for p in paths]
-        cv = run_cross_validation(
-            logs,
-            FitSettings(model=args.model, refine=args.refine),
-            train=args.train,
-            test=args.test,
-            leave_one_out_=args.leave_one_out,
-            length_m=args.length_m,
-        )
-        if args.json:
-            write_atomic(args.json, json.dumps(cv.to_json_dict(), indent=2, allow_nan=False) + "\n")
-    except (LogFormatError, IdentificationError, ParamsFormatError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    except OSError as exc:
-        print(f"error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
-        return 1
-    for fold in cv.folds:
-        for warning in fold.warnings:
-            print(f"warning: {warning}", file=sys.stderr)
-    if not args.quiet:
-        print(format_table(cv))
-        if args.json:
-            print(f"wrote {args.json}")
-    return 0

@@ -36,8 +36,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from fmu_model import numeric_model
-from identifier.errors import IdentificationError
+from fmu_model import ModelStructure, numeric_model
+from trials.errors import IdentificationError
 
 MEASUREMENTS = ("track", "velocities")
 
@@ -130,7 +130,7 @@ class EkfResult:
 
 
 def ekf_identify(
-    model_name: str,
+    structure: ModelStructure,
     segments: Sequence[EkfSegment],
     theta0: np.ndarray,
     covariance0: np.ndarray,
@@ -138,12 +138,12 @@ def ekf_identify(
     settings: EkfSettings | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> EkfResult:
-    """Identify the coefficients θ of ``model_name`` with the augmented-state EKF.
+    """Identify the coefficients θ of ``structure`` with the augmented-state EKF.
 
     Parameters
     ----------
-    model_name : str
-        Registered model structure.
+    structure : ModelStructure
+        The model structure.
     segments : sequence of EkfSegment
         The manoeuvres, processed in order.
     theta0 : numpy.ndarray
@@ -168,7 +168,7 @@ def ekf_identify(
     settings = settings or EkfSettings()
     if settings.measurements not in MEASUREMENTS:
         raise ValueError(f"measurements must be one of {MEASUREMENTS}")
-    model = numeric_model(model_name)
+    model = numeric_model(structure)
     phi_fn, grad_fn, kin_fn, kin_grad_fn = model.kernels
     eq_index = np.asarray(model.structure.equation_index, dtype=np.int64)
     p = model.n_coefficients

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fmu_model import numeric_model
+from fmu_model import ModelStructure, numeric_model
 from identifier.ekf import EkfSegment
 
 # Ridge weight relative to the number of samples, in unit-RMS column scaling.
@@ -71,19 +71,19 @@ def regression_samples(segments: Sequence[EkfSegment]) -> tuple[np.ndarray, np.n
 
 
 def regression_data(
-    model_name: str, segments: Sequence[EkfSegment], length_m: float
+    structure: ModelStructure, segments: Sequence[EkfSegment], length_m: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """Return the regressors Φ (p, M) and the central-difference accelerations (3, M)."""
     (u, v, r, rudder_rad, n_rps), acc = regression_samples(segments)
-    return numeric_model(model_name).regressors(u, v, r, rudder_rad, n_rps, length_m), acc
+    return numeric_model(structure).regressors(u, v, r, rudder_rad, n_rps, length_m), acc
 
 
 def equation_error_fit(
-    model_name: str, segments: Sequence[EkfSegment], length_m: float
+    structure: ModelStructure, segments: Sequence[EkfSegment], length_m: float
 ) -> EquationErrorFit:
     """Fit θ by equation-error least squares on the smoothed segments (module docstring)."""
-    phi, acc = regression_data(model_name, segments, length_m)
-    return fit_regression(phi, acc, numeric_model(model_name).structure.equation_index)
+    phi, acc = regression_data(structure, segments, length_m)
+    return fit_regression(phi, acc, structure.equation_index)
 
 
 def fit_regression(

@@ -10,7 +10,7 @@ same smoothed data (``identifier.equation_error``), with its covariance inflated
 prior; ``initial="zero"`` gives the paper's start. For a model family
 (``prime-rudder``) the shape constants not given in the model name are chosen first
 from the same data (``identifier.shape``); ``refine`` adds the output-error
-refinement (``identifier.refine``).
+refinement (``identifier.output_error``).
 """
 
 from __future__ import annotations
@@ -28,11 +28,11 @@ from fmu_model import DEFAULT_MODEL, ModelParameters, get_model
 from fmu_model.variants import parse_family
 from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import EquationErrorFit, equation_error_fit
-from identifier.errors import IdentificationError
-from identifier.logs import ManeuverLog
-from identifier.refine import RefinementResult, refine_output_error
+from identifier.output_error import RefinementResult, refine_output_error
 from identifier.shape import select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
+from trials.errors import IdentificationError
+from trials.logs import ManeuverLog
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
 MAX_SAMPLE_INTERVAL_S = 5.0
@@ -75,7 +75,7 @@ class FitSettings:
         (variance inflation factor, ``EquationErrorFit.variance_inflation``).
     refine : bool
         After the EKF, refine by output error on the whole logs
-        (``identifier.refine.refine_output_error``, default settings), starting from
+        (``identifier.output_error.refine_output_error``, default settings), starting from
         whichever of the EKF and equation-error estimates replays the logs better, and
         keeping that start when the guards fire.
 
@@ -270,9 +270,8 @@ def identify(
         shape = select_shape(
             family, segments, length, nominal_speed_mps, nominal_n_rps, fixed=fixed
         )
-    model = settings.model if shape is None else shape.model
-    structure = get_model(model)
-    ls = equation_error_fit(model, segments, length)
+    structure = get_model(settings.model) if shape is None else shape.structure
+    ls = equation_error_fit(structure, segments, length)
     ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
     if settings.initial == "equation-error":
         theta0 = ls.theta
@@ -281,7 +280,7 @@ def identify(
         theta0 = np.zeros(structure.n_coefficients)
         cov0 = settings.alpha * np.eye(structure.n_coefficients)
     ekf = ekf_identify(
-        model,
+        structure,
         segments,
         theta0,
         cov0,
@@ -326,7 +325,7 @@ def identify(
     )
     vessel = next((log.metadata["vessel"] for log in logs if "vessel" in log.metadata), "ship")
     params = ModelParameters(
-        model=model,
+        model=structure.name,
         coefficients=ekf.theta,
         length_m=length,
         vessel_name=vessel,
@@ -339,7 +338,7 @@ def identify(
                 {"path": _log_name(log, i), "sha256": _sha256(log)} for i, log in enumerate(logs)
             ],
             "settings": _json_safe(asdict(settings)),
-            **({} if shape is None else {"shape": asdict(shape)}),
+            **({} if shape is None else {"shape": shape.as_dict()}),
             "noise": [
                 {"position_m": t.position_noise_m, "heading_deg": math.degrees(t.heading_noise_rad)}
                 for t in tracks

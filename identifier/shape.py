@@ -23,11 +23,12 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
 
-from fmu_model import get_model
+from fmu_model import ModelStructure
 from fmu_model.numeric import family_regressors
 from fmu_model.variants import ModelFamily, ShapeConstant
 from identifier.ekf import EkfSegment
@@ -40,8 +41,8 @@ class ShapeSelection:
 
     Attributes
     ----------
-    model : str
-        Name of the structure with that shape (``family[k=…,gamma=…,l=…]``).
+    structure : ModelStructure
+        The structure with that shape (named ``family[k=…,gamma=…,l=…]``).
     shape : dict
         The shape constants.
     residual : float
@@ -53,11 +54,21 @@ class ShapeSelection:
 
     """
 
-    model: str
+    structure: ModelStructure
     shape: dict[str, float]
     residual: float
     default_residual: float
     evaluations: int
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the record of params.json ``identification.shape`` (structure by name)."""
+        return {
+            "model": self.structure.name,
+            "shape": dict(self.shape),
+            "residual": self.residual,
+            "default_residual": self.default_residual,
+            "evaluations": self.evaluations,
+        }
 
 
 def _unit(constant: ShapeConstant, slipstream: float) -> float:
@@ -91,9 +102,9 @@ def select_shape(
     """
     fixed = dict(fixed or {})
     family.check(fixed)
-    phi_fn = family_regressors(family.name)
+    phi_fn = family_regressors(family)
     samples, acc = regression_samples(segments)
-    equation_index = get_model(family.name).equation_index
+    equation_index = family.structure(family.default_shape).equation_index
     signal = np.sum(acc**2, axis=1)
     signal = np.where(signal > 0.0, signal, 1.0)
     names = [c.name for c in family.shape]
@@ -140,7 +151,7 @@ def select_shape(
     # The structure's constants are those of its name (6 significant digits).
     shape = {n: float(f"{v:.6g}") for n, v in zip(names, full(list(best)), strict=True)}
     return ShapeSelection(
-        model=family.structure_name(shape),
+        structure=family.structure(shape),
         shape=shape,
         residual=residual(list(shape.values())),
         default_residual=residual([c.default for c in family.shape]),

@@ -1,1 +1,1 @@
-"""Standard manoeuvres through FMUs, metrics, IMO criteria, reference ship, reports."""
+"""Standard manoeuvres through FMUs, reference ships, IMO criteria, validation, reports."""

@@ -25,7 +25,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from scenarios.metrics import TurningMetrics, ZigzagMetrics
+from trials.metrics import TurningMetrics, ZigzagMetrics
 
 __all__ = [
     "ADVANCE_LIMIT_L",
@@ -161,12 +161,7 @@ def first_overshoot_limit_10_rad(length_m: float, speed_mps: float) -> float:
         10° if L/V < 10 s, 20° if L/V ≥ 30 s, (5 + L/(2V))° in between [rad].
 
     """
-    lv_s = _length_over_speed_s(length_m, speed_mps)
-    if lv_s < 10.0:
-        return math.radians(10.0)
-    if lv_s >= 30.0:
-        return math.radians(20.0)
-    return math.radians(5.0 + 0.5 * lv_s)
+    return _zigzag_10_limit_rad(length_m, speed_mps, 10.0, 20.0, 5.0, 0.5)
 
 
 def second_overshoot_limit_10_rad(length_m: float, speed_mps: float) -> float:
@@ -185,12 +180,7 @@ def second_overshoot_limit_10_rad(length_m: float, speed_mps: float) -> float:
         25° if L/V < 10 s, 40° if L/V ≥ 30 s, (17.5 + 0.75 L/V)° in between [rad].
 
     """
-    lv_s = _length_over_speed_s(length_m, speed_mps)
-    if lv_s < 10.0:
-        return math.radians(25.0)
-    if lv_s >= 30.0:
-        return math.radians(40.0)
-    return math.radians(17.5 + 0.75 * lv_s)
+    return _zigzag_10_limit_rad(length_m, speed_mps, 25.0, 40.0, 17.5, 0.75)
 
 
 def turning_ability(metrics: TurningMetrics, length_m: float) -> tuple[Criterion, Criterion]:
@@ -431,6 +421,28 @@ def _length_over_speed_s(length_m: float, speed_mps: float) -> float:
     _require_positive(length_m, "length_m")
     _require_positive(speed_mps, "speed_mps")
     return length_m / speed_mps
+
+
+def _zigzag_10_limit_rad(
+    length_m: float,
+    speed_mps: float,
+    short_deg: float,
+    long_deg: float,
+    offset_deg: float,
+    slope_deg_per_s: float,
+) -> float:
+    """Apply the rule of the 10°/10° zig-zag limits, §5.3.3.1-2, with t = L/V [s].
+
+    Returns ``short_deg`` if t < 10 s, ``long_deg`` if t ≥ 30 s, and
+    ``offset_deg + slope_deg_per_s · t`` in between (continuous at both ends), in
+    radians.
+    """
+    lv_s = _length_over_speed_s(length_m, speed_mps)
+    if lv_s < 10.0:
+        return math.radians(short_deg)
+    if lv_s >= 30.0:
+        return math.radians(long_deg)
+    return math.radians(offset_deg + slope_deg_per_s * lv_s)
 
 
 def _require_zigzag(metrics: ZigzagMetrics, angle_deg: float) -> None:

@@ -1,6 +1,6 @@
 """Synthetic trial logs: a ship plays the manoeuvre, a noisy logger records it.
 
-The truth is simulated with the step driver (``scenarios.run``) at a fine step, then
+The truth is simulated with the step driver (``trials.run``) at a fine step, then
 sampled at the logger's rate with Gaussian measurement noise on position and heading
 (reproducible from a seed). Rudder angle and rpm are logged without noise, as the
 steering-gear feedback and shaft counter are far more precise than GNSS. The heading
@@ -10,16 +10,20 @@ is written wrapped to [0, 360) like a gyro compass.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+import os
+import zlib
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from fmu_model import ModelParameters
-from identifier.logs import ManeuverLog
-from scenarios.kvlcc2 import kvlcc2
-from scenarios.maneuvers import Program, turning_circle, zigzag
-from scenarios.run import ModelPlant, Plant, ReferencePlant, run_program
+from scenarios.errors import ScenarioError
+from scenarios.kvlcc2 import ReferencePlant, kvlcc2
+from trials.logs import ManeuverLog, write_log
+from trials.maneuvers import Program, turning_circle, zigzag
+from trials.run import ModelPlant, Plant, run_program
 
 MANEUVERS: dict[str, Callable[[], Program]] = {
     "turning-35": lambda: turning_circle(math.radians(35.0)),
@@ -140,3 +144,79 @@ def synthesize_log(
             "execute_time_s": repr(approach_s),
         },
     )
+
+
+def maneuver_seed(seed: int, maneuver: str) -> int:
+    """Noise seed of one manoeuvre's log, derived from a run seed and the manoeuvre name.
+
+    ``SeedSequence([seed, crc32(name)])``: each manoeuvre gets its own noise, and the
+    same manoeuvre the same noise whatever else is synthesised with it.
+    """
+    if seed < 0:
+        raise ScenarioError(f"seed must be non-negative, got {seed}")
+    sequence = np.random.SeedSequence([seed, zlib.crc32(maneuver.encode("utf-8"))])
+    return int(sequence.generate_state(1, dtype=np.uint32)[0])
+
+
+def synthesize_logs(
+    directory: str | os.PathLike[str],
+    maneuvers: Sequence[str],
+    *,
+    vessel: str = "kvlcc2",
+    scale: str = "full",
+    rate_hz: float = 1.0,
+    position_noise_m: float = 1.0,
+    heading_noise_deg: float = 0.1,
+    seed: int = 0,
+    approach_s: float = 60.0,
+    on_log: Callable[[Path], object] | None = None,
+) -> list[Path]:
+    """Write one synthetic trial log per manoeuvre, ``directory/<manoeuvre>.csv``.
+
+    Parameters
+    ----------
+    directory : path-like
+        Output folder (created).
+    maneuvers : sequence of str
+        Names from ``scenarios.synthesize.MANEUVERS``.
+    vessel, scale : str
+        Reference ship and scale (``reference_ship``).
+    rate_hz, position_noise_m, heading_noise_deg, approach_s
+        As ``synthesize_log`` [Hz, m, deg, s].
+    seed : int
+        Run seed; each manoeuvre's noise seed is :func:`maneuver_seed` of it.
+    on_log : callable, optional
+        Called with each path written.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The logs, in the order of ``maneuvers``.
+
+    """
+    unknown = [m for m in maneuvers if m not in MANEUVERS]
+    if unknown:
+        raise ScenarioError(
+            f"unknown manoeuvre(s) {', '.join(unknown)} (known: {', '.join(MANEUVERS)})"
+        )
+    try:
+        ship = reference_ship(vessel, scale)
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
+    written = []
+    for name in dict.fromkeys(maneuvers):  # once each, in order
+        log = synthesize_log(
+            ship,
+            MANEUVERS[name](),
+            rate_hz=rate_hz,
+            position_noise_m=position_noise_m,
+            heading_noise_deg=heading_noise_deg,
+            seed=maneuver_seed(seed, name),
+            approach_s=approach_s,
+        )
+        path = Path(directory) / f"{name}.csv"
+        write_log(path, log)
+        written.append(path)
+        if on_log is not None:
+            on_log(path)
+    return written

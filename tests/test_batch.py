@@ -16,9 +16,9 @@ import pytest
 from fmu_model import ModelParameters, load_params
 from identifier.batch import ManifestError, read_vessels, run_batch
 from identifier.cli import main
-from identifier.logs import write_log
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials.logs import write_log
 
 BAD_LOG = "time_s,x_m,y_m,heading_deg,rudder_deg,rpm\n0,0,0,0,0,abc\n"
 

@@ -18,12 +18,12 @@ from identifier.crossval import (
     select_logs,
     zigzag_angles,
 )
-from identifier.errors import IdentificationError
 from identifier.identify import FitSettings
 from identifier.ingest import output_paths
-from identifier.logs import ManeuverLog, read_log, write_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials.errors import IdentificationError
+from trials.logs import ManeuverLog, read_log, write_log
 
 RUDDER_RATE = math.radians(5.0)
 NAMES = ("turning-35", "zigzag-10", "zigzag-20", "turning-35-port", "zigzag-10-port")

@@ -13,13 +13,15 @@ import json
 import math
 import re
 import shutil
+import struct
 import subprocess
 import sys
+import time
 import xml.etree.ElementTree as ET
 import zipfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from ctypes import byref, c_char_p, c_double, c_int, c_uint
+from ctypes import byref, c_char_p, c_double, c_int, c_uint, c_void_p
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -43,11 +45,19 @@ from fmu_model.export_native import (
     LAYER_SOURCE,
     build_native_fmu,
     fmi_headers_dir,
-    model_identifier,
     osp_sidecar_path,
     render_native_fmu,
 )
-from fmu_model.interface import RUDDER_LIMIT_RAD, fmu_variables
+from fmu_model.interface import (
+    MAX_PROPELLER_RPM,
+    MAX_SPEED_MPS,
+    MAX_SUBSTEPS,
+    MAX_YAW_RATE_RADPS,
+    MIN_LENGTH_M,
+    RUDDER_LIMIT_RAD,
+    fmu_variables,
+    model_identifier,
+)
 from fmu_model.model_description import LOG_CATEGORIES, OSP_NAMESPACE
 from tests.fmi_logging import LogRecorder
 from tests.test_shape import COEFFICIENTS as PRIME_RUDDER_COEFFICIENTS
@@ -222,6 +232,13 @@ def test_model_description_declares_capabilities_units_and_structure(
     assert (rudder.causality, rudder.unit, rudder.displayUnit) == ("input", "rad", "deg")
     assert float(rudder.max) == RUDDER_LIMIT_RAD == -float(rudder.min)
     assert variables["propeller_rpm"].start == "120.0"
+    rpm, length = variables["propeller_rpm"], variables["length"]
+    assert (
+        (float(rpm.min), float(rpm.max)) == (-MAX_PROPELLER_RPM, MAX_PROPELLER_RPM) == (-6e3, 6e3)
+    )
+    assert float(length.min) == MIN_LENGTH_M > 0.0 and float(length.max) == 1000.0
+    for name in ("u0", "v0", "r0", "x0", "y0", "psi0"):
+        assert float(variables[name].min) == -float(variables[name].max) > -math.inf
     assert variables["a9"].start == "0.0625" and variables["a9"].variability == "fixed"
     assert variables["max_step"].start == "0.05"
 
@@ -309,8 +326,40 @@ def test_model_identifier_is_c_safe() -> None:
     assert model_identifier("Test Ship 1") == "Test_Ship_1"
     assert model_identifier("KVLCC2 (model scale)") == "KVLCC2_model_scale"
     assert model_identifier("123") == "ship_123"
+    assert model_identifier("2nd ship") == "ship_2nd_ship"
+    assert model_identifier("_x__y_") == "x_y"
     assert model_identifier("Ålesund/ø") == "lesund"
     assert model_identifier("  ") == "ship"
+
+
+def test_model_config_carries_the_divergence_rule_of_the_interface(
+    params: ModelParameters,
+) -> None:
+    config = render_native_fmu(params).sources["model_config.h"]
+    assert f"#define DIVERGENCE_MAX_SPEED {MAX_SPEED_MPS!r}\n" in config
+    assert f"#define DIVERGENCE_MAX_YAW_RATE {MAX_YAW_RATE_RADPS!r}\n" in config
+    assert '#define DIVERGENCE_FORMAT "fmi2DoStep: the state diverged at t = %.9g s' in config
+    layer = (C_DIR / LAYER_SOURCE).read_text()
+    assert "DIVERGENCE_MAX_SPEED" in layer and "#define DIVERGENCE" not in layer  # one copy
+
+
+def test_model_config_carries_the_step_and_start_rules_of_the_interface(
+    params: ModelParameters,
+) -> None:
+    config = render_native_fmu(params).sources["model_config.h"]
+    assert "#define MAX_SUBSTEPS 1000000.0\n" in config
+    assert "#define MIN_START_SPEED 0.0\n" in config  # shi2009 starts from rest
+    prime = replace(
+        params,
+        model="prime-rudder",
+        coefficients=np.array(list(PRIME_RUDDER_COEFFICIENTS.values())),
+        covariance=None,
+    )
+    assert "#define MIN_START_SPEED 0.001\n" in render_native_fmu(prime).sources["model_config.h"]
+    layer = (C_DIR / LAYER_SOURCE).read_text()
+    for macro in ("MAX_SUBSTEPS", "MIN_START_SPEED", "TIME_STALL_FORMAT", "STATE_RANGE_FORMAT"):
+        assert macro in layer and f"#define {macro}" not in layer  # one copy, generated
+    assert "10000000" not in layer  # the old limit of 1e7 internal steps (7-9 s) is gone
 
 
 # --- numerics against fmu_model.simulate ----------------------------------------------
@@ -451,6 +500,51 @@ def test_fmu_state_round_trips_continue_bit_identically(unzipped: Path) -> None:
         other.freeFMUstate(moved)
 
 
+def test_fmu_state_functions_work_in_every_state_fmi_allows(unzipped: Path) -> None:
+    """FMI 2.0: instantiated, initialization mode, step complete, step failed, terminated."""
+    md = read_model_description(unzipped)
+    fmu = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=str(unzipped),
+        modelIdentifier=md.coSimulation.modelIdentifier,
+    )
+    fmu.instantiate()
+    saved = []
+
+    def save_and_round_trip() -> None:
+        state = fmu.getFMUstate()
+        copy = fmu.deSerializeFMUstate(fmu.serializeFMUstate(state))
+        fmu.setFMUstate(copy)
+        fmu.freeFMUstate(copy)
+        saved.append(state)
+
+    try:
+        save_and_round_trip()  # instantiated
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.setReal([VR_COEFFICIENTS], [0.5])  # a1 > 0: diverges within 0.4 s
+        save_and_round_trip()  # initialization mode
+        fmu.exitInitializationMode()
+        save_and_round_trip()  # step complete
+        step_complete = saved[-1]
+        assert do_step(fmu, 0.0, 2.0) == FMI_DISCARD
+        save_and_round_trip()  # step failed
+        assert do_step(fmu, 0.0, 0.1) == FMI_ERROR  # still failed after the round trip
+        fmu.setFMUstate(step_complete)
+        assert do_step(fmu, 0.0, 0.1) == FMI_OK
+        fmu.terminate()
+        save_and_round_trip()  # terminated
+        fmu.setFMUstate(saved[0])  # back to instantiated: initialisation is allowed again
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        assert do_step(fmu, 0.0, 2.0) == FMI_OK  # a1 of the instantiated state: stable
+        for state in saved:
+            fmu.freeFMUstate(state)
+    finally:
+        fmu.freeInstance()
+
+
 def test_corrupt_serialized_state_is_rejected(unzipped: Path) -> None:
     logger = LogRecorder()
     with slave(unzipped, logger=logger) as fmu:
@@ -499,6 +593,8 @@ def test_log_messages_reach_the_default_logger_after_a_recorder_is_gone(
 BAD_SET_REAL = {
     "NaN rudder": ([VR_RUDDER], [math.nan], "must be finite"),
     "infinite rpm": ([VR_RPM], [math.inf], "must be finite"),
+    "rpm beyond +6000": ([VR_RPM], [6000.5], "'propeller_rpm' (vr 1) = 6000.5 is outside"),
+    "rpm -1e9": ([VR_RPM], [-1e9], "is outside [-6000, 6000]"),
     "rudder beyond +45 deg": ([VR_RUDDER], [np.radians(45.5)], "outside"),
     "rudder beyond -45 deg": ([VR_RUDDER], [-np.radians(46.0)], "outside"),
     "parameter after init": ([VR_COEFFICIENTS], [-0.02], "fixed parameter"),
@@ -530,6 +626,11 @@ BAD_DO_STEP = {
     "NaN step": (0.0, math.nan, "must be positive"),
     "wrong communication point": (5.0, 0.1, "is not the FMU's time"),
     "too many internal steps": (0.0, 1e9, "internal steps"),
+    "one internal step more than the limit": (
+        0.0,
+        (MAX_SUBSTEPS + 1) * MAX_STEP_S,
+        "more than the 1000000 one call may take",
+    ),
 }
 
 
@@ -543,6 +644,103 @@ def test_bad_do_step_is_an_error(unzipped: Path, case: str) -> None:
         assert message in logger.last()[2]
         assert fmu.getReal(VR_OUTPUTS) == before
         assert do_step(fmu, 0.0, 0.1) == FMI_OK
+
+
+def test_the_largest_step_of_the_costliest_variant_takes_about_a_second(tmp_path: Path) -> None:
+    """MAX_SUBSTEPS internal steps of prime-rudder (about 1.0 us each): well within 3 s."""
+    names = get_model("prime-rudder").coefficient_names
+    params = replace(
+        make_params(),
+        model="prime-rudder",
+        coefficients=np.array([PRIME_GAINS.get(name, 0.0) for name in names]),
+        covariance=None,
+    )
+    fmu_file = build_native_fmu(params, tmp_path / "prime.fmu")
+    unzipped = Path(extract(fmu_file, unzipdir=tmp_path / "x"))
+    with slave(unzipped) as fmu:
+        fmu.setReal([VR_RUDDER], [0.1])
+        started = time.perf_counter()
+        assert do_step(fmu, 0.0, MAX_SUBSTEPS * MAX_STEP_S) == FMI_OK
+        elapsed = time.perf_counter() - started
+        assert all(math.isfinite(x) for x in fmu.getReal(VR_OUTPUTS))
+        started = time.perf_counter()
+        t = MAX_SUBSTEPS * MAX_STEP_S
+        assert do_step(fmu, t, (MAX_SUBSTEPS + 1) * MAX_STEP_S) == FMI_ERROR
+        refused = time.perf_counter() - started
+    assert elapsed < 3.0, f"{elapsed:.2f} s for the largest step"  # measured 0.97 s
+    assert refused < 0.1  # refused before any work
+
+
+# Parameters outside their physical bounds, set before initialisation:
+# (name, value, message).
+BAD_PARAMETERS = {
+    "negative length": ("length", -320.0, "'length' (vr 8) = -320 is outside [0.1"),
+    "zero length": ("length", 0.0, "'length' (vr 8) = 0 is outside"),
+    "length of 2 km": ("length", 2000.0, "= 2000 is outside [0.10000000000000001, 1000]"),
+    "u0 beyond the divergence bound": ("u0", 1500.0, "= 1500 is outside [-1000, 1000]"),
+    "r0 beyond the divergence bound": ("r0", -1001.0, "'r0' (vr 12) = -1001 is outside"),
+    "x0 beyond the Earth": ("x0", 1e9, "'x0' (vr 13) = 1000000000 is outside"),
+    "psi0 of 1e7 rad": ("psi0", 1e7, "'psi0' (vr 15) = 10000000 is outside"),
+    "max_step zero": ("max_step", 0.0, "'max_step' (vr 9) = 0 is outside"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_PARAMETERS)
+def test_parameters_outside_their_bounds_are_refused_before_initialisation(
+    unzipped: Path, params: ModelParameters, case: str
+) -> None:
+    name, value, message = BAD_PARAMETERS[case]
+    variable = next(v for v in fmu_variables(params) if v.name == name)
+    logger = LogRecorder()
+    codes = []
+    with slave(
+        unzipped,
+        logger=logger,
+        before_init=lambda fmu: codes.append(set_real(fmu, [variable.value_reference], [value])),
+    ) as fmu:
+        assert codes == [FMI_ERROR]
+        assert any(message in text for _, _, text in logger.messages), logger.messages
+        assert fmu.getReal([variable.value_reference]) == [variable.start]  # unchanged
+        assert do_step(fmu, 0.0, 0.1) == FMI_OK
+
+
+# Byte offsets in the serialised state: magic (8), version (4), number of variables (4),
+# GUID (64), FMI state (4), padding (4), then the doubles time, start_time,
+# last_successful_time and the values by value reference.
+SERIAL_TIME_OFFSET = 8 + 4 + 4 + 64 + 4 + 4
+SERIAL_VALUES_OFFSET = SERIAL_TIME_OFFSET + 3 * 8
+# What fmi2SetReal cannot set but a state carries: outputs and times. The values that
+# fmi2SetReal refuses are checked in both backends (tests/test_fmu_parity.py).
+BAD_SERIALISED_STATES = {
+    "NaN surge velocity": (SERIAL_VALUES_OFFSET + 8 * 2, math.nan, "u must be finite, got nan"),
+    "infinite heading": (SERIAL_VALUES_OFFSET + 8 * 7, -math.inf, "psi must be finite, got -inf"),
+    "infinite time": (SERIAL_TIME_OFFSET, math.inf, "its times (inf, 0, 0.1 s) must be finite"),
+    "NaN start time": (SERIAL_TIME_OFFSET + 8, math.nan, "its times (0.1, nan, 0.1 s)"),
+    "rudder 1.5 rad": (SERIAL_VALUES_OFFSET, 1.5, "rudder_angle = 1.5 is outside [-0.785"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_SERIALISED_STATES)
+def test_a_serialised_state_with_a_value_no_fmu_could_have_is_refused(
+    unzipped: Path, case: str
+) -> None:
+    offset, value, message = BAD_SERIALISED_STATES[case]
+    logger = LogRecorder()
+    with slave(unzipped, logger=logger) as fmu:
+        assert do_step(fmu, 0.0, 0.1) == FMI_OK
+        everything = list(range(32))
+        before = fmu.getReal(everything)
+        serialized = bytearray(fmu.serializeFMUstate(fmu.getFMUstate()))
+        struct.pack_into("=d", serialized, offset, value)
+        with pytest.raises(FMICallException) as info:
+            fmu.deSerializeFMUstate(bytes(serialized))
+        assert info.value.status == FMI_ERROR
+        code, category, text = logger.last()
+        assert (code, category) == (FMI_ERROR, "logStatusError")
+        assert text.startswith("fmi2DeSerializeFMUstate: the FMU state is not restored: ")
+        assert message in text, text
+        assert fmu.getReal(everything) == before
+        assert do_step(fmu, 0.1, 0.1) == FMI_OK
 
 
 def test_diverging_state_discards_the_step(unzipped: Path, params: ModelParameters) -> None:
@@ -579,8 +777,17 @@ UNSUPPORTED = {
     "fmi2SetRealInputDerivatives": lambda f: f.fmi2SetRealInputDerivatives(
         f.component, None, 0, None, None
     ),
-    "fmi2GetStatus": lambda f: f.fmi2GetStatus(f.component, 0, byref(c_int())),
+    "fmi2SetTime": lambda f: model_exchange(f, "fmi2SetTime", c_double(0.0)),
+    "fmi2EnterEventMode": lambda f: model_exchange(f, "fmi2EnterEventMode"),
 }
+
+
+def model_exchange(fmu: FMU2Slave, function: str, *args: Any) -> int:
+    """Call an exported model-exchange function, which FMU2Slave does not wrap."""
+    exported = getattr(fmu.dll, function)
+    exported.argtypes = [c_void_p, *(type(arg) for arg in args)]
+    exported.restype = c_int
+    return int(exported(fmu.component, *args))
 
 
 @pytest.mark.parametrize("function", UNSUPPORTED)
@@ -722,10 +929,6 @@ def test_fmpy_compile_rebuilds_the_binary_from_sources(fmu_path: Path, tmp_path:
 
 def test_build_errors_are_fmu_build_errors_and_write_nothing(tmp_path: Path) -> None:
     output = tmp_path / "out.fmu"
-    bad = make_params()
-    object.__setattr__(bad, "model", "no-such-model")
-    with pytest.raises(FmuBuildError, match="unknown model 'no-such-model'"):
-        build_native_fmu(bad, output)
     theta = make_params().coefficients.copy()
     theta[3] = math.nan
     with pytest.raises(FmuBuildError, match=r"coefficients \['a4'\] are not finite"):
@@ -736,6 +939,50 @@ def test_build_errors_are_fmu_build_errors_and_write_nothing(tmp_path: Path) -> 
         build_native_fmu(make_params(), output, cc="/nonexistent/cc")
     with pytest.raises(FmuBuildError, match=r"C compilation failed \(gcc\): .*nonexistent\.h"):
         build_native_fmu(make_params(), output, cc="gcc -include /nonexistent.h")
+    assert list(tmp_path.iterdir()) == []
+
+
+BAD_BUILDS: dict[str, tuple[dict[str, Any], str]] = {
+    "escape sequence in the vessel name": (
+        {"vessel_name": "tanker\x1b[31m"},
+        r"vessel name 'tanker\\x1b\[31m': contains a control character U\+001B at character 7",
+    ),
+    "lone surrogate in the vessel name": (
+        {"vessel_name": "\ud800x"},
+        r"contains a lone surrogate U\+D800 at character 1; expected printable text",
+    ),
+    "newline in the vessel name": (
+        {"vessel_name": "two\nlines"},
+        r"contains a control character U\+000A at character 4",
+    ),
+    "bell in the identification method": (
+        {"identification": {"method": "ekf\x07"}},
+        r"fmiModelDescription description .* contains a control character U\+0007",
+    ),
+    "nominal propeller speed beyond the bound": (
+        {"nominal_n_rps": 200.0},
+        r"the start value of propeller_rpm = 12000\.0 is outside \[-6000\.0, 6000\.0\]",
+    ),
+    "length beyond the bound": (
+        {"length_m": 2000.0},
+        r"the start value of length = 2000\.0 is outside \[0\.1, 1000\.0\]",
+    ),
+    "nominal speed beyond the divergence bound": (
+        {"nominal_speed_mps": 1500.0},
+        r"the start value of u0 = 1500\.0 is outside \[-1000\.0, 1000\.0\]",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", BAD_BUILDS)
+def test_an_fmu_that_could_not_be_used_is_never_written(tmp_path: Path, case: str) -> None:
+    changes, message = BAD_BUILDS[case]
+    spoilt = make_params(**changes)
+    with pytest.raises(FmuBuildError, match=message) as info:
+        build_native_fmu(spoilt, tmp_path / "ship.fmu")
+    assert "\n" not in str(info.value)
+    with pytest.raises(FmuBuildError, match=message):
+        render_native_fmu(spoilt)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -780,11 +1027,43 @@ def _asymmetric_covariance(doc: dict[str, Any]) -> None:
     doc["covariance"][0][1] = 1e-3
 
 
+def _huge_coefficient(doc: dict[str, Any]) -> None:
+    doc["coefficients"]["a1"] = -(10**400)
+
+
+def _huge_covariance_entry(doc: dict[str, Any]) -> None:
+    doc["covariance"][2][3] = 10**400
+
+
+def _escape_in_vessel_name(doc: dict[str, Any]) -> None:
+    doc["vessel"]["name"] = "tanker\x1b[31m"
+
+
+def _lone_surrogate_in_vessel_name(doc: dict[str, Any]) -> None:
+    doc["vessel"]["name"] = "\ud800x"  # json.dumps writes it as the escape \ud800
+
+
 BAD_PARAMS = {
     "wrong version": (_wrong_version, "unsupported version 99"),
     "missing coefficient": (_missing_coefficient, "missing ['c3']"),
     "NaN coefficient": (_nan_coefficient, "coefficient b1 must be a finite number"),
     "non-symmetric covariance": (_asymmetric_covariance, "covariance is not symmetric"),
+    "coefficient of 401 digits": (
+        _huge_coefficient,
+        "coefficient a1 must be a finite number, got an integer of 401 digits",
+    ),
+    "covariance entry of 401 digits": (
+        _huge_covariance_entry,
+        "covariance[2][3] must be a finite number, got an integer of 401 digits",
+    ),
+    "escape sequence in the vessel name": (
+        _escape_in_vessel_name,
+        "vessel.name contains a control character U+001B at character 7",
+    ),
+    "lone surrogate in the vessel name": (
+        _lone_surrogate_in_vessel_name,
+        "vessel.name contains a lone surrogate U+D800 at character 1",
+    ),
 }
 
 

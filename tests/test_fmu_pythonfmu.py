@@ -8,7 +8,9 @@ import subprocess
 import sys
 import zipfile
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -16,13 +18,14 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
+    fmi2FMUstate,
 )
 from fmpy.validation import validate_fmu
 
 from fmu_model import ModelParameters, simulate
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_pythonfmu import build_pythonfmu_fmu
-from fmu_model.interface import fmu_variables
+from fmu_model.interface import RUDDER_LIMIT_RAD, fmu_variables
 from tests.fmi_logging import LogRecorder
 from tests.test_shape import COEFFICIENTS as PRIME_RUDDER_COEFFICIENTS
 
@@ -228,14 +231,54 @@ def test_nan_input_gives_an_error_and_no_step(instance: Instance) -> None:
     assert np.all(np.isfinite(instance.outputs())) and instance.outputs()[3] > before[3]
 
 
+def test_out_of_range_input_gives_an_error_and_no_step(instance: Instance) -> None:
+    instance.slave.setReal([VR["rudder_angle"]], [math.radians(46.0)])  # max is 45 deg
+    ((status, text),) = instance.messages
+    assert status == FMI_ERROR and text.startswith("rudder_angle = 0.80285")
+    assert text.endswith(f"is outside [{-RUDDER_LIMIT_RAD!r}, {RUDDER_LIMIT_RAD!r}]")
+    with pytest.raises(FMICallException) as failure:
+        instance.slave.doStep(0.0, 1.0)
+    assert failure.value.status == FMI_DISCARD
+    np.testing.assert_array_equal(instance.outputs(), [5.0, 0, 0, 0, 0, 0])
+    instance.slave.setReal([VR["rudder_angle"]], [RUDDER_LIMIT_RAD])  # the bound is allowed
+    instance.slave.doStep(0.0, 1.0)
+    assert instance.outputs()[2] > 0.0  # turning to starboard
+
+
+@pytest.mark.parametrize("step_s", [0.0, -0.1, math.nan])
+def test_a_non_positive_step_is_refused(instance: Instance, step_s: float) -> None:
+    with pytest.raises(FMICallException) as failure:
+        instance.slave.doStep(0.0, step_s)
+    assert failure.value.status == FMI_DISCARD
+    assert instance.messages[-1] == (
+        FMI_ERROR,
+        f"fmi2DoStep: communicationStepSize must be positive and finite, got {step_s}",
+    )
+    np.testing.assert_array_equal(instance.outputs(), [5.0, 0, 0, 0, 0, 0])
+
+
 def test_divergence_is_discarded_and_keeps_the_last_state(fmu_path: Path, unzipdir: str) -> None:
     inst = Instance(fmu_path, unzipdir, {"a1": 1.0})  # u' = u^2 + ...: blows up in 0.2 s
     try:
+        inst.slave.doStep(0.0, 0.1)
+        before = inst.outputs()
+        saved = inst.slave.getFMUstate()
         with pytest.raises(FMICallException) as failure:
-            inst.slave.doStep(0.0, 5.0)
+            inst.slave.doStep(0.1, 5.0)
         assert failure.value.status == FMI_DISCARD
-        np.testing.assert_array_equal(inst.outputs(), [5.0, 0, 0, 0, 0, 0])
+        np.testing.assert_array_equal(inst.outputs(), before)
         assert inst.messages[-1][0] == FMI_DISCARD and "diverged" in inst.messages[-1][1]
+        # As the native FMU's state "step failed": no further step until a state is restored.
+        with pytest.raises(FMICallException):
+            inst.slave.doStep(0.1, 0.01)
+        assert inst.messages[-1] == (
+            FMI_ERROR,
+            "fmi2DoStep must not be called in state 'step failed'",
+        )
+        inst.slave.setFMUstate(saved)
+        inst.slave.doStep(0.1, 0.01)
+        assert inst.outputs()[0] > before[0]
+        inst.slave.freeFMUstate(saved)
     finally:
         inst.close()
 
@@ -297,9 +340,13 @@ def test_build_writes_atomically_and_rejects_a_bad_max_step(tmp_path: Path) -> N
     target = tmp_path / "out" / "ship.fmu"
     target.parent.mkdir()
     target.write_text("old")
-    for bad in (0.0, -1.0, math.nan):
-        with pytest.raises(FmuBuildError, match="max_step_s must be a positive"):
+    for bad in (0.0, -1.0, 1e-7, math.nan):
+        with pytest.raises(FmuBuildError, match=r"max_step_s must be a finite number >= 1e-06"):
             build_pythonfmu_fmu(PARAMS, target, max_step_s=bad)
+    theta = PARAMS.to_vector().copy()
+    theta[PARAMS.names.index("b2")] = math.inf
+    with pytest.raises(FmuBuildError, match=r"coefficients \['b2'\] are not finite"):
+        build_pythonfmu_fmu(PARAMS.with_vector(theta), target)
     assert target.read_text() == "old"
     assert build_pythonfmu_fmu(PARAMS, target) == target
     assert list(target.parent.iterdir()) == [target]
@@ -334,3 +381,65 @@ def test_a_model_family_runs_in_the_pythonfmu_backend_as_in_python(tmp_path: Pat
     want = simulate(params, t, rudder, rpm / 60.0, initial, method="rk4", max_step_s=MAX_STEP_S)
     assert np.degrees(np.ptp(want[:, 5])) > 5.0
     assert_close(got, want)
+
+
+BAD_BUILDS: dict[str, tuple[dict[str, Any], str]] = {
+    "escape sequence in the vessel name": (
+        {"vessel_name": "tanker\x1b[31m"},
+        r"contains a control character U\+001B at character 7",
+    ),
+    "lone surrogate in the vessel name": (
+        {"vessel_name": "\ud800x"},
+        r"contains a lone surrogate U\+D800 at character 1",
+    ),
+    "nominal propeller speed beyond the bound": (
+        {"nominal_n_rps": 200.0},
+        r"the start value of propeller_rpm = 12000\.0 is outside \[-6000\.0, 6000\.0\]",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", BAD_BUILDS)
+def test_an_fmu_that_could_not_be_used_is_never_written(tmp_path: Path, case: str) -> None:
+    changes, message = BAD_BUILDS[case]
+    with pytest.raises(FmuBuildError, match=message):
+        build_pythonfmu_fmu(replace(PARAMS, **changes), tmp_path / "ship.fmu")
+    assert list(tmp_path.iterdir()) == []
+
+
+def _spoilt_state(instance: Instance, change: str) -> bytes:
+    document = json.loads(instance.slave.serializeFMUstate(instance.slave.getFMUstate()))
+    if change == "NaN yaw rate":
+        document["state"][2] = math.nan
+    elif change == "state of 5 components":
+        document["state"].pop()
+    elif change == "step_failed as text":
+        document["step_failed"] = "no"
+    elif change == "value of 400 digits":
+        return json.dumps(document).replace('"values": [0.0', '"values": [1' + "0" * 400).encode()
+    return json.dumps(document).encode()
+
+
+RESTORE_REFUSALS = {
+    "NaN yaw rate": "fmi2SetFMUstate: the FMU state is not restored: r must be finite, got nan",
+    "state of 5 components": "fmi2SetFMUstate: not an FMU state of this FMU (wrong number",
+    "step_failed as text": "fmi2SetFMUstate: not an FMU state of this FMU (malformed flags)",
+    "value of 400 digits": "fmi2SetFMUstate: not an FMU state of this FMU (",
+}
+
+
+@pytest.mark.parametrize("change", RESTORE_REFUSALS)
+def test_a_restored_state_is_refused_without_fmi2_fatal(instance: Instance, change: str) -> None:
+    instance.slave.doStep(0.0, 1.0)
+    before = instance.outputs()
+    spoilt = _spoilt_state(instance, change)
+    state = instance.slave.deSerializeFMUstate(spoilt, fmi2FMUstate())
+    instance.slave.setFMUstate(state)  # fmi2OK: pythonfmu cannot refuse it without fmi2Fatal
+    status, text = instance.messages[-1]
+    assert status == FMI_ERROR and text.startswith(RESTORE_REFUSALS[change]), text
+    np.testing.assert_array_equal(instance.outputs(), before)  # not restored
+    with pytest.raises(FMICallException) as failure:
+        instance.slave.doStep(1.0, 1.0)
+    assert failure.value.status == FMI_DISCARD
+    assert instance.messages[-1] == (FMI_ERROR, text)
+    instance.slave.freeFMUstate(state)

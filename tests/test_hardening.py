@@ -29,9 +29,9 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from fmu_model import ModelParameters, ParamsFormatError, load_params
-from identifier.errors import LogFormatError
-from identifier.logs import LOG_COLUMNS, MIN_SAMPLES, ManeuverLog, format_log, read_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials.errors import LogFormatError
+from trials.logs import LOG_COLUMNS, MIN_SAMPLES, ManeuverLog, format_log, read_log
 
 REPO = Path(__file__).parent.parent
 HYPOTHESIS = settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -422,6 +422,15 @@ def _three_by_three(document: dict[str, Any]) -> None:
     document["covariance"] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 
 
+def _huge_variance(matrix: list[list[Any]]) -> None:
+    matrix[4][4] = 10**400  # JSON integers have no size limit; no float holds this
+
+
+# Integers of 400 digits: json.loads reads them (its limit is 4300 digits) and float()
+# of them raises OverflowError, not ValueError.
+HUGE = 10**400
+
+
 # (id, content, message) — content is built lazily; message is a regex after "<file>: "
 PARAMS_CASES: list[tuple[str, Callable[[], bytes], str]] = [
     ("wrong version", _edit(_set("version", 2)), r"unsupported version 2 \(this tool reads 1\)"),
@@ -495,6 +504,67 @@ PARAMS_CASES: list[tuple[str, Callable[[], bytes], str]] = [
         r"covariance must be a matrix of numbers",
     ),
     ("covariance 3x3", _edit(_three_by_three), r"covariance must be 16x16, got shape \(3, 3\)"),
+    (
+        "coefficient of 401 digits",
+        _edit(_set("coefficients.a5", HUGE)),
+        r"coefficient a5 must be a finite number, got an integer of 401 digits \(beyond the "
+        r"floating-point range\)$",
+    ),
+    (
+        "negative coefficient of 401 digits",
+        _edit(_set("coefficients.c1", -HUGE)),
+        r"coefficient c1 must be a finite number, got an integer of 401 digits",
+    ),
+    (
+        "length of 401 digits",
+        _edit(_set("vessel.length_m", HUGE)),
+        r"vessel\.length_m must be a finite number, got an integer of 401 digits",
+    ),
+    (
+        "nominal rpm of 401 digits",
+        _edit(_set("nominal.rpm", HUGE)),
+        r"nominal\.rpm must be a finite number, got an integer of 401 digits",
+    ),
+    (
+        "covariance entry of 401 digits",
+        _edit(_covariance(_huge_variance)),
+        r"covariance\[4\]\[4\] must be a finite number, got an integer of 401 digits",
+    ),
+    (
+        "escape sequence in the vessel name",
+        _edit(_set("vessel.name", "tanker\x1b[31m")),
+        r"vessel\.name contains a control character U\+001B at character 7; expected printable",
+    ),
+    (
+        "lone surrogate in the vessel name",
+        _edit(_set("vessel.name", "\ud800x")),  # written as the JSON escape \ud800
+        r"vessel\.name contains a lone surrogate U\+D800 at character 1",
+    ),
+    (
+        "NUL in the vessel name",
+        _edit(_set("vessel.name", "ship\x00")),
+        r"vessel\.name contains a control character U\+0000 at character 5",
+    ),
+    (
+        "C1 control in the vessel name",
+        _edit(_set("vessel.name", "NEL\x85")),
+        r"vessel\.name contains a control character U\+0085",
+    ),
+    (
+        "tab in the vessel name",
+        _edit(_set("vessel.name", "MV\tOne")),
+        r"vessel\.name contains a control character U\+0009 at character 3",
+    ),
+    (
+        "non-character in the vessel name",
+        _edit(_set("vessel.name", "ship\uffff")),
+        r"vessel\.name contains the non-character U\+FFFF",
+    ),
+    (
+        "vessel name as number",
+        _edit(_set("vessel.name", 7)),
+        r"vessel\.name must be a string, got int",
+    ),
     ("unknown model", _edit(_set("model", "no-such-model")), r"no-such-model"),
     ("model as number", _edit(_set("model", 7)), r"'model' has the wrong type \(int\)"),
     ("vessel as text", _edit(_set("vessel", "testship")), r"'vessel' has the wrong type \(str\)"),
@@ -556,6 +626,8 @@ BUILD_FMU_CASES = [
     "trailing comma",
     "truncated file",
     "coefficient as text",
+    "coefficient of 401 digits",
+    "escape sequence in the vessel name",
 ]
 
 
@@ -669,3 +741,15 @@ def test_build_fmu_write_error_names_the_output_not_a_temporary_file(
     assert done.stdout == ""
     assert done.stderr == f"build_fmu.py: error: {output}: cannot write: {reason}\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["params.json", "taken"]
+
+
+VALID_NAMES = ["Ålesund ø", "東京丸", "ship 🚢", "KVLCC2 (1:45.7)", "Zero\u200dWidth Joiner"]
+
+
+@pytest.mark.parametrize("name", VALID_NAMES)
+def test_printable_unicode_vessel_names_load(tmp_path: Path, name: str) -> None:
+    path = tmp_path / "params.json"
+    document = _valid_document()
+    document["vessel"]["name"] = name
+    path.write_text(json.dumps(document))
+    assert load_params(path).vessel_name == name

@@ -11,14 +11,14 @@ import pytest
 
 from fmu_model import ModelParameters, load_params
 from identifier.cli import build_parser, main
-from identifier.errors import IdentificationError
 from identifier.identify import FitSettings, IdentificationResult, identify
-from identifier.logs import ManeuverLog, read_log, write_log
-from scenarios.maneuvers import Leg, Program, Until, turning_circle, zigzag
-from scenarios.metrics import turning_metrics, zigzag_metrics
-from scenarios.run import ModelPlant, run_program
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials.errors import IdentificationError
+from trials.logs import ManeuverLog, read_log, write_log
+from trials.maneuvers import Leg, Program, Until, turning_circle, zigzag
+from trials.metrics import turning_metrics, zigzag_metrics
+from trials.run import ModelPlant, run_program
 
 TRAINING = ("turning-35", "zigzag-10", "zigzag-20")
 RUDDER_RATE = math.radians(5.0)

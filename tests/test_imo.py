@@ -17,7 +17,7 @@ from scenarios.imo import (
     yaw_checking_10,
     yaw_checking_20,
 )
-from scenarios.metrics import TurningMetrics, ZigzagMetrics
+from trials.metrics import TurningMetrics, ZigzagMetrics
 
 DEG = math.pi / 180.0
 L = 320.0

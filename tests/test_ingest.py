@@ -24,7 +24,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from identifier.cli import main
-from identifier.errors import LogFormatError
 from identifier.ingest import (
     ConversionResult,
     TangentPlane,
@@ -34,7 +33,8 @@ from identifier.ingest import (
     detect_format,
     output_paths,
 )
-from identifier.logs import ManeuverLog, read_log, write_log
+from trials.errors import LogFormatError
+from trials.logs import ManeuverLog, read_log, write_log
 
 DATA = Path(__file__).parent / "data"
 REPO = Path(__file__).parent.parent

@@ -13,16 +13,14 @@ from scipy.integrate import solve_ivp
 from scenarios.kvlcc2 import (
     FROUDE_SCALE_RATIO,
     MmgShip,
-    TurningProgram,
-    ZigzagProgram,
     equilibrium_turn,
     kvlcc2,
     mmg_forces,
     mmg_rhs,
-    simulate_maneuver,
     step,
 )
-from scenarios.trajectory import TRAJECTORY_DTYPE
+from tests.mmg_oracle import TurningProgram, ZigzagProgram, simulate_maneuver
+from trials.trajectory import TRAJECTORY_DTYPE
 
 FULL_TIME_UNIT_S = 320.0 / (15.5 * 1852.0 / 3600.0)  # L/U0 full scale, ref. §8
 TURN_DURATION_TP = 10.0  # t' = t U0/L, enough to pass 180 deg of heading change

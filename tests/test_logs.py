@@ -1,4 +1,4 @@
-"""Trial-log reading, validation and writing (identifier.logs, .errors, .atomic)."""
+"""Trial-log reading, validation and writing (trials.logs, .errors, .atomic)."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 import fmu_model.atomic
 from fmu_model.atomic import write_atomic
-from identifier.errors import IdentificationError, LogFormatError
-from identifier.logs import (
+from trials.errors import IdentificationError, LogFormatError
+from trials.logs import (
     LOG_COLUMNS,
     MIN_SAMPLES,
     ManeuverLog,

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from scenarios.metrics import (
+from trials.metrics import (
     MetricsError,
     distance_at_heading_change,
     pullout_metrics,
@@ -19,7 +19,7 @@ from scenarios.metrics import (
     turning_metrics,
     zigzag_metrics,
 )
-from scenarios.trajectory import empty_trajectory
+from trials.trajectory import empty_trajectory
 
 DEG = math.pi / 180.0
 

@@ -22,6 +22,7 @@ from fmu_model import (
     simulate,
 )
 from fmu_model.structure import coefficient_unit, r, u, unit_string, v
+from fmu_model.variants import SHI2009
 
 RNG = np.random.default_rng(7)
 
@@ -103,7 +104,7 @@ def test_euler_is_first_order_and_uses_averaged_inputs(seed_params: ModelParamet
     t = np.array([0.0, 1.0])
     rudder = np.array([0.0, 0.2])
     states = simulate(seed_params, t, rudder, np.full(2, 2.0), [5, 0, 0, 0, 0, 0], method="euler")
-    model = numeric_model("shi2009")
+    model = numeric_model(SHI2009)
     expected = np.array([5, 0, 0, 0, 0, 0]) + model.rhs(
         np.array([5.0, 0, 0, 0, 0, 0]), 0.1, 2.0, seed_params.to_vector(), 100.0
     )
@@ -129,7 +130,7 @@ def test_max_step_splits_each_interval(seed_params: ModelParameters) -> None:
 
 @pytest.mark.parametrize("point", range(5))
 def test_analytic_jacobians_match_finite_differences(point: int) -> None:
-    model = numeric_model("shi2009")
+    model = numeric_model(SHI2009)
     theta = RNG.normal(size=16)
     u0, v0, r0 = 3.0 + RNG.normal(), RNG.normal(), 0.05 * RNG.normal()
     rudder, n = 0.3 * RNG.normal(), 2.0 + RNG.normal()
@@ -151,7 +152,7 @@ def test_analytic_jacobians_match_finite_differences(point: int) -> None:
 
 
 def test_rhs_broadcasts_over_a_batch(seed_params: ModelParameters) -> None:
-    model = numeric_model("shi2009")
+    model = numeric_model(SHI2009)
     states = RNG.normal(size=(6, 4))
     batch = model.rhs(states, 0.1, 2.0, seed_params.to_vector(), 100.0)
     for k in range(4):

@@ -32,7 +32,7 @@ from libcosimpy.CosimObserver import CosimObserver
 
 from fmu_model import ModelParameters
 from fmu_model.export_native import build_native_fmu
-from scenarios.run import FmuPlant
+from scenarios.fmu_plant import FmuPlant
 from tests.conftest import SEED_COEFFICIENTS
 
 EXAMPLE_DIR = Path(__file__).resolve().parents[1] / "examples" / "osp_autopilot"

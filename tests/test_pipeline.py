@@ -8,9 +8,10 @@ import zipfile
 import pytest
 
 from fmu_model import DEFAULT_MODEL, load_params
-from identifier.logs import read_log
 from scenarios.cli import main
-from scenarios.pipeline import DemoConfig, read_fmu_info
+from scenarios.demo import DemoConfig
+from scenarios.fmu_checks import read_fmu_info
+from trials.logs import read_log
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

@@ -3,25 +3,33 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from fmu_model import ModelParameters, simulate
+from fmu_model.replay import replay
+from fmu_model.variants import SHI2009
 from identifier.identify import FitSettings, identify
-from identifier.logs import ManeuverLog
-from identifier.refine import (
+from identifier.output_error import (
+    FitSummary,
     RefinementResult,
+    RefineSettings,
+    VirtualTurn,
     execute_index,
     fit_initial_state,
     newey_west_covariance,
     refine_output_error,
-    replay,
     turn_spread,
     virtual_turns,
 )
+from identifier.output_error.guards import decide, training_approach
+from identifier.output_error.initial_state import smooth_log
+from identifier.output_error.objective import Objective, prepare_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials.logs import ManeuverLog
 
 RUDDER_RATE = math.radians(5.0)
 # Coefficients that shape the manoeuvres, and how the start is perturbed from the truth.
@@ -69,7 +77,7 @@ def test_replay_with_held_inputs_is_fmu_model_simulate(logs: dict[str, ManeuverL
     truth, log = _truth(), logs["zigzag-10"]
     x0 = np.array([5.0, 0.1, 0.001, 3.0, -2.0, 0.05])
     ours = replay(
-        "shi2009", truth.to_vector(), 100.0, log.time_s, log.rudder_rad, log.n_rps, x0,
+        SHI2009, truth.to_vector(), 100.0, log.time_s, log.rudder_rad, log.n_rps, x0,
         inputs="hold", max_step_s=0.3,
     )  # fmt: skip
     theirs = simulate(truth, log.time_s, log.rudder_rad, log.n_rps, x0, max_step_s=0.3)
@@ -80,9 +88,9 @@ def test_replay_batches_coefficients_and_initial_states(logs: dict[str, Maneuver
     truth, log = _truth(), logs["zigzag-10"]
     thetas = np.stack([truth.to_vector(), _perturbed(truth).to_vector()])
     x0s = np.array([[5.0, 0, 0, 0, 0, 0], [4.0, 0, 0, 10.0, 0, 0]])
-    batch = replay("shi2009", thetas, 100.0, log.time_s, log.rudder_rad, log.n_rps, x0s)
+    batch = replay(SHI2009, thetas, 100.0, log.time_s, log.rudder_rad, log.n_rps, x0s)
     for k in range(2):
-        one = replay("shi2009", thetas[k], 100.0, log.time_s, log.rudder_rad, log.n_rps, x0s[k])
+        one = replay(SHI2009, thetas[k], 100.0, log.time_s, log.rudder_rad, log.n_rps, x0s[k])
         np.testing.assert_array_equal(batch[k], one)
 
 
@@ -97,7 +105,7 @@ def test_interpolated_inputs_and_fitted_start_replay_the_truth_to_the_noise(
 
     def heading_rms_deg(inputs: str) -> float:
         s = replay(
-            "shi2009", truth.to_vector(), 100.0, log.time_s, log.rudder_rad, log.n_rps, x0,
+            SHI2009, truth.to_vector(), 100.0, log.time_s, log.rudder_rad, log.n_rps, x0,
             inputs=inputs,
         )  # fmt: skip
         return math.degrees(math.sqrt(float(np.mean(np.square(s[:, 5] - log.heading_rad)))))
@@ -241,3 +249,115 @@ def test_candidates_that_turn_differently_are_reported(logs: dict[str, ManeuverL
     assert result.initial_method == "ekf"  # the truth replays its own logs best
     (warning,) = [w for w in result.warnings if "predict virtual 35 deg turns" in w]
     assert warning.startswith("the EKF and equation-error estimates") and "differ by" in warning
+
+
+def test_settings_resolve_the_replay_step_from_the_ship_time_scale() -> None:
+    assert RefineSettings().with_step(320.0, 8.0).max_step_s == pytest.approx(2.0)
+    given = RefineSettings(max_step_s=0.3)
+    assert given.with_step(320.0, 8.0) is given
+    assert RefineSettings().with_step(1.0, 0.0).max_step_s == pytest.approx(0.05 / 1e-3)
+
+
+def test_recorded_result_carries_its_summary_beside_the_provenance(
+    refined: RefinementResult,
+) -> None:
+    earlier = replace(refined.params, identification={"method": "ekf", "refinement": "old"})
+    result = replace(refined, params=earlier).recorded()
+    assert result.params.identification["method"] == "ekf"
+    assert result.params.identification["refinement"] == refined.summary()
+    assert refined.params.identification["refinement"] == refined.summary()
+    np.testing.assert_array_equal(result.params.to_vector(), refined.params.to_vector())
+
+
+def test_row_blocks_split_the_jacobian_by_log_and_channel(logs: dict[str, ManeuverLog]) -> None:
+    settings = RefineSettings(velocity_weight=1.0, max_step_s=1.0)
+    data = tuple(
+        prepare_log(log, smooth_log(log), name, settings, start=start)
+        for (name, log), start in zip(logs.items(), (0, 50), strict=True)
+    )
+    truth = _truth()
+    objective = Objective(
+        structure=truth.structure,
+        length_m=truth.length_m,
+        data=data,
+        settings=settings,
+        theta0=truth.to_vector(),
+        whiten=np.eye(truth.to_vector().size),
+    )
+    rows = [6 * (d.time_s.size - 1) for d in data]
+    J = np.arange((sum(rows) + 3) * 2.0).reshape(-1, 2)
+    r = np.arange(float(sum(rows)))
+    blocks, prior = objective.row_blocks(J, r)
+    assert [(b[0].shape[0], b[1].size, b[2]) for b in blocks] == [(n, n, 6) for n in rows]
+    assert rows[1] == 6 * (logs["zigzag-10"].n_samples - 51)
+    np.testing.assert_array_equal(np.vstack([b[0] for b in blocks] + [prior]), J)
+    np.testing.assert_array_equal(np.concatenate([b[1] for b in blocks]), r)
+    assert prior.shape == (3, 2)
+
+
+def test_training_approach_takes_the_fastest_rudder_or_the_imo_minimum(
+    logs: dict[str, ManeuverLog],
+) -> None:
+    truth, log = _truth(), logs["zigzag-10"]
+    tracks = [smooth_log(log)]
+    approach = training_approach(truth, [log], tracks)
+    assert (approach.speed_mps, approach.n_rps) == (5.0, 2.0)  # the nominal values
+    assert 0.5 * RUDDER_RATE < approach.rudder_rate_radps <= RUDDER_RATE * 1.001
+    still = replace(log, rudder_rad=np.zeros_like(log.rudder_rad))
+    assert training_approach(truth, [still], tracks).rudder_rate_radps == pytest.approx(
+        math.radians(2.32)
+    )
+    given = training_approach(truth, [log], tracks, rudder_rate_radps=0.1)
+    assert given.rudder_rate_radps == 0.1
+
+
+def _fit(
+    cost: float, diameters: tuple[float | None, float | None], diverged: tuple[str, ...] = ()
+) -> FitSummary:
+    """A fit whose virtual turns reach 360 deg exactly when they have a diameter [m]."""
+    turns = tuple(
+        VirtualTurn(
+            rudder_rad=sign * math.radians(35.0),
+            advance_m=None,
+            transfer_m=None,
+            tactical_diameter_m=d,
+            heading_change_rad=7.0 if d is not None else 2.0,
+            bounded=True,
+            passed_360=d is not None,
+        )
+        for sign, d in zip((1.0, -1.0), diameters, strict=True)
+    )
+    return FitSummary(
+        params=_truth(),
+        cost=cost,
+        residual_rms=1.0,
+        position_rms_L=0.01,
+        heading_rms_deg=0.1,
+        log_position_rms_L=(0.01,),
+        initial_states=(),
+        diverged=diverged,
+        turns=(turns[0], turns[1]),
+    )
+
+
+@pytest.mark.parametrize(
+    ("initial", "refined", "turn_check", "kept", "words"),
+    [
+        (_fit(2.0, (300.0, 300.0)), _fit(1.0, (310.0, 310.0)), True, "refined", "accepted"),
+        (_fit(2.0, (300.0, 300.0)), _fit(1.0, (400.0, 400.0)), False, "refined", "accepted"),
+        (_fit(2.0, (300.0, 300.0)), _fit(1.0, (400.0, 400.0)), True, "initial", "beyond the 5%"),
+        (_fit(2.0, (None, None)), _fit(1.0, (400.0, 400.0)), True, "refined", "although"),
+        (_fit(2.0, (300.0, 300.0)), _fit(3.0, (300.0, 300.0)), False, "initial", "not lower"),
+        (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, None)), False, "initial", "360 deg"),
+        (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, 300.0), ("a",)), False, "initial", "a div"),
+    ],
+)
+def test_decide_keeps_the_start_when_a_guard_fires(
+    initial: FitSummary, refined: FitSummary, turn_check: bool, kept: str, words: str
+) -> None:
+    spread = turn_spread(initial.turns, refined.turns)
+    choice, reason = decide(
+        initial, refined, turn_check=turn_check, spread=spread, tolerance=0.05, label="EKF"
+    )
+    assert choice == kept and words in reason
+    assert ("kept the EKF estimate" in reason) == (kept == "initial")

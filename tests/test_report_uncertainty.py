@@ -19,32 +19,35 @@ from distributed import LocalCluster
 from fmu_model import ModelParameters, save_params
 from fmu_model.export_native import build_native_fmu
 from scenarios.cli import main
-from scenarios.maneuvers import turning_circle, zigzag
-from scenarios.metrics import TurningMetrics, ZigzagMetrics
-from scenarios.pipeline import FmuInfo, ScenarioError, check_params_match
-from scenarios.report import (
+from scenarios.errors import ScenarioError
+from scenarios.fmu_checks import FmuInfo, check_params_match
+from scenarios.records import (
     ComparisonRow,
     Condition,
     Interval,
     ManeuverRun,
     UncertaintyBands,
     Validation,
+)
+from scenarios.report import (
     comparison_table,
     figure_names,
     format_table,
     render_markdown,
-    uncertainty_bands,
     validation_json,
 )
-from scenarios.trajectory import empty_trajectory
-from scenarios.uncertainty import (
+from scenarios.uncertainty.results import (
     METRICS,
     STATUS_DIVERGED,
     STATUS_OK,
     ProgramUncertainty,
     UncertaintyResult,
 )
+from scenarios.validation import uncertainty_bands
 from tests.conftest import SEED_COEFFICIENTS
+from trials.maneuvers import turning_circle, zigzag
+from trials.metrics import TurningMetrics, ZigzagMetrics
+from trials.trajectory import empty_trajectory
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 TURN = turning_circle(math.radians(35.0))

@@ -15,13 +15,16 @@ import pytest
 
 from fmu_model import ModelParameters
 from fmu_model.export_native import build_native_fmu
-from identifier.logs import read_log
 from scenarios.cli import PROG, main
-from scenarios.maneuvers import turning_circle, zigzag
-from scenarios.metrics import turning_metrics, zigzag_metrics
-from scenarios.pipeline import maneuver_seed, read_fmu_info, reference_runs
-from scenarios.run import FmuPlant, ModelPlant, run_program
+from scenarios.fmu_checks import read_fmu_info
+from scenarios.fmu_plant import FmuPlant
+from scenarios.runs import reference_runs
+from scenarios.synthesize import maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
+from trials.logs import read_log
+from trials.maneuvers import turning_circle, zigzag
+from trials.metrics import turning_metrics, zigzag_metrics
+from trials.run import ModelPlant, run_program
 
 ROOT = Path(__file__).resolve().parents[1]
 RUDDER_RATE_RADPS = math.radians(2.34)  # the CLI default

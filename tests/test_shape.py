@@ -73,7 +73,7 @@ def test_rudder_force_depends_on_the_side_of_the_flow_as_in_mmg() -> None:
     # w = v + l r L > 0 straightens with γ − Δγ, w < 0 with γ + Δγ; the wake recovers
     # with C₂ − 1 = wake ± dwake for β = −w/U ≷ 0, saturating as C₁|β|/(1 + C₁|β|).
     params = _truth()
-    model = numeric_model(params.model)
+    model = numeric_model(params.structure)
     i = params.names.index("Y_R")
     u, delta, c1 = 6.0, math.radians(10.0), 2.0
     for w in (0.3, -0.3):
@@ -131,7 +131,7 @@ def test_shape_search_finds_the_slipstream_share_and_fits_as_well_as_the_truth()
     assert found.shape["dgamma"] == pytest.approx(TRUE_SHAPE["dgamma"], abs=0.03)
     assert found.shape["wake"] == pytest.approx(TRUE_SHAPE["wake"], abs=0.05)
     assert found.shape["dwake"] == pytest.approx(TRUE_SHAPE["dwake"], abs=0.03)
-    assert found.model == PRIME_RUDDER.structure_name(found.shape)
+    assert found.structure.name == PRIME_RUDDER.structure_name(found.shape)
     # γ and l trade off along a ridge (γ·(v + l r L)); with l known, γ is found.
     known_l = select_shape(
         PRIME_RUDDER, segments, LENGTH_M, SPEED_MPS, N_RPS, fixed={"l": TRUE_SHAPE["l"]}

@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -19,7 +20,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
 from fmu_model import ModelParameters
-from fmu_model.atomic import write_atomic
+from fmu_model.atomic import STALE_TEMPORARY_AGE_S, write_atomic
 from fmu_model.export_native import build_native_fmu
 from tests.conftest import SEED_COEFFICIENTS
 
@@ -127,6 +128,8 @@ def test_native_fmu_rejects_inputs_outside_their_ranges(slave: FMU2Slave) -> Non
         ([VR_RUDDER], [math.nan]),
         ([VR_RPM], [math.nan]),
         ([VR_RPM], [math.inf]),
+        ([VR_RPM], [6000.5]),  # beyond the +-6000 rpm of any marine propeller
+        ([VR_RPM], [-1e9]),
         ([VR_RUDDER, VR_RPM], [0.0, math.nan]),  # all or nothing: rudder not applied
     ]
     for vrs, values in bad:
@@ -227,3 +230,27 @@ def test_a_killed_writer_never_leaves_a_half_written_file(tmp_path: Path) -> Non
         _kill(writer)
         numbers.append(_check_complete(target, size))
     assert max(numbers) > 0  # the writer did replace the file before being killed
+
+
+def test_the_next_write_removes_what_a_killed_writer_left_behind(tmp_path: Path) -> None:
+    """kill -9 between the temporary file and the rename: cleaned once it is stale."""
+    size = 1 << 20
+    target = tmp_path / "params.json"
+    body = b"\x00" * size
+    write_atomic(target, f"0 {hashlib.sha256(body).hexdigest()}\n".encode() + body)
+    writer = _spawn(target, size, "slow")
+    assert writer.stdout is not None
+    assert writer.stdout.readline() == "ready\n"
+    assert writer.stdout.readline() == "fsync\n"
+    _kill(writer)
+    (leftover,) = (p for p in tmp_path.iterdir() if p != target)
+    assert leftover.name.startswith(".params.json.") and leftover.name.endswith(".tmp")
+
+    # At once, the file could still be a live writer's (on another host, say): kept.
+    write_atomic(target, b"1\n")
+    assert leftover.exists()
+    # Once it has not changed for STALE_TEMPORARY_AGE_S, the next write removes it.
+    then = time.time() - STALE_TEMPORARY_AGE_S - 1.0
+    os.utime(leftover, (then, then))
+    write_atomic(target, b"2\n")
+    assert sorted(tmp_path.iterdir()) == [target] and target.read_bytes() == b"2\n"

@@ -23,19 +23,13 @@ from distributed import Client, LocalCluster
 from scipy import integrate, stats
 
 from fmu_model import ModelParameters, get_model, save_params
-from scenarios.maneuvers import turning_circle, zigzag
-from scenarios.run import ModelPlant, run_program
-from scenarios.uncertainty import (
-    STATUS_DIVERGED,
-    STATUS_INCOMPLETE,
-    STATUS_OK,
-    UncertaintyError,
-    add_uncertainty_command,
-    draw_coefficients,
-    monte_carlo_metrics,
-    run_uncertainty_command,
-    simulate_batch,
-)
+from scenarios.cli.uncertainty import add_uncertainty_command, run_uncertainty_command
+from scenarios.errors import UncertaintyError
+from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
+from scenarios.uncertainty.results import STATUS_DIVERGED, STATUS_INCOMPLETE, STATUS_OK
+from scenarios.uncertainty.sampling import draw_coefficients
+from trials.maneuvers import turning_circle, zigzag
+from trials.run import ModelPlant, run_batch, run_program
 
 NAMES = get_model("shi2009").coefficient_names
 LENGTH_M = 100.0
@@ -96,19 +90,18 @@ def client() -> Iterator[Client]:
 def test_batch_equals_run_program_per_sample(seed_params: ModelParameters, program: object) -> None:
     rng = np.random.default_rng(3)
     theta = seed_params.to_vector()[:, None] * (1.0 + 0.1 * rng.standard_normal((16, 4)))
-    trajectories, diverged = simulate_batch(
-        "shi2009",
-        theta,
-        seed_params.length_m,
+    batch = run_batch(
+        ModelPlant(seed_params, thetas=theta),
         program,  # type: ignore[arg-type]
         speed_mps=5.0,
         n_rps=2.0,
         rudder_rate_radps=2.34 * DEG,
         dt_s=0.5,
+        divergence_factor=10.0,
     )
-    assert not diverged.any()
+    assert not batch.diverged.any()
     ends = set()
-    for j, traj in enumerate(trajectories):
+    for j, traj in enumerate(batch.trajectories):
         ref = run_program(
             ModelPlant(seed_params.with_vector(theta[:, j])),
             program,  # type: ignore[arg-type]

@@ -14,6 +14,9 @@
  *   until fmi2ExitInitializationMode: it is reset from them at instantiation, at every
  *   fmi2SetReal before the end of initialisation and at fmi2ExitInitializationMode.
  *   From then on it only changes through fmi2DoStep, fmi2SetFMUstate and fmi2Reset.
+ * - fmi2ExitInitializationMode refuses a start speed sqrt(u0^2 + v0^2) below
+ *   MIN_START_SPEED (nonzero for a model whose equations divide by the speed) with
+ *   fmi2Error; the instance stays in initialization mode, so u0 or v0 can be corrected.
  * - fmi2DoStep integrates with the classical RK4 in n equal internal steps,
  *   n = 1 if h <= max_step else ceil(h / max_step * (1 - 1e-12)), the rule of
  *   fmu_model.simulate.n_substeps; inputs are held constant over the step; the
@@ -21,13 +24,21 @@
  * - Errors (fmi2Error, message in category logStatusError) leave the instance unchanged,
  *   so a master may correct the call and continue:
  *     a non-finite value or a value outside a declared min/max passed to fmi2SetReal
- *     (the whole call is rejected, no value of it is applied);
+ *     (the whole call is rejected, no value of it is applied), or found in an FMU state
+ *     given to fmi2SetFMUstate or fmi2DeSerializeFMUstate (the state is not restored);
  *     setting an output, or a parameter after fmi2ExitInitializationMode;
  *     an unknown value reference; a call not allowed in the current state;
+ *     a start below the least start speed (above);
  *     a non-positive or non-finite communication step, a currentCommunicationPoint
- *     that is not the FMU's time, or a step needing more than SHIP_MAX_SUBSTEPS
- *     internal steps; every function this FMU does not implement.
- * - A diverging state (non-finite, |u| or |v| > SHIP_MAX_SPEED, |r| > SHIP_MAX_YAW_RATE)
+ *     that is not the FMU's time, a step too small to advance the time (t + h == t),
+ *     or a step needing more than MAX_SUBSTEPS internal steps (about 1 s of CPU);
+ *     every function this FMU does not implement.
+ * - A status this FMU cannot give (fmi2GetStatus, fmi2GetIntegerStatus,
+ *   fmi2GetStringStatus, and every kind of fmi2GetRealStatus and fmi2GetBooleanStatus
+ *   but fmi2LastSuccessfulTime and fmi2Terminated) is fmi2Discard (category
+ *   logStatusDiscard), as FMI 2.0 section 2.1.3 asks of a co-simulation slave.
+ * - A diverging state (non-finite, |u| or |v| > DIVERGENCE_MAX_SPEED, |r| >
+ *   DIVERGENCE_MAX_YAW_RATE, the rule of fmu_model.interface generated into model_config.h)
  *   ends fmi2DoStep with fmi2Discard (category logStatusDiscard): the state stays at the
  *   beginning of the step, fmi2LastSuccessfulTime is that time, fmi2Terminated is true,
  *   and only fmi2GetReal, the status functions, fmi2SetFMUstate, fmi2Reset, fmi2Terminate
@@ -51,11 +62,6 @@
 #include "model_config.h"
 #include "model_equations.h"
 
-/* A state beyond these bounds is a divergence, not a ship [m/s, rad/s]. */
-#define SHIP_MAX_SPEED 1.0e3
-#define SHIP_MAX_YAW_RATE 1.0e3
-/* Largest number of internal RK4 steps in one fmi2DoStep (about 1 s of CPU). */
-#define SHIP_MAX_SUBSTEPS 10000000.0
 /* Relative tolerance on currentCommunicationPoint against the FMU's time. */
 #define SHIP_TIME_TOLERANCE 1.0e-9
 
@@ -83,7 +89,17 @@ typedef enum {
     STATE_TERMINATED = 1 << 4
 } ModelState;
 
+/* Every state of this FMU. */
 #define STATE_ANY                                                                       \
+    (STATE_INSTANTIATED | STATE_INITIALIZATION | STATE_STEP_COMPLETE | STATE_STEP_FAILED | \
+     STATE_TERMINATED)
+
+/* Where FMI 2.0 (co-simulation state table) allows fmi2GetFMUstate, fmi2SetFMUstate,
+   fmi2FreeFMUstate and the serialisation functions: instantiated, initialization mode,
+   stepComplete, stepFailed, stepCanceled, terminated and error. This FMU has no
+   stepCanceled (fmi2DoStep is synchronous) and no error state (fmi2Error leaves the
+   instance in its state), so here that is every state: STATE_ANY. */
+#define FMUSTATE_ALLOWED_IN                                                             \
     (STATE_INSTANTIATED | STATE_INITIALIZATION | STATE_STEP_COMPLETE | STATE_STEP_FAILED | \
      STATE_TERMINATED)
 
@@ -250,7 +266,8 @@ static void rk4_step(const double *theta, double length, double *x, double rudde
     }
 }
 
-/* Number of equal internal steps (fmu_model.simulate.n_substeps); 0 when too many. */
+/* Number of equal internal steps (fmu_model.simulate.n_substeps); 0 when more than
+   MAX_SUBSTEPS (about 1 s of CPU, see fmu_model.interface.MAX_SUBSTEPS). */
 static double n_substeps(double step, double max_step)
 {
     double n;
@@ -258,10 +275,38 @@ static double n_substeps(double step, double max_step)
         return 1.0;
     }
     n = ceil(step / max_step * (1.0 - 1e-12));
-    if (!(n <= SHIP_MAX_SUBSTEPS)) {
+    if (!(n <= MAX_SUBSTEPS)) {
         return 0.0;
     }
     return n < 1.0 ? 1.0 : n;
+}
+
+/* Return nonzero when the snapshot holds only values fmi2SetReal would accept (finite,
+   within each variable's declared min/max) and finite times; else log why, naming
+   `function`, and return 0. The check of every restored FMU state. */
+static int snapshot_is_valid(const Instance *inst, const char *function, const Snapshot *s)
+{
+    int i;
+    for (i = 0; i < MODEL_N_VARIABLES; i++) {
+        const ShipVariable *var = &MODEL_VARIABLES[i];
+        const double value = s->values[i];
+        if (!isfinite(value)) {
+            LOG_ERROR(inst, STATE_NONFINITE_FORMAT, function, var->name, value);
+            return 0;
+        }
+        if ((var->has_min && value < var->min) || (var->has_max && value > var->max)) {
+            LOG_ERROR(inst, STATE_RANGE_FORMAT, function, var->name, value,
+                      var->has_min ? var->min : -HUGE_VAL, var->has_max ? var->max : HUGE_VAL);
+            return 0;
+        }
+    }
+    if (!isfinite(s->time) || !isfinite(s->start_time) || !isfinite(s->last_successful_time)) {
+        LOG_ERROR(inst,
+                  "%s: the FMU state is not restored: its times (%g, %g, %g s) must be finite",
+                  function, s->time, s->start_time, s->last_successful_time);
+        return 0;
+    }
+    return 1;
 }
 
 static int state_is_valid(const double *x)
@@ -272,8 +317,8 @@ static int state_is_valid(const double *x)
             return 0;
         }
     }
-    return fabs(x[0]) <= SHIP_MAX_SPEED && fabs(x[1]) <= SHIP_MAX_SPEED &&
-           fabs(x[2]) <= SHIP_MAX_YAW_RATE;
+    return fabs(x[0]) <= DIVERGENCE_MAX_SPEED && fabs(x[1]) <= DIVERGENCE_MAX_SPEED &&
+           fabs(x[2]) <= DIVERGENCE_MAX_YAW_RATE;
 }
 
 /* ---------------------------------------------------------------------------------- */
@@ -433,8 +478,20 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c)
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
+    double u0;
+    double v0;
+    double speed;
     BEGIN("fmi2ExitInitializationMode", STATE_INITIALIZATION)
     LOG_TRACE(inst, "fmi2ExitInitializationMode");
+    /* A model that divides by the speed is 0/0 at rest: refuse such a start (the state
+       stays in initialization mode, so the master can set u0 or v0 and try again). */
+    u0 = inst->s.values[VR_INITIAL_STATE];
+    v0 = inst->s.values[VR_INITIAL_STATE + 1];
+    speed = sqrt(u0 * u0 + v0 * v0);
+    if (MIN_START_SPEED > 0.0 && !(speed >= MIN_START_SPEED)) {
+        LOG_ERROR(inst, START_SPEED_FORMAT, speed, MIN_START_SPEED);
+        return fmi2Error;
+    }
     reset_state_from_parameters(inst);
     inst->s.last_successful_time = inst->s.time;
     inst->s.state = STATE_STEP_COMPLETE;
@@ -603,14 +660,10 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 /* FMU state                                                                           */
 /* ---------------------------------------------------------------------------------- */
 
-#define SAVE_STATES \
-    (STATE_INSTANTIATED | STATE_INITIALIZATION | STATE_STEP_COMPLETE | STATE_STEP_FAILED | \
-     STATE_TERMINATED)
-
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 {
     SavedState *saved;
-    BEGIN("fmi2GetFMUstate", SAVE_STATES)
+    BEGIN("fmi2GetFMUstate", FMUSTATE_ALLOWED_IN)
     if (FMUstate == NULL) {
         LOG_ERROR(inst, "fmi2GetFMUstate: FMUstate is NULL");
         return fmi2Error;
@@ -636,9 +689,12 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
 {
     const SavedState *saved = (const SavedState *)FMUstate;
-    BEGIN("fmi2SetFMUstate", SAVE_STATES)
+    BEGIN("fmi2SetFMUstate", FMUSTATE_ALLOWED_IN)
     if (saved == NULL || saved->magic != FMUSTATE_MAGIC) {
         LOG_ERROR(inst, "fmi2SetFMUstate: not an FMU state of this FMU");
+        return fmi2Error;
+    }
+    if (!snapshot_is_valid(inst, "fmi2SetFMUstate", &saved->s)) {
         return fmi2Error;
     }
     inst->s = saved->s;
@@ -648,7 +704,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
 {
     SavedState *saved;
-    BEGIN("fmi2FreeFMUstate", STATE_ANY)
+    BEGIN("fmi2FreeFMUstate", FMUSTATE_ALLOWED_IN)
     if (FMUstate == NULL || *FMUstate == NULL) {
         return fmi2OK;
     }
@@ -676,7 +732,7 @@ typedef char ship_check_guid[(sizeof(MODEL_GUID) <= SERIAL_GUID_SIZE) ? 1 : -1];
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size)
 {
-    BEGIN("fmi2SerializedFMUstateSize", STATE_ANY)
+    BEGIN("fmi2SerializedFMUstateSize", FMUSTATE_ALLOWED_IN)
     (void)FMUstate;
     if (size == NULL) {
         LOG_ERROR(inst, "fmi2SerializedFMUstateSize: size is NULL");
@@ -696,7 +752,7 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
     int state;
     int padding = 0;
     char *p = serializedState;
-    BEGIN("fmi2SerializeFMUstate", STATE_ANY)
+    BEGIN("fmi2SerializeFMUstate", FMUSTATE_ALLOWED_IN)
     if (saved == NULL || saved->magic != FMUSTATE_MAGIC) {
         LOG_ERROR(inst, "fmi2SerializeFMUstate: not an FMU state of this FMU");
         return fmi2Error;
@@ -740,7 +796,7 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     int state;
     Snapshot s;
     SavedState *saved;
-    BEGIN("fmi2DeSerializeFMUstate", STATE_ANY)
+    BEGIN("fmi2DeSerializeFMUstate", FMUSTATE_ALLOWED_IN)
     if (FMUstate == NULL || serializedState == NULL || size != SERIAL_SIZE) {
         LOG_ERROR(inst, "fmi2DeSerializeFMUstate: expected %lu bytes, got %lu",
                   (unsigned long)SERIAL_SIZE, (unsigned long)size);
@@ -778,6 +834,10 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     memcpy(&s.last_successful_time, p, sizeof(double));
     p += sizeof(double);
     memcpy(s.values, p, sizeof s.values);
+    /* Restored as if every value were set again: the range checks of fmi2SetReal. */
+    if (!snapshot_is_valid(inst, "fmi2DeSerializeFMUstate", &s)) {
+        return fmi2Error;
+    }
     saved = (SavedState *)*FMUstate;
     if (saved != NULL && saved->magic != FMUSTATE_MAGIC) {
         LOG_ERROR(inst, "fmi2DeSerializeFMUstate: *FMUstate is not an FMU state of this FMU");
@@ -805,6 +865,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
 {
     const double t = currentCommunicationPoint;
     const double h = communicationStepSize;
+    double end;
     double x[SHIP_N_STATES];
     double n;
     double hs;
@@ -827,11 +888,16 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
                   inst->s.time);
         return fmi2Error;
     }
+    end = t + h; /* the assignment rounds to double, also with x87 excess precision */
+    if (!(end > t)) {
+        /* h is below half the spacing of doubles at t: the time would not advance. */
+        LOG_ERROR(inst, TIME_STALL_FORMAT, h, t);
+        return fmi2Error;
+    }
     n = n_substeps(h, inst->s.values[VR_MAX_STEP]);
     if (n == 0.0) {
-        LOG_ERROR(inst,
-                  "fmi2DoStep: step %g s needs more than %.0f internal steps of max_step = %g s",
-                  h, SHIP_MAX_SUBSTEPS, inst->s.values[VR_MAX_STEP]);
+        LOG_ERROR(inst, SUBSTEP_LIMIT_FORMAT, h, h / inst->s.values[VR_MAX_STEP],
+                  inst->s.values[VR_MAX_STEP], MAX_SUBSTEPS);
         return fmi2Error;
     }
     hs = h / n;
@@ -846,27 +912,45 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
         if (!state_is_valid(x)) {
             inst->s.state = STATE_STEP_FAILED;
             inst->s.last_successful_time = inst->s.time;
-            log_message(inst, fmi2Discard, LOG_STATUS_DISCARD,
-                        "fmi2DoStep: the state diverged at t = %.9g s (u = %g m/s, v = %g m/s, "
-                        "r = %g rad/s; bounds %g m/s, %g rad/s); the state stays at t = %.9g s",
-                        t + (double)(i + 1) * hs, x[0], x[1], x[2], SHIP_MAX_SPEED,
-                        SHIP_MAX_YAW_RATE, inst->s.time);
+            log_message(inst, fmi2Discard, LOG_STATUS_DISCARD, DIVERGENCE_FORMAT,
+                        t + (double)(i + 1) * hs, x[0], x[1], x[2], DIVERGENCE_MAX_SPEED,
+                        DIVERGENCE_MAX_YAW_RATE, inst->s.time);
             return fmi2Discard;
         }
     }
     for (k = 0; k < SHIP_N_STATES; k++) {
         inst->s.values[VR_STATE + k] = x[k];
     }
-    inst->s.time = t + h;
+    inst->s.time = end;
     inst->s.last_successful_time = inst->s.time;
     return fmi2OK;
 }
 
+/* ---------------------------------------------------------------------------------- */
+/* Status                                                                              */
+/* ---------------------------------------------------------------------------------- */
+
+/* Where FMI 2.0 allows the fmi2GetXXXStatus functions (stepCanceled does not occur). */
+#define STATUS_ALLOWED_IN (STATE_STEP_COMPLETE | STATE_STEP_FAILED | STATE_TERMINATED)
+
+/* A status this FMU cannot give: FMI 2.0 section 2.1.3 asks a co-simulation slave for
+   fmi2Discard ("the slave is not able to return the required status information"). */
+static fmi2Status status_not_available(const Instance *inst, const char *function,
+                                       const char *why)
+{
+    log_message(inst, fmi2Discard, LOG_STATUS_DISCARD, "%s: %s", function, why);
+    return fmi2Discard;
+}
+
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
 {
-    BEGIN("fmi2GetRealStatus", STATE_STEP_COMPLETE | STATE_STEP_FAILED | STATE_TERMINATED)
-    if (s != fmi2LastSuccessfulTime || value == NULL) {
-        LOG_ERROR(inst, "fmi2GetRealStatus: only fmi2LastSuccessfulTime is available");
+    BEGIN("fmi2GetRealStatus", STATUS_ALLOWED_IN)
+    if (s != fmi2LastSuccessfulTime) {
+        return status_not_available(inst, "fmi2GetRealStatus",
+                                    "only fmi2LastSuccessfulTime is available");
+    }
+    if (value == NULL) {
+        LOG_ERROR(inst, "fmi2GetRealStatus: value is NULL");
         return fmi2Error;
     }
     *value = inst->s.last_successful_time;
@@ -875,9 +959,13 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
 
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
 {
-    BEGIN("fmi2GetBooleanStatus", STATE_STEP_COMPLETE | STATE_STEP_FAILED | STATE_TERMINATED)
-    if (s != fmi2Terminated || value == NULL) {
-        LOG_ERROR(inst, "fmi2GetBooleanStatus: only fmi2Terminated is available");
+    BEGIN("fmi2GetBooleanStatus", STATUS_ALLOWED_IN)
+    if (s != fmi2Terminated) {
+        return status_not_available(inst, "fmi2GetBooleanStatus",
+                                    "only fmi2Terminated is available");
+    }
+    if (value == NULL) {
+        LOG_ERROR(inst, "fmi2GetBooleanStatus: value is NULL");
         return fmi2Error;
     }
     /* After a divergence the slave cannot continue from this state. */
@@ -885,38 +973,39 @@ fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boo
     return fmi2OK;
 }
 
-/* fmi2DoStep never returns fmi2Pending, so there is no asynchronous status to report. */
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
 {
-    BEGIN("fmi2GetStatus", STATE_ANY)
+    BEGIN("fmi2GetStatus", STATUS_ALLOWED_IN)
     (void)s;
     (void)value;
-    LOG_ERROR(inst, "fmi2GetStatus: not supported (fmi2DoStep is synchronous, never pending)");
-    return fmi2Error;
+    return status_not_available(inst, "fmi2GetStatus",
+                                "no status available: fmi2DoStep is synchronous, never pending");
 }
 
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
 {
-    BEGIN("fmi2GetIntegerStatus", STATE_ANY)
+    BEGIN("fmi2GetIntegerStatus", STATUS_ALLOWED_IN)
     (void)s;
     (void)value;
-    LOG_ERROR(inst, "fmi2GetIntegerStatus: not supported (no integer status is defined)");
-    return fmi2Error;
+    return status_not_available(inst, "fmi2GetIntegerStatus",
+                                "no status available: FMI 2.0 defines no integer status");
 }
 
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
 {
-    BEGIN("fmi2GetStringStatus", STATE_ANY)
+    BEGIN("fmi2GetStringStatus", STATUS_ALLOWED_IN)
     (void)s;
     (void)value;
-    LOG_ERROR(inst, "fmi2GetStringStatus: not supported (fmi2DoStep is synchronous)");
-    return fmi2Error;
+    return status_not_available(inst, "fmi2GetStringStatus",
+                                "no status available: fmi2DoStep is synchronous, never pending");
 }
 
 /* ---------------------------------------------------------------------------------- */
 /* Not supported: each returns fmi2Error with a message                                */
 /* ---------------------------------------------------------------------------------- */
 
+/* The one body of every function below: check the instance, log "<function> is not
+   supported: <why>" (category logStatusError) and return fmi2Error. */
 static fmi2Status unsupported(fmi2Component c, const char *function, const char *why)
 {
     BEGIN(function, STATE_ANY)

@@ -4,7 +4,7 @@
  *
  * The generated part is two headers, included by fmi2_cosimulation.c in this order:
  *
- *   model_config.h     (fmu_model.export_native, from fmu_model.interface.fmu_variables)
+ *   model_config.h     (fmu_model.export_native, from fmu_model.interface)
  *     MODEL_GUID              string, must equal the guid of modelDescription.xml
  *     MODEL_IDENTIFIER_NAME   string, the modelIdentifier (for messages)
  *     MODEL_N_VARIABLES       number of Real variables; value reference = array index
@@ -17,6 +17,24 @@
  *     VR_COEFFICIENTS         first of the MODEL_N_COEFFICIENTS coefficients (consecutive,
  *                             in the order model_rhs expects them)
  *     MODEL_VARIABLES         ShipVariable table, one entry per value reference
+ *     DIVERGENCE_MAX_SPEED    bound of |u| and |v| [m/s]; beyond it the state diverged
+ *     DIVERGENCE_MAX_YAW_RATE bound of |r| [rad/s]; beyond it the state diverged
+ *     DIVERGENCE_FORMAT       printf format of the fmi2Discard message of a diverged step,
+ *                             with the arguments (double): time of the failed internal step
+ *                             [s], u, v, r there, DIVERGENCE_MAX_SPEED,
+ *                             DIVERGENCE_MAX_YAW_RATE, time the state stays at [s]
+ *     MAX_SUBSTEPS            largest number of internal steps of one fmi2DoStep (double)
+ *     SUBSTEP_LIMIT_FORMAT    printf format of the fmi2Error of a longer step: h [s],
+ *                             h / max_step, max_step [s], MAX_SUBSTEPS (all double)
+ *     TIME_STALL_FORMAT       printf format of the fmi2Error of a step with t + h == t:
+ *                             h [s], t [s] (double)
+ *     MIN_START_SPEED         least start speed sqrt(u0^2 + v0^2) [m/s]; 0 when the model
+ *                             starts from rest
+ *     START_SPEED_FORMAT      printf format of the fmi2Error of fmi2ExitInitializationMode
+ *                             below it: start speed, MIN_START_SPEED [m/s] (double)
+ *     STATE_RANGE_FORMAT      printf formats of the fmi2Error of a restored FMU state with a
+ *     STATE_NONFINITE_FORMAT  value out of range or not finite: function (string), variable
+ *                             name (string), value, and (range) min, max (double)
  *
  *   model_equations.h  (fmu_model.codegen.generate_model_c, from the symbolic structure)
  *     MODEL_N_COEFFICIENTS, MODEL_COEFFICIENT_NAMES and

@@ -1,26 +1,10 @@
-"""Command line of the scenarios: ``python -m scenarios <command>`` (DESIGN.md contract).
-
-Commands::
-
-    synthesize      reference-ship trial logs, DIR/<manoeuvre>.csv
-    turning-circle  turning circle on an FMU: advance, transfer, tactical diameter
-    zigzag          zig-zag δ/ψ on an FMU: overshoots and times
-    spiral          Dieudonné spiral on an FMU: r(δ) and the loop width
-    pullout         pull-out on an FMU: residual yaw rate, decay time constant
-    imo             IMO MSC.137(76) criteria of an FMU (--strict: gate)
-    validate        standard set on an FMU and a reference ship, report (--max-error-pct: gate;
-                    --params: 95 % intervals from the identified covariance)
-    uncertainty     Monte-Carlo 95 % intervals of the standard manoeuvres from params.json
-    demo            logs -> identification -> native FMU -> validation report with intervals
+"""Commands that drive one FMU: ``turning-circle``, ``zigzag``, ``spiral``, ``pullout``, ``imo``.
 
 Speed and propeller speed default to the FMU's start values (``u0``, ``propeller_rpm``);
-the steering-gear rate to 2.34 deg/s (KVLCC2 full scale, a typical large ship's).
-
-Exit status: 0 success; 1 data error (missing or foreign FMU, rudder beyond the FMU's
-limit, a run that does not give its metrics, unreadable files); 2 usage error
-(argparse); 3 a gate failed (``imo --strict``, ``validate --max-error-pct``). Errors and
-gate verdicts are one line on stderr, never a traceback. Progress goes to stderr
-(``--quiet`` silences it); results to stdout. Every file is written atomically.
+the steering-gear rate to 2.34 deg/s (KVLCC2 full scale, a typical large ship's). Each
+manoeuvre prints its metrics and can write them as JSON (``--json``), the trajectory as
+a trial log (``--csv``) and a figure (``--plot``); ``imo`` judges the standard set
+against IMO MSC.137(76) (``--strict``: exit 3 when a criterion fails).
 """
 
 from __future__ import annotations
@@ -28,21 +12,28 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import time
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
-from fmu_model import ParamsFormatError, argtypes
-from fmu_model.errors import FmuBuildError
-from identifier.errors import IdentificationError, LogFormatError
+from fmu_model import argtypes
+from scenarios.cli.common import EXIT_GATE_FAILED, PROG, make_bars, sim_progress
+from scenarios.errors import ScenarioError
+from scenarios.fmu_checks import FmuInfo, check_rudder, open_fmu, read_fmu_info
 from scenarios.imo import Criterion
-from scenarios.maneuvers import (
+from scenarios.records import Condition, ManeuverRun
+from scenarios.report import criteria_table, format_table, write_json
+from scenarios.runs import (
+    STANDARD_LIMIT_L_OVER_U,
+    imo_criteria,
+    measure,
+    run_standard_set,
+    simulate,
+)
+from trials.maneuvers import (
     DEFAULT_RUDDER_RATE_DEG_S,
     Program,
     pullout,
@@ -50,53 +41,18 @@ from scenarios.maneuvers import (
     turning_circle,
     zigzag,
 )
-from scenarios.metrics import (
-    MetricsError,
-    pullout_metrics,
-    spiral_metrics,
-    steady_yaw_rate,
-)
-from scenarios.pipeline import (
-    STANDARD_LIMIT_L_OVER_U,
-    Bar,
-    DemoConfig,
-    FmuInfo,
-    ScenarioError,
-    check_rudder,
-    imo_criteria,
-    measure,
-    open_fmu,
-    read_fmu_info,
-    run_demo,
-    run_standard_set,
-    simulate,
-    synthesize_logs,
-    validate,
-)
-from scenarios.report import (
-    ComparisonRow,
-    Condition,
-    ManeuverRun,
-    Validation,
-    comparison_table,
-    criteria_table,
-    failing_rows,
-    format_table,
-    interval_counts,
-    write_json,
-    write_report,
-)
-from scenarios.synthesize import MANEUVERS
-from scenarios.uncertainty import (
-    add_cluster_arguments,
-    add_uncertainty_command,
-    run_uncertainty_command,
-)
+from trials.metrics import pullout_metrics, spiral_metrics, steady_yaw_rate
 
-PROG = "python -m scenarios"
-EXIT_DATA_ERROR = 1
-EXIT_GATE_FAILED = 3
-DEFAULT_UNCERTAINTY_SAMPLES = 100
+__all__ = [
+    "DEFAULT_SPIRAL_STEPS_DEG",
+    "add_fmu_commands",
+    "run_imo_command",
+    "run_pullout_command",
+    "run_spiral_command",
+    "run_turning_circle_command",
+    "run_zigzag_command",
+]
+
 DEFAULT_SPIRAL_STEPS_DEG = (
     "25,20,15,10,5,2,0,-2,-5,-10,-15,-20,-25,-20,-15,-10,-5,-2,0,2,5,10,15,20,25"
 )
@@ -128,26 +84,11 @@ def _angle_list(text: str) -> tuple[float, ...]:
     return values
 
 
-# ------------------------------------------------------------------------ parser
+# ------------------------------------------------------------------------ parsers
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Return the argument parser of ``python -m scenarios``."""
-    return _build_parsers()[0]
-
-
-def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser]]:
-    """Return the parser of ``python -m scenarios`` and its subcommands' parsers by name."""
-    parser = argparse.ArgumentParser(
-        prog=PROG,
-        description="Manoeuvres, IMO criteria and validation reports for ship FMUs.",
-        epilog="Exit status: 0 ok, 1 data error, 2 usage error, 3 gate failed.",
-    )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-
-    common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--quiet", action="store_true", help="no progress on stderr")
-
+def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
+    """Add the commands on one FMU to the subparsers ``sub`` (``common``: ``--quiet``)."""
     fmu_run = argparse.ArgumentParser(add_help=False, parents=[common])
     fmu_run.add_argument("--fmu", required=True, metavar="F", help="FMI 2.0 co-simulation FMU")
     fmu_run.add_argument(
@@ -187,28 +128,6 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
         metavar="S",
         help="straight run before execute, recorded with negative times [s] (default 0)",
     )
-
-    p = sub.add_parser(
-        "synthesize", parents=[common], help="synthetic trial logs from a reference ship"
-    )
-    p.add_argument("--vessel", choices=("kvlcc2",), default="kvlcc2")
-    p.add_argument(
-        "--maneuver",
-        action="append",
-        required=True,
-        choices=sorted(MANEUVERS),
-        help="manoeuvre to log (repeat for several)",
-    )
-    p.add_argument("--scale", choices=("full", "model"), default="full")
-    p.add_argument("--rate-hz", type=argtypes.positive, default=1.0, help="logger rate [Hz]")
-    p.add_argument("--position-noise-m", type=argtypes.non_negative, default=1.0, metavar="S")
-    p.add_argument("--heading-noise-deg", type=argtypes.non_negative, default=0.1, metavar="S")
-    p.add_argument(
-        "--seed", type=argtypes.count(0), default=0, help="run seed; each manoeuvre derives its own"
-    )
-    p.add_argument("--approach-s", type=argtypes.non_negative, default=60.0, help="approach [s]")
-    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
-
     p = sub.add_parser("turning-circle", parents=[outputs], help="turning circle on an FMU")
     p.add_argument(
         "--rudder-deg",
@@ -276,94 +195,8 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     p.add_argument("--strict", action="store_true", help="exit 3 when any criterion fails")
     p.add_argument("--json", metavar="OUT", help="write the criteria as JSON")
 
-    p = sub.add_parser("validate", parents=[common], help="FMU vs reference ship report")
-    p.add_argument("--fmu", required=True, metavar="F", help="FMI 2.0 co-simulation FMU")
-    p.add_argument("--reference", choices=("kvlcc2",), default="kvlcc2")
-    p.add_argument("--scale", choices=("full", "model"), default="full")
-    p.add_argument("--report", required=True, metavar="DIR", help="report folder")
-    p.add_argument(
-        "--max-error-pct",
-        type=argtypes.non_negative,
-        metavar="P",
-        help="exit 3 when any |error| exceeds P %% (overshoot angles: relative error too)",
-    )
-    p.add_argument("--dt-s", type=argtypes.positive, default=0.1, metavar="S", help="step [s]")
-    band = p.add_argument_group(
-        "uncertainty",
-        "95 % intervals of the predicted quantities from the coefficient covariance "
-        "(identification noise only, not model-structure error)",
-    )
-    band.add_argument(
-        "--params",
-        metavar="FILE",
-        help="params.json the FMU was built from, with its covariance: adds the intervals",
-    )
-    band.add_argument(
-        "--uncertainty-samples",
-        type=argtypes.count(0),
-        metavar="N",
-        help=f"Monte-Carlo samples (default {DEFAULT_UNCERTAINTY_SAMPLES} with --params; "
-        "0: no intervals)",
-    )
-    band.add_argument(
-        "--uncertainty-dt-s",
-        type=argtypes.positive,
-        default=0.5,
-        metavar="S",
-        help="step of the Monte-Carlo runs [s] (default 0.5)",
-    )
-    band.add_argument(
-        "--seed", type=argtypes.count(0), default=0, help="seed of the draw (default 0)"
-    )
-    add_cluster_arguments(band)
-
-    add_uncertainty_command(sub)
-
-    p = sub.add_parser("demo", parents=[common], help="the whole pipeline on KVLCC2")
-    p.add_argument("--out", default="build/demo", metavar="DIR", help="output folder")
-    p.add_argument("--quick", action="store_true", help="shorter configuration (tests)")
-    return parser, dict(sub.choices)
-
 
 # ------------------------------------------------------------------------ helpers
-
-
-def _progress(message: str, quiet: bool) -> None:
-    if not quiet:
-        print(message, file=sys.stderr, flush=True)
-
-
-def _bar(quiet: bool) -> Callable[[str, float | None, str], Bar]:
-    def make(description: str, total: float | None, unit: str) -> Bar:
-        return tqdm(
-            desc=description,
-            total=total,
-            unit=unit,
-            disable=True if quiet else None,  # None: only on a terminal
-            file=sys.stderr,
-            leave=False,
-            dynamic_ncols=True,
-        )
-
-    return make
-
-
-@contextmanager
-def _sim_progress(label: str, quiet: bool) -> Iterator[Callable[[float], None]]:
-    """Yield a ``run_program`` progress callback counting simulated seconds (tqdm)."""
-    with tqdm(
-        desc=label,
-        unit="s",
-        disable=True if quiet else None,  # None: only on a terminal
-        file=sys.stderr,
-        leave=False,
-        dynamic_ncols=True,
-    ) as bar:
-
-        def update(t_s: float) -> None:
-            bar.update(max(0, int(t_s) - bar.n))
-
-        yield update
 
 
 def _condition(args: argparse.Namespace, info: FmuInfo) -> Condition:
@@ -403,7 +236,7 @@ def _run_record(
 
 
 def _write_csv(path: str, trajectory: np.ndarray, info: FmuInfo, source: str) -> None:
-    from identifier.logs import ManeuverLog, write_log
+    from trials.logs import ManeuverLog, write_log
 
     log = ManeuverLog(
         time_s=trajectory["time_s"],
@@ -432,8 +265,19 @@ def _source(command: str, info: FmuInfo, program: Program, condition: Condition)
 
 
 def _run_on_fmu(args: argparse.Namespace, program: Program, condition: Condition) -> np.ndarray:
-    with open_fmu(args.fmu) as plant, _sim_progress(program.name, args.quiet) as progress:
+    with open_fmu(args.fmu) as plant, sim_progress(program.name, args.quiet) as progress:
         return simulate(plant, program, condition, progress)
+
+
+def _measured_run(
+    args: argparse.Namespace, info: FmuInfo, program: Program, condition: Condition
+) -> tuple[Program, np.ndarray, dict[str, Any]]:
+    """Run a turning circle or zig-zag after ``--approach-s``; its JSON record of metrics."""
+    program = replace(program, approach_s=args.approach_s)
+    trajectory = _run_on_fmu(args, program, condition)
+    run = ManeuverRun(program, trajectory, measure(program, trajectory))
+    record = {**run.metrics_dict(info.length_m), "run": _run_record(args, info, program, condition)}
+    return program, trajectory, record
 
 
 def _save_outputs(
@@ -463,32 +307,15 @@ def _header(info: FmuInfo, program: Program, condition: Condition) -> str:
     )
 
 
+def _title(info: FmuInfo, program: Program) -> str:
+    return f"{program.name}: {info.model_name}"
+
+
 # ----------------------------------------------------------------------- commands
 
 
-def _synthesize(args: argparse.Namespace) -> int:
-    bar = _bar(args.quiet)("synthesize", len(args.maneuver), "log")
-    try:
-        paths = synthesize_logs(
-            args.output,
-            args.maneuver,
-            vessel=args.vessel,
-            scale=args.scale,
-            rate_hz=args.rate_hz,
-            position_noise_m=args.position_noise_m,
-            heading_noise_deg=args.heading_noise_deg,
-            seed=args.seed,
-            approach_s=args.approach_s,
-            on_log=lambda _path: bar.update(1),
-        )
-    finally:
-        bar.close()
-    for path in paths:
-        print(path)
-    return 0
-
-
-def _turning_circle(args: argparse.Namespace) -> int:
+def run_turning_circle_command(args: argparse.Namespace) -> int:
+    """Run ``turning-circle``: print advance, transfer, diameters; return the exit status."""
     info = read_fmu_info(args.fmu)
     rudder = math.radians(args.rudder_deg)
     check_rudder(info, rudder)
@@ -498,10 +325,7 @@ def _turning_circle(args: argparse.Namespace) -> int:
         heading_change_rad=math.radians(args.heading_change_deg),
         max_time_s=_limit_s(args, info, condition),
     )
-    program = replace(program, approach_s=args.approach_s)
-    trajectory = _run_on_fmu(args, program, condition)
-    run = ManeuverRun(program, trajectory, measure(program, trajectory))
-    record = {**run.metrics_dict(info.length_m), "run": _run_record(args, info, program, condition)}
+    program, trajectory, record = _measured_run(args, info, program, condition)
 
     def figure() -> Any:
         from scenarios.plots import trajectory_figure
@@ -526,7 +350,8 @@ def _turning_circle(args: argparse.Namespace) -> int:
     return 0
 
 
-def _zigzag(args: argparse.Namespace) -> int:
+def run_zigzag_command(args: argparse.Namespace) -> int:
+    """Run ``zigzag``: print the overshoots and times; return the exit status."""
     info = read_fmu_info(args.fmu)
     rudder = math.radians(args.rudder_deg) * (-1.0 if args.port_first else 1.0)
     check_rudder(info, rudder)
@@ -537,10 +362,7 @@ def _zigzag(args: argparse.Namespace) -> int:
         n_reversals=args.reversals,
         max_time_s=_limit_s(args, info, condition),
     )
-    program = replace(program, approach_s=args.approach_s)
-    trajectory = _run_on_fmu(args, program, condition)
-    run = ManeuverRun(program, trajectory, measure(program, trajectory))
-    record = {**run.metrics_dict(info.length_m), "run": _run_record(args, info, program, condition)}
+    program, trajectory, record = _measured_run(args, info, program, condition)
 
     def figure() -> Any:
         from scenarios.plots import zigzag_figure
@@ -563,7 +385,8 @@ def _zigzag(args: argparse.Namespace) -> int:
     return 0
 
 
-def _spiral(args: argparse.Namespace) -> int:
+def run_spiral_command(args: argparse.Namespace) -> int:
+    """Run ``spiral``: print r(δ) and the loop width; return the exit status."""
     info = read_fmu_info(args.fmu)
     steps = tuple(math.radians(d) for d in args.rudder_steps_deg)
     for step in steps:
@@ -619,7 +442,8 @@ def _spiral(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pullout(args: argparse.Namespace) -> int:
+def run_pullout_command(args: argparse.Namespace) -> int:
+    """Run ``pullout``: print the residual yaw rate and decay time; return the exit status."""
     info = read_fmu_info(args.fmu)
     rudder = math.radians(args.rudder_deg)
     check_rudder(info, rudder)
@@ -669,11 +493,12 @@ def _failed_summary(criteria: Sequence[Criterion]) -> str:
     return "; ".join(c.name for c in failed)
 
 
-def _imo(args: argparse.Namespace) -> int:
+def run_imo_command(args: argparse.Namespace) -> int:
+    """Run ``imo``: print the criteria; return 0, or 3 with ``--strict`` and a failure."""
     info = read_fmu_info(args.fmu)
     check_rudder(info, math.radians(35.0))
     condition = _condition(args, info)
-    make = _bar(args.quiet)
+    make = make_bars(args.quiet)
     bar = make("imo", 4, "run")
     try:
         with open_fmu(args.fmu) as plant:
@@ -712,166 +537,3 @@ def _imo(args: argparse.Namespace) -> int:
         )
         return EXIT_GATE_FAILED
     return 0
-
-
-def _gate_line(rows: Sequence[ComparisonRow], max_error_pct: float, total: int) -> str:
-    parts = [f"{r.label} {'n/a' if r.error_pct is None else f'{r.error_pct:+.1f} %'}" for r in rows]
-    return (
-        f"{PROG} validate: FAIL: {len(rows)} of {total} quantities differ by more than "
-        f"{max_error_pct:g} %: {'; '.join(parts)}"
-    )
-
-
-def _validate(args: argparse.Namespace) -> int:
-    from fmu_model import load_params
-
-    params = None if args.params is None else load_params(args.params)
-    samples = 0
-    if params is not None:
-        samples = (
-            DEFAULT_UNCERTAINTY_SAMPLES
-            if args.uncertainty_samples is None
-            else args.uncertainty_samples
-        )
-    if samples:
-        where = args.scheduler or f"{args.workers} local workers"
-        _progress(
-            f"validate: then {samples} Monte-Carlo samples of {args.params} "
-            f"(step {args.uncertainty_dt_s:g} s) on {where}",
-            args.quiet,
-        )
-    bar = _bar(args.quiet)("validate", 8, "run")
-    try:
-        validation = validate(
-            args.fmu,
-            reference=args.reference,
-            scale=args.scale,
-            dt_s=args.dt_s,
-            on_run=lambda _name: bar.update(1),
-            params=params,
-            uncertainty_samples=samples,
-            uncertainty_dt_s=args.uncertainty_dt_s,
-            seed=args.seed,
-            scheduler=args.scheduler,
-            n_workers=args.workers,
-            params_source=args.params or "",
-        )
-    finally:
-        bar.close()
-    files = write_report(validation, args.report, max_error_pct=args.max_error_pct)
-    _print_validation(validation)
-    print(f"report: {files[-1]}")
-    if args.max_error_pct is not None:
-        failing = failing_rows(validation.rows, args.max_error_pct)
-        if failing:
-            print(_gate_line(failing, args.max_error_pct, len(validation.rows)), file=sys.stderr)
-            return EXIT_GATE_FAILED
-    return 0
-
-
-def _print_validation(validation: Validation) -> None:
-    print(
-        f"predicted {Path(validation.fmu_path).name} vs reference {validation.reference_name} "
-        f"(step {validation.condition.dt_s:g} s)"
-    )
-    print(format_table(*comparison_table(validation.rows)))
-    if validation.uncertainty is not None:
-        inside, judged = interval_counts(validation.rows)
-        print(
-            f"95 % intervals: {validation.uncertainty.n_samples} Monte-Carlo samples of the "
-            f"identified coefficients (identification noise only, not model-structure "
-            f"error); reference inside for {inside} of {judged} quantities"
-        )
-    for warning in validation.warnings:
-        print(f"warning: {warning}")
-    n_pass = sum(c.passed for c in validation.criteria)
-    print(
-        f"IMO criteria of the predicted model: {'PASS' if validation.imo_passed else 'FAIL'} "
-        f"({n_pass} of {len(validation.criteria)} pass)"
-    )
-
-
-def _demo(args: argparse.Namespace) -> int:
-    config = DemoConfig.quick() if args.quick else DemoConfig()
-    stages = (
-        "synthesize",
-        "identify",
-        "build FMU",
-        "validate",
-        *(("uncertainty",) if config.uncertainty_samples > 0 else ()),
-        "report",
-    )
-    start = time.perf_counter()
-
-    def on_stage(name: str, seconds: float, summary: str) -> None:
-        index = stages.index(name) + 1 if name in stages else 0
-        _progress(f"[{index}/{len(stages)}] {name:<10} {seconds:6.1f} s  {summary}", args.quiet)
-
-    result = run_demo(args.out, config, on_stage=on_stage, make_bar=_bar(args.quiet))
-    for warning in result.identification_warnings:
-        print(f"identification warning: {warning}", file=sys.stderr)
-    _print_validation(result.validation)
-    print(f"demo finished in {time.perf_counter() - start:.1f} s")
-    print(f"params: {result.params_path}")
-    print(f"FMU:    {result.fmu_path}")
-    print(f"report: {result.report_dir / 'report.md'}")
-    return 0
-
-
-def _title(info: FmuInfo, program: Program) -> str:
-    return f"{program.name}: {info.model_name}"
-
-
-_COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
-    "synthesize": _synthesize,
-    "turning-circle": _turning_circle,
-    "zigzag": _zigzag,
-    "spiral": _spiral,
-    "pullout": _pullout,
-    "imo": _imo,
-    "validate": _validate,
-    "demo": _demo,
-    "uncertainty": run_uncertainty_command,
-}
-
-
-def _check_validate_usage(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """Exit 2 (``parser``, the validate subparser) for options that need --params."""
-    if args.params is not None:
-        return
-    if args.uncertainty_samples:
-        parser.error("--uncertainty-samples needs --params (the FMU's params.json)")
-    if args.scheduler is not None:
-        parser.error("--scheduler needs --params (the FMU's params.json)")
-
-
-def _fail(command: str, message: str) -> int:
-    text = message.replace("\r", "\\r").replace("\n", "\\n")
-    print(f"{PROG} {command}: error: {text}", file=sys.stderr)
-    return EXIT_DATA_ERROR
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the exit status (0, 1 data error, 3 gate failed).
-
-    Usage errors exit through argparse with status 2.
-    """
-    parser, commands = _build_parsers()
-    args = parser.parse_args(argv)
-    if args.command == "validate":
-        _check_validate_usage(commands["validate"], args)
-    try:
-        return _COMMANDS[args.command](args)
-    except (
-        ScenarioError,
-        MetricsError,
-        ParamsFormatError,
-        LogFormatError,
-        IdentificationError,
-        FmuBuildError,
-    ) as exc:
-        return _fail(args.command, str(exc))
-    except OSError as exc:
-        if exc.filename:
-            return _fail(args.command, f"{exc.filename}: {exc.strerror or exc}")
-        return _fail(args.command, str(exc))

@@ -1,7 +1,7 @@
 """Standard manoeuvres as data: a straight approach followed by a list of legs.
 
 Each leg holds a rudder command (and optionally a propeller speed) until a condition on
-time or heading is met; the driver (``scenarios.run``) evaluates the conditions on the
+time or heading is met; the driver (``trials.run``) evaluates the conditions on the
 simulated heading, so the zig-zag is closed-loop as the standard prescribes. Angles in
 radians, headings relative to the heading at execute (t = 0), positive to starboard.
 

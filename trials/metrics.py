@@ -1,6 +1,6 @@
 """Manoeuvre metrics from a trajectory: turning circle, zig-zag, spiral, pull-out.
 
-Pure functions on a trajectory (``scenarios.trajectory.TRAJECTORY_DTYPE``), SI units
+Pure functions on a trajectory (``trials.trajectory.TRAJECTORY_DTYPE``), SI units
 and radians inside. Definitions follow ITTC (7.5-04-02-01) and IMO MSC.137(76) as
 fixed in DESIGN.md "Conventions" and ``reference/kvlcc2_mmg.md`` §10:
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["IdentificationError", "LogFormatError"]
+__all__ = ["IdentificationError", "LogFormatError", "one_line"]
 
 
-def _one_line(text: str) -> str:
+def one_line(text: str) -> str:
     """Escape line breaks so that a message can never span several lines."""
     return text.replace("\r", "\\r").replace("\n", "\\n")
 
@@ -78,7 +78,7 @@ class LogFormatError(ValueError):
         if self.column is not None:
             parts.append(f"column {self.column!r}")
         parts.append(self.message)
-        return _one_line(": ".join(parts))
+        return one_line(": ".join(parts))
 
 
 class IdentificationError(RuntimeError):
@@ -123,4 +123,4 @@ class IdentificationError(RuntimeError):
         if self.sample is not None:
             parts.append(f"sample {self.sample}")
         parts.append(self.message)
-        return _one_line(": ".join(parts))
+        return one_line(": ".join(parts))

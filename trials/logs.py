@@ -37,7 +37,7 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
   with ``np.unwrap``, so a heading change of half a turn or more between two
   consecutive samples cannot be represented.
 
-Every violation raises :class:`~identifier.errors.LogFormatError` with the file,
+Every violation raises :class:`~trials.errors.LogFormatError` with the file,
 the 1-based line number (None for whole-file problems), the column where one
 applies and what was expected. Inside the program all quantities are SI and
 radians; degrees and rpm exist only in the file.
@@ -45,7 +45,6 @@ radians; degrees and rpm exist only in the file.
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 import re
@@ -58,7 +57,8 @@ import numpy as np
 import numpy.typing as npt
 
 from fmu_model.atomic import write_atomic
-from identifier.errors import LogFormatError
+from trials.errors import LogFormatError
+from trials.text_input import NUMBER, decode_utf8, read_bytes, show, split_fields
 
 __all__ = [
     "LOG_COLUMNS",
@@ -87,10 +87,8 @@ LOG_COLUMNS: Final = ("time_s", "x_m", "y_m", "heading_deg", "rudder_deg", "rpm"
 
 _SEPARATOR: Final = ","
 _OTHER_SEPARATORS: Final = ((";", "';'"), ("\t", "a tab"), ("|", "'|'"))
-_NUMBER: Final = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
 _METADATA_KEY: Final = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*", re.ASCII)
 _METADATA_LINE: Final = re.compile(r"#\s*([A-Za-z_][A-Za-z0-9_.\-]*)\s*:(.*)", re.ASCII)
-_MAX_SHOWN_CHARS: Final = 40
 _MAX_SHOWN_HEADER_CHARS: Final = 160
 _SECONDS_PER_MINUTE: Final = 60.0
 _NMEA_HINT: Final = (
@@ -214,25 +212,8 @@ def read_log(path: str | os.PathLike[str]) -> ManeuverLog:
 
     """
     name = os.fspath(path)
-    try:
-        with open(name, "rb") as file:
-            raw = file.read()
-    except FileNotFoundError:
-        raise LogFormatError(
-            "no such file; expected an existing trial log",
-            path=name,
-            expected="an existing file",
-        ) from None
-    except IsADirectoryError:
-        raise LogFormatError(
-            "is a directory; expected a trial-log file", path=name, expected="a file"
-        ) from None
-    except OSError as error:
-        reason = error.strerror or type(error).__name__
-        raise LogFormatError(
-            f"cannot read the file ({reason})", path=name, expected="a readable file"
-        ) from None
-    return parse_log(_decode(raw, name), path=name)
+    raw = read_bytes(name, "trial log")
+    return parse_log(decode_utf8(raw, name, _binary_hint(raw, name)), path=name)
 
 
 def parse_log(text: str, path: str | os.PathLike[str] | None = None) -> ManeuverLog:
@@ -376,13 +357,6 @@ def _frozen_metadata(metadata: Mapping[str, str]) -> Mapping[str, str]:
     return MappingProxyType(copy)
 
 
-def _show(text: str, limit: int = _MAX_SHOWN_CHARS) -> str:
-    """Quote a file excerpt for an error message: repr, shortened if long."""
-    if len(text) > limit:
-        return repr(text[: limit - 3]) + "..."
-    return repr(text)
-
-
 def _looks_like_nmea(path: str | None, first_line: str) -> bool:
     """Whether a file is probably an NMEA 0183 recording given to the trial-log reader.
 
@@ -400,56 +374,12 @@ def _binary_hint(raw: bytes, path: str) -> str:
     return _NMEA_HINT if _looks_like_nmea(path, first_line) else ""
 
 
-def _decode(raw: bytes, path: str) -> str:
-    """Decode a file's bytes as UTF-8 (optional BOM), or explain why it is not text."""
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-        raise LogFormatError(
-            "not a text file in UTF-8: it starts with a UTF-16 byte-order mark; "
-            "expected UTF-8 text (save it as UTF-8)",
-            path=path,
-            line=1,
-            expected="UTF-8 text",
-        )
-    nul = raw.find(b"\0")
-    if nul >= 0:
-        raise LogFormatError(
-            f"not a text file: NUL byte at offset {nul}; expected UTF-8 text"
-            + _binary_hint(raw, path),
-            path=path,
-            line=raw.count(b"\n", 0, nul) + 1,
-            expected="UTF-8 text",
-        )
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as error:
-        raise LogFormatError(
-            f"not a text file: invalid UTF-8 byte 0x{raw[error.start]:02x} at offset "
-            f"{error.start}; expected UTF-8 text" + _binary_hint(raw, path),
-            path=path,
-            line=raw.count(b"\n", 0, error.start) + 1,
-            expected="UTF-8 text",
-        ) from None
-
-
-def _split_fields(line: str) -> list[str] | None:
-    """Split one CSV line on ','; quoted fields (rare) go through the csv module.
-
-    Returns None if the quoting is malformed.
-    """
-    if '"' not in line:
-        return line.split(_SEPARATOR)
-    try:
-        return next(csv.reader([line], strict=True))
-    except csv.Error:
-        return None
-
-
 def _parse_length_m(text: str, path: str | None, line: int | None) -> float:
     """Return the ``length_m`` metadata value [m], or raise LogFormatError."""
-    value = float(text) if _NUMBER.fullmatch(text) else math.nan
+    value = float(text) if NUMBER.fullmatch(text) else math.nan
     if not (math.isfinite(value) and value > 0.0):
         raise LogFormatError(
-            f"metadata 'length_m': expected a positive finite number of metres, got {_show(text)}",
+            f"metadata 'length_m': expected a positive finite number of metres, got {show(text)}",
             path=path,
             line=line,
             expected="a positive finite number",
@@ -536,28 +466,28 @@ class _Parser:
 
     def header(self, number: int, line: str) -> None:
         """Check the header line and map the required columns to field positions."""
-        fields = _split_fields(line)
+        fields = split_fields(line)
         expected_header = _SEPARATOR.join(LOG_COLUMNS)
         if fields is None:
             raise self.error(
                 f"expected a header line like {expected_header!r}, got malformed quoting "
-                f"in {_show(line)}",
+                f"in {show(line)}",
                 number,
                 expected="a header line",
             )
         names = [name.strip() for name in fields]
         if len(names) == 1:
             self.check_separator(number, line, expected_header)
-        if all(_NUMBER.fullmatch(name) for name in names):
+        if all(NUMBER.fullmatch(name) for name in names):
             raise self.error(
-                f"expected a header line like {expected_header!r}, got a data row {_show(line)}",
+                f"expected a header line like {expected_header!r}, got a data row {show(line)}",
                 number,
                 expected="a header line",
             )
         missing = [column for column in LOG_COLUMNS if column not in names]
         if missing:
             plural = "s" if len(missing) > 1 else ""
-            shown = _show(line.strip(), _MAX_SHOWN_HEADER_CHARS)
+            shown = show(line.strip(), _MAX_SHOWN_HEADER_CHARS)
             hint = _NMEA_HINT if _looks_like_nmea(self.path, line) else ""
             raise self.error(
                 f"missing column{plural} {', '.join(map(repr, missing))}; expected a header "
@@ -585,7 +515,7 @@ class _Parser:
         for separator, described in candidates:
             parts = line.split(separator)
             if len(parts) > 1 and set(LOG_COLUMNS) & {part.strip() for part in parts}:
-                shown = _show(line.strip(), _MAX_SHOWN_HEADER_CHARS)
+                shown = show(line.strip(), _MAX_SHOWN_HEADER_CHARS)
                 raise self.error(
                     f"expected ',' as the field separator, got {described} "
                     f"(header {shown}; expected {expected_header!r})",
@@ -595,11 +525,11 @@ class _Parser:
 
     def row(self, number: int, line: str) -> None:
         """Parse one data row into the column value lists."""
-        fields = _split_fields(line)
+        fields = split_fields(line)
         if fields is None:
             raise self.error(
                 f"expected {self.n_fields} fields separated by ',', got malformed quoting "
-                f"in {_show(line)}",
+                f"in {show(line)}",
                 number,
                 expected=f"{self.n_fields} fields",
             )
@@ -615,14 +545,14 @@ class _Parser:
             )
         for column, index, values in zip(LOG_COLUMNS, self.column_index, self.values, strict=True):
             cell = fields[index].strip()
-            value = float(cell) if _NUMBER.fullmatch(cell) else math.nan
+            value = float(cell) if NUMBER.fullmatch(cell) else math.nan
             if not math.isfinite(value):
                 if not cell:
                     got = "an empty field"
                 elif math.isinf(value):
-                    got = f"{_show(cell)} (beyond the floating-point range)"
+                    got = f"{show(cell)} (beyond the floating-point range)"
                 else:
-                    got = _show(cell)
+                    got = show(cell)
                 raise self.error(
                     f"expected a finite number, got {got}",
                     number,

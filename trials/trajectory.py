@@ -22,6 +22,9 @@ TRAJECTORY_DTYPE = np.dtype(
     ]
 )
 
+STATE_FIELDS = ("u_mps", "v_mps", "r_radps", "x_m", "y_m", "psi_rad")
+"""The fields of the 6-state (u, v, r, x, y, ψ), in the state-vector order of ``fmu_model``."""
+
 
 def empty_trajectory(n_samples: int) -> np.ndarray:
     """Return a zero-filled trajectory with ``n_samples`` rows."""

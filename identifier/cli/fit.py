@@ -1,32 +1,24 @@
-"""Command line of the identifier: ``python -m identifier fit LOG.csv ... -o params.json``.
-
-Exit status: 0 success, 1 data error (bad log, bad settings for the data, diverging
-identification), 2 usage error. Errors are one line on stderr, never a traceback.
-"""
+"""``python -m identifier fit LOG.csv ... -o params.json``: identify one vessel's model."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import sys
-from collections.abc import Sequence
+from typing import Any
 
 from tqdm import tqdm
 
-from fmu_model import DEFAULT_MODEL, ParamsFormatError, argtypes, model_names, save_params
-from identifier import batch, crossval, ingest
-from identifier.errors import IdentificationError, LogFormatError
+from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
+from identifier.cli.common import DATA_ERRORS, error, os_error_text
 from identifier.identify import FitSettings, IdentificationResult, identify
-from identifier.logs import read_log
+from trials.logs import read_log
+
+__all__ = ["add_parser", "run"]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Return the argument parser of ``python -m identifier``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m identifier",
-        description="Identify ship manoeuvring models from trial logs.",
-    )
-    sub = parser.add_subparsers(dest="command", required=True)
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add the ``fit`` command to the subparsers ``sub`` of ``python -m identifier``."""
     fit = sub.add_parser("fit", help="identify coefficients from trial logs")
     fit.add_argument("logs", nargs="+", metavar="LOG.csv", help="trial logs (DESIGN.md format)")
     fit.add_argument("-o", "--output", required=True, metavar="params.json")
@@ -63,10 +55,17 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument(
         "--refine", action="store_true", help="output-error refinement after the EKF (guarded)"
     )
-    batch.add_parser(sub)
-    ingest.add_parser(sub)
-    crossval.add_parser(sub)
-    return parser
+    return fit
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``python -m identifier fit`` for parsed ``args``; return the exit status."""
+    try:
+        return _fit(args)
+    except DATA_ERRORS as exc:
+        return error(str(exc))
+    except OSError as exc:
+        return error(os_error_text(exc))
 
 
 def _summary(result: IdentificationResult) -> str:
@@ -124,22 +123,3 @@ def _fit(args: argparse.Namespace) -> int:
             )
         print(f"wrote {args.output}")
     return 0
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; return the exit status."""
-    args = build_parser().parse_args(argv)
-    if args.command == "batch":
-        return batch.main(args)
-    if args.command == "convert":
-        return ingest.main(args)
-    if args.command == "crossval":
-        return crossval.main(args)
-    try:
-        return _fit(args)
-    except (LogFormatError, IdentificationError, ParamsFormatError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    except OSError as exc:
-        print(f"error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
-        return 1

@@ -1,0 +1,38 @@
+"""What the identifier's commands share: how an error becomes one line on stderr."""
+
+from __future__ import annotations
+
+import sys
+
+from fmu_model import ParamsFormatError
+from trials.errors import IdentificationError, LogFormatError
+
+__all__ = ["DATA_ERRORS", "error", "os_error_text"]
+
+DATA_ERRORS = (LogFormatError, IdentificationError, ParamsFormatError)
+"""Exceptions that mean bad input data: ``error: <message>``, exit status 1."""
+
+
+def error(message: str, status: int = 1) -> int:
+    """Print ``error: <message>`` on stderr and return the exit status.
+
+    Parameters
+    ----------
+    message : str
+        One line.
+    status : int
+        Exit status to return: 1 for a data error (default), 2 for a usage error.
+
+    Returns
+    -------
+    int
+        ``status``.
+
+    """
+    print(f"error: {message}", file=sys.stderr)
+    return status
+
+
+def os_error_text(exc: OSError) -> str:
+    """Return ``<file>: <reason>`` for a file that cannot be read or written."""
+    return f"{exc.filename or ''}: {exc.strerror or exc}"

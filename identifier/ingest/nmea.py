@@ -1,0 +1,585 @@
+"""The NMEA 0183 reader: sentences in, each sensor stream with its own times out.
+
+:func:`read_nmea` makes the :class:`~identifier.ingest.recording.Recording` that
+:func:`~identifier.ingest.convert_nmea` (and :func:`~identifier.ingest.convert_file`)
+assembles into trial logs.
+
+One sentence per line, ``$<talker><type>,<fields>*<checksum>`` (ASCII; LF or CRLF).
+Sentences used:
+
+===== ============================================================ ===============
+type  fields used                                                  valid when
+===== ============================================================ ===============
+GGA   UTC time of day, latitude, longitude, fix quality            quality > 0
+RMC   UTC time of day, status, latitude, longitude, date (ddmmyy)  status ``A`` [#]_
+ZDA   UTC time of day, day, month, year (time and date only)       always
+HDT   true heading [deg], ``T``                                    always
+THS   true heading [deg], mode indicator                           mode ``A``
+RSA   starboard (or single) rudder sensor [deg], its status        status ``A``
+RPM   source ``S`` (shaft), shaft number, speed [rpm], status      status ``A``
+===== ============================================================ ===============
+
+.. [#] and a mode indicator (NMEA 2.3) other than ``N``.
+
+- **Checksums.** A sentence whose checksum does not match is skipped and counted in
+  :attr:`~identifier.ingest.ConversionResult.checksum_failures`. A sentence without
+  a checksum is skipped (a line cut short would otherwise give a wrong number) unless
+  ``require_checksum=False``. Lines that are not NMEA sentences, sentences with a
+  malformed field (``4807.0x8``, a minute of 61, a heading of 400 deg, ...) and
+  non-ASCII lines are skipped and counted in
+  :attr:`~identifier.ingest.ConversionResult.skipped_lines`. Neither is fatal. Other
+  sentence types (GSV, VTG, AIS ``!`` lines, proprietary ``$P...`` sentences) are
+  ignored and only counted in the notes.
+- **Time.** GGA, RMC and ZDA carry the UTC time of day; RMC and ZDA also the date.
+  A GGA time takes its day from the time-stamped sentence before it (at the start
+  of the file: after it), the day that puts it within 12 hours of that one; so a
+  time of day more than 12 hours before the previous one means midnight has passed
+  (rollover), and a GGA-only stretch across midnight stays continuous. Without any
+  date the time origin is unknown and ``time_origin_utc`` is left out. Heading,
+  rudder and RPM sentences have no time of their own: each gets a time interpolated
+  linearly over the line number between the two time-stamped sentences around it
+  (a serial multiplexer writes at a steady rate). Sentences before the first or
+  after the last time-stamped sentence are dropped (noted). Time stamps must
+  increase: the longest increasing sequence of them is used, so that a repeated
+  time (the GGA and RMC of one fix) or a few wrong ones (a clock step, a bad time
+  with a valid checksum) cost only those sentences (noted), not the rest of the
+  file.
+- **Several sources.** When fixes come from several talkers (e.g. ``GP`` and
+  ``GN``), or heading, rudder or RPM from several talkers or sentence types, the one
+  with the most valid samples is used and the others are noted. RPM: shaft
+  sentences only (source ``S``; engine sentences are noted and ignored), and the
+  single shaft present, or the one chosen with ``shaft``; NMEA numbers a single or
+  centre-line shaft 0, odd numbers to starboard, even to port.
+- **Rudder sign.** RSA is "negative = bow turns to port", so positive turns to
+  starboard as in this project: the default ``rudder_positive="starboard"`` keeps the
+  sign, ``"port"`` flips it (a sensor installed the other way round).
+"""
+
+from __future__ import annotations
+
+import bisect
+import datetime as dt
+import math
+import re
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Final
+
+import numpy as np
+import pynmea2
+
+from identifier.ingest.recording import (
+    HEADING,
+    RPM,
+    RUDDER,
+    SECONDS_PER_MINUTE,
+    FloatArray,
+    Recording,
+)
+from trials.errors import LogFormatError
+
+__all__ = ["read_nmea"]
+
+_SECONDS_PER_DAY: Final = 86400.0
+_HALF_DAY_S: Final = 43200.0
+
+_DECIMAL: Final = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)", re.ASCII)
+_TIME_OF_DAY: Final = re.compile(r"(\d{2})(\d{2})(\d{2}(?:\.\d*)?)", re.ASCII)
+_LATITUDE: Final = re.compile(r"(\d{2})(\d{2}(?:\.\d*)?)", re.ASCII)
+_LONGITUDE: Final = re.compile(r"(\d{3})(\d{2}(?:\.\d*)?)", re.ASCII)
+_DATE: Final = re.compile(r"(\d{2})(\d{2})(\d{2})", re.ASCII)
+_CHECKSUM_TAIL: Final = re.compile(r"\*[0-9A-Fa-f]{2}\Z", re.ASCII)
+
+
+class _MalformedError(Exception):
+    """A field of an otherwise well-formed sentence cannot be read (line skipped)."""
+
+
+@dataclass(frozen=True)
+class _Timed:
+    """A time-stamped sentence: GGA, RMC or ZDA."""
+
+    line: int
+    talker: str
+    kind: str
+    time_of_day_s: float
+    date: dt.date | None
+    fix: tuple[float, float] | None  # (lat_deg, lon_deg) of a valid fix
+
+
+@dataclass(frozen=True)
+class _Sample:
+    """A sensor reading without its own time: heading, rudder or RPM."""
+
+    line: int
+    source: str  # talker + type (+ shaft), e.g. "HEHDT"
+    value: float  # SI: rad or rev/s
+
+
+def _time_of_day(text: str) -> float:
+    """``hhmmss[.sss]`` → seconds after midnight."""
+    match = _TIME_OF_DAY.fullmatch(text)
+    if match is None:
+        raise _MalformedError
+    hours, minutes, seconds = int(match[1]), int(match[2]), float(match[3])
+    if hours > 23 or minutes > 59 or seconds >= 61.0:  # 60.x: leap second
+        raise _MalformedError
+    return hours * 3600.0 + minutes * 60.0 + seconds
+
+
+def _degrees_minutes(text: str, hemisphere: str, pattern: re.Pattern[str], limit: float) -> float:
+    """``ddmm.mmmm`` / ``dddmm.mmmm`` with N/S or E/W → signed degrees."""
+    match = pattern.fullmatch(text)
+    if match is None or hemisphere not in ("N", "S", "E", "W"):
+        raise _MalformedError
+    minutes = float(match[2])
+    value = int(match[1]) + minutes / 60.0
+    if minutes >= 60.0 or value > limit:
+        raise _MalformedError
+    return -value if hemisphere in ("S", "W") else value
+
+
+def _latitude(text: str, hemisphere: str) -> float:
+    if hemisphere not in ("N", "S"):
+        raise _MalformedError
+    return _degrees_minutes(text, hemisphere, _LATITUDE, 90.0)
+
+
+def _longitude(text: str, hemisphere: str) -> float:
+    if hemisphere not in ("E", "W"):
+        raise _MalformedError
+    return _degrees_minutes(text, hemisphere, _LONGITUDE, 180.0)
+
+
+def _decimal(text: str, low: float = -math.inf, high: float = math.inf) -> float:
+    """Read a plain decimal number within [low, high]."""
+    if _DECIMAL.fullmatch(text) is None:
+        raise _MalformedError
+    value = float(text)
+    if not low <= value <= high:
+        raise _MalformedError
+    return value
+
+
+def _rmc_date(text: str) -> dt.date | None:
+    """``ddmmyy`` → date (years 2000-2099); empty → None."""
+    if not text:
+        return None
+    match = _DATE.fullmatch(text)
+    if match is None:
+        raise _MalformedError
+    try:
+        return dt.date(2000 + int(match[3]), int(match[2]), int(match[1]))
+    except ValueError:
+        raise _MalformedError from None
+
+
+def _zda_date(day: str, month: str, year: str) -> dt.date:
+    if not (day.isdigit() and month.isdigit() and year.isdigit() and len(year) == 4):
+        raise _MalformedError
+    try:
+        return dt.date(int(year), int(month), int(day))
+    except ValueError:
+        raise _MalformedError from None
+
+
+class _NmeaReader:
+    """Line-by-line collection of NMEA records (one instance per file)."""
+
+    def __init__(self, rudder_sign: float, require_checksum: bool) -> None:
+        self.rudder_sign = rudder_sign
+        self.require_checksum = require_checksum
+        self.skipped = 0
+        self.checksum_failures = 0
+        self.sentences = 0
+        self.tally: Counter[str] = Counter()  # invalid readings, missing checksums, ...
+        self.other: Counter[str] = Counter()  # ignored sentence types
+        self.timed: list[_Timed] = []
+        self.samples: dict[str, list[_Sample]] = {HEADING: [], RUDDER: [], RPM: []}
+
+    def feed(self, number: int, raw: bytes) -> None:
+        """Consume line ``number`` (1-based)."""
+        stripped = raw.strip()
+        if not stripped:
+            return
+        try:
+            line = stripped.decode("ascii")
+        except UnicodeDecodeError:
+            self.skipped += 1
+            return
+        if line.startswith("!"):  # AIS and other encapsulated sentences
+            self.sentences += 1
+            self.other[line[1:6] or "!"] += 1
+            return
+        if not line.startswith("$"):
+            self.skipped += 1
+            return
+        if _CHECKSUM_TAIL.search(line) is None:
+            if self.require_checksum:
+                self.skipped += 1
+                self.tally["sentences without a checksum (skipped)"] += 1
+                return
+        try:
+            sentence = pynmea2.parse(line)
+        except pynmea2.ChecksumError:
+            self.checksum_failures += 1
+            return
+        except pynmea2.SentenceTypeError:
+            self.sentences += 1
+            body = line[1:].split("*", 1)[0].split(",")
+            if body[0][2:] == "THS":
+                self.dispatch(number, body[0][:2], "THS", body[1:], None)
+            else:
+                self.other[body[0][2:] or body[0]] += 1
+            return
+        except pynmea2.ParseError:
+            self.skipped += 1
+            return
+        self.sentences += 1
+        if not isinstance(sentence, pynmea2.TalkerSentence):
+            self.other["proprietary"] += 1
+            return
+        self.dispatch(number, sentence.talker, sentence.sentence_type, sentence.data, sentence)
+
+    def dispatch(self, number: int, talker: str, kind: str, data: list[str], sentence: Any) -> None:
+        """Read the fields of one sentence of a used type; count a malformed one."""
+
+        def get(name: str, index: int) -> str:
+            # pynmea2's field table when there is one (THS has none in pynmea2).
+            if sentence is not None:
+                index = type(sentence).name_to_idx[name]
+            return data[index].strip() if index < len(data) else ""
+
+        handlers: dict[str, Callable[[int, str, Callable[[str, int], str]], None]] = {
+            "GGA": self.gga,
+            "RMC": self.rmc,
+            "ZDA": self.zda,
+            "HDT": self.hdt,
+            "THS": self.ths,
+            "RSA": self.rsa,
+            "RPM": self.rpm,
+        }
+        handler = handlers.get(kind)
+        if handler is None:
+            self.other[kind] += 1
+            return
+        try:
+            handler(number, talker, get)
+        except _MalformedError:
+            self.skipped += 1
+
+    def gga(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--GGA,hhmmss.ss,llll.ll,a,yyyyy.yy,a,q,...``."""
+        time_text, quality = get("timestamp", 0), get("gps_qual", 5)
+        if not time_text:
+            self.tally["GGA sentences without a time"] += 1
+            return
+        time_of_day = _time_of_day(time_text)
+        if not (quality.isdigit() and len(quality) == 1):
+            raise _MalformedError
+        fix = None
+        if quality != "0":
+            fix = (
+                _latitude(get("lat", 1), get("lat_dir", 2)),
+                _longitude(get("lon", 3), get("lon_dir", 4)),
+            )
+        else:
+            self.tally["GGA sentences without a fix (quality 0)"] += 1
+        self.timed.append(_Timed(number, talker, "GGA", time_of_day, None, fix))
+
+    def rmc(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--RMC,hhmmss.ss,A,llll.ll,a,yyyyy.yy,a,sog,cog,ddmmyy,...``."""
+        time_text, status = get("timestamp", 0), get("status", 1)
+        if not time_text:
+            self.tally["RMC sentences without a time"] += 1
+            return
+        time_of_day = _time_of_day(time_text)
+        if status not in ("A", "V"):
+            raise _MalformedError
+        date = _rmc_date(get("datestamp", 8))
+        valid = status == "A" and get("mode_indicator", 11) != "N"
+        fix = None
+        if valid:
+            fix = (
+                _latitude(get("lat", 2), get("lat_dir", 3)),
+                _longitude(get("lon", 4), get("lon_dir", 5)),
+            )
+        else:
+            self.tally["RMC sentences without a fix (status V)"] += 1
+        self.timed.append(_Timed(number, talker, "RMC", time_of_day, date, fix))
+
+    def zda(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--ZDA,hhmmss.ss,dd,mm,yyyy,zh,zm``."""
+        time_of_day = _time_of_day(get("timestamp", 0))
+        date = _zda_date(get("day", 1), get("month", 2), get("year", 3))
+        self.timed.append(_Timed(number, talker, "ZDA", time_of_day, date, None))
+
+    def hdt(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--HDT,x.x,T``."""
+        if get("hdg_true", 1) != "T":
+            raise _MalformedError
+        heading = _decimal(get("heading", 0), 0.0, 360.0)
+        self.samples[HEADING].append(_Sample(number, f"{talker}HDT", math.radians(heading)))
+
+    def ths(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--THS,x.x,a`` (mode A autonomous, E estimated, M manual, S simulator, V)."""
+        mode = get("mode", 1)
+        if mode not in ("A", "E", "M", "S", "V"):
+            raise _MalformedError
+        heading = _decimal(get("heading", 0), 0.0, 360.0)
+        if mode != "A":
+            self.tally[f"THS headings with mode {mode}, not A (ignored)"] += 1
+            return
+        self.samples[HEADING].append(_Sample(number, f"{talker}THS", math.radians(heading)))
+
+    def rsa(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--RSA,x.x,A,x.x,A`` (starboard or single rudder, status; port, status)."""
+        status = get("rsa_starboard_status", 1)
+        if status not in ("A", "V"):
+            raise _MalformedError
+        if status != "A":
+            self.tally["RSA rudder angles with status V (ignored)"] += 1
+            return
+        angle = _decimal(get("rsa_starboard", 0), -90.0, 90.0)
+        rudder = self.rudder_sign * math.radians(angle)
+        self.samples[RUDDER].append(_Sample(number, f"{talker}RSA", rudder))
+
+    def rpm(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--RPM,a,x,x.x,x.x,A`` (source S/E, number, rpm, pitch %, status)."""
+        source, shaft, status = get("source", 0), get("engine_no", 1), get("status", 4)
+        if source not in ("S", "E") or not shaft.isdigit() or status not in ("A", "V"):
+            raise _MalformedError
+        speed = _decimal(get("speed", 2))
+        if status != "A":
+            self.tally["RPM sentences with status V (ignored)"] += 1
+        elif source == "E":
+            self.tally["engine RPM sentences, source E (ignored; shaft RPM used)"] += 1
+        else:
+            n_rps = speed / SECONDS_PER_MINUTE
+            self.samples[RPM].append(_Sample(number, f"{talker}RPM shaft {int(shaft)}", n_rps))
+
+
+def read_nmea(
+    path: str, raw: bytes, rudder_sign: float, shaft: int | None, require_checksum: bool
+) -> Recording:
+    """Collect the NMEA records of a file and put every stream on one time axis.
+
+    Parameters
+    ----------
+    path : str
+        The file, for messages and the recording.
+    raw : bytes
+        Its content.
+    rudder_sign : float
+        +1 to keep the RSA sign, -1 to flip it.
+    shaft : int or None
+        RPM shaft to use; None: the only one present.
+    require_checksum : bool
+        Skip sentences without a ``*hh`` checksum.
+
+    Returns
+    -------
+    Recording
+        The fixes [deg] and the heading [rad], rudder [rad] and rpm [rev/s] streams,
+        times [s] after midnight UTC of the first date (or of day 0 without a date).
+
+    Raises
+    ------
+    LogFormatError
+        If there is no valid sentence or fix, or RPM for several shafts and ``shaft``
+        is None, or none for ``shaft``.
+
+    """
+    reader = _NmeaReader(rudder_sign, require_checksum)
+    for number, text in enumerate(raw.split(b"\n"), start=1):
+        reader.feed(number, text)
+    counts = f"{reader.skipped} lines skipped, {reader.checksum_failures} checksum failures"
+    if reader.sentences == 0:
+        raise LogFormatError(
+            "no NMEA 0183 sentence with a valid checksum ('$...*hh'); expected an NMEA 0183 "
+            f"recording ({counts})",
+            path=path,
+            expected="NMEA 0183 sentences",
+        )
+    notes: list[str] = []
+    fixes_by_talker = Counter(record.talker for record in reader.timed if record.fix is not None)
+    if not fixes_by_talker:
+        raise LogFormatError(
+            "no valid position fix; expected GGA sentences with a fix quality above 0 or RMC "
+            f"sentences with status A ({counts})",
+            path=path,
+            expected="valid GGA or RMC position fixes",
+        )
+    talker = _most_common(fixes_by_talker, "position fixes", notes)
+    timed = [r for r in reader.timed if r.talker == talker or r.kind == "ZDA"]
+    times, epoch = _resolve_times(timed, notes)
+
+    # Time stamps must increase. A few wrong ones (a receiver's clock step, a bad time
+    # with a valid checksum) must not discard the rest of the file, so the longest
+    # increasing sequence is kept, separately for timing and for the fixes.
+    anchors = _increasing(times)
+    anchor_lines = [timed[i].line for i in anchors]
+    anchor_times = [times[i] for i in anchors]
+    with_fix = [i for i, r in enumerate(timed) if r.fix is not None and r.talker == talker]
+    kept = [with_fix[k] for k in _increasing([times[i] for i in with_fix])]
+    fix_t = [times[i] for i in kept]
+    fixes = [fix for fix in (timed[i].fix for i in kept) if fix is not None]
+    kept_times = set(fix_t)
+    repeated = sum(times[i] in kept_times for i in set(with_fix) - set(kept))
+    if repeated:
+        notes.append(f"fixes at the time of another fix, e.g. GGA and RMC (unused): {repeated}")
+    if len(with_fix) - len(kept) - repeated:
+        notes.append(
+            f"fixes with a time out of order (dropped): {len(with_fix) - len(kept) - repeated}"
+        )
+    if len(anchors) < len(timed):
+        notes.append(
+            "time stamps repeated or out of order, not used for timing: "
+            f"{len(timed) - len(anchors)}"
+        )
+
+    lines = np.array(anchor_lines, dtype=np.float64)
+    clock = np.array(anchor_times, dtype=np.float64)
+    streams: dict[str, tuple[FloatArray, FloatArray]] = {}
+    for name, samples in reader.samples.items():
+        chosen = _choose_samples(name, samples, shaft, path, notes)
+        line = np.array([s.line for s in chosen], dtype=np.float64)
+        inside = (line > lines[0]) & (line < lines[-1])
+        if np.count_nonzero(~inside):
+            notes.append(
+                f"{name} sentences before the first or after the last time-stamped sentence "
+                f"(dropped): {np.count_nonzero(~inside)}"
+            )
+        values = np.array([s.value for s in chosen], dtype=np.float64)
+        streams[name] = (np.interp(line[inside], lines, clock), values[inside])
+
+    for what, count in sorted(reader.tally.items()):
+        notes.append(f"{what}: {count}")
+    if reader.other:
+        shown = ", ".join(f"{kind} {count}" for kind, count in sorted(reader.other.items()))
+        notes.append(f"other sentences ignored: {shown}")
+    lat, lon = (np.array(values, dtype=np.float64) for values in zip(*fixes, strict=True))
+    return Recording(
+        path=path,
+        kind="NMEA 0183",
+        fix_t=np.array(fix_t, dtype=np.float64),
+        lat_deg=lat,
+        lon_deg=lon,
+        streams=streams,
+        sources={
+            HEADING: "HDT or THS (mode A) sentences",
+            RUDDER: "RSA sentences with status A",
+            RPM: "RPM sentences of a shaft (source S) with status A",
+        },
+        epoch=epoch,
+        skipped_lines=reader.skipped,
+        checksum_failures=reader.checksum_failures,
+        notes=notes,
+    )
+
+
+def _most_common(counts: Counter[str], what: str, notes: list[str]) -> str:
+    """Return the source with the most samples; note the others."""
+    ranked = counts.most_common()
+    if len(ranked) > 1:
+        others = ", ".join(f"{source} ({count})" for source, count in ranked[1:])
+        notes.append(f"{what} from {ranked[0][0]} ({ranked[0][1]}) used; ignored {others}")
+    return ranked[0][0]
+
+
+def _choose_samples(
+    name: str, samples: list[_Sample], shaft: int | None, path: str, notes: list[str]
+) -> list[_Sample]:
+    """Keep the samples of one source (and shaft) of a stream."""
+    if name == RPM:
+        shafts = sorted({int(s.source.rsplit(" ", 1)[1]) for s in samples})
+        if shaft is not None:
+            samples = [s for s in samples if s.source.endswith(f" shaft {shaft}")]
+            if not samples and shafts:
+                raise LogFormatError(
+                    f"no RPM sentences for shaft {shaft}; expected one of the shafts in the "
+                    f"file: {', '.join(map(str, shafts))}",
+                    path=path,
+                    expected=f"RPM sentences for shaft {shaft}",
+                )
+        elif len(shafts) > 1:
+            raise LogFormatError(
+                f"RPM sentences for several shafts ({', '.join(map(str, shafts))}); expected "
+                "one: choose it with shaft= (--shaft)",
+                path=path,
+                expected="RPM sentences of a single shaft",
+            )
+    if not samples:
+        return []
+    source = _most_common(Counter(s.source for s in samples), name, notes)
+    return [s for s in samples if s.source == source]
+
+
+def _resolve_times(timed: list[_Timed], notes: list[str]) -> tuple[list[float], dt.datetime | None]:
+    """Seconds after midnight of the first date in the file, for every timed record.
+
+    Records with a date use it; the others take the day that puts them within 12 h
+    of the neighbouring record (the previous one, or the next for those before the
+    first dated record), which unwraps midnight rollovers.
+    """
+    dates = [record.date for record in timed if record.date is not None]
+    reference = dates[0] if dates else None
+    if reference is None:
+        notes.append("no date (RMC or ZDA) in the file: time_origin_utc unknown")
+    times: list[float | None] = [None] * len(timed)
+    previous: float | None = None
+    for i, record in enumerate(timed):
+        if record.date is not None and reference is not None:
+            time = (record.date - reference).days * _SECONDS_PER_DAY + record.time_of_day_s
+        elif previous is not None:
+            time = _nearest_day(record.time_of_day_s, previous)
+        elif reference is None:
+            time = record.time_of_day_s  # no date anywhere: day 0
+        else:
+            continue  # before the first dated record: resolved backwards below
+        times[i] = previous = time
+    first = next(i for i, time in enumerate(times) if time is not None)
+    for i in range(first - 1, -1, -1):
+        later = times[i + 1]
+        assert later is not None  # filled from ``first`` downwards
+        times[i] = _nearest_day(timed[i].time_of_day_s, later)
+    epoch = None
+    if reference is not None:
+        epoch = dt.datetime.combine(reference, dt.time(), tzinfo=dt.UTC)
+    return [float(time) for time in times if time is not None], epoch
+
+
+def _increasing(values: Sequence[float]) -> list[int]:
+    """Return the indices of a longest strictly increasing subsequence of ``values``.
+
+    Patience sorting, O(n log n).
+    """
+    tails: list[float] = []  # smallest last value of an increasing run of each length
+    tail_index: list[int] = []
+    previous = [-1] * len(values)
+    for i, value in enumerate(values):
+        k = bisect.bisect_left(tails, value)
+        if k == len(tails):
+            tails.append(value)
+            tail_index.append(i)
+        else:
+            tails[k] = value
+            tail_index[k] = i
+        previous[i] = tail_index[k - 1] if k > 0 else -1
+    result: list[int] = []
+    i = tail_index[-1] if tail_index else -1
+    while i >= 0:
+        result.append(i)
+        i = previous[i]
+    return result[::-1]
+
+
+def _nearest_day(time_of_day_s: float, near: float) -> float:
+    """Return the time ``day * 86400 + time_of_day_s`` closest to ``near`` [s]."""
+    time = math.floor(near / _SECONDS_PER_DAY) * _SECONDS_PER_DAY + time_of_day_s
+    if time - near > _HALF_DAY_S:
+        time -= _SECONDS_PER_DAY
+    elif near - time > _HALF_DAY_S:
+        time += _SECONDS_PER_DAY
+    return time

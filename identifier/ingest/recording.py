@@ -1,0 +1,203 @@
+"""The data handed between the steps of a conversion.
+
+:class:`Options` (validated settings) go in, a reader (:mod:`identifier.ingest.nmea`,
+:mod:`identifier.ingest.latlon_csv`) turns a file into a :class:`Recording` (each
+sensor stream with its own sample times), :mod:`identifier.ingest.assemble` turns that
+into a :class:`ConversionResult` (the trial logs and what was skipped on the way).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from dataclasses import dataclass, field
+from typing import Final, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from trials.logs import ManeuverLog
+
+__all__ = [
+    "DEFAULT_MAX_GAP_S",
+    "FIXES",
+    "HEADING",
+    "RPM",
+    "RUDDER",
+    "SECONDS_PER_MINUTE",
+    "ConversionResult",
+    "FloatArray",
+    "HeadingUnit",
+    "InputFormat",
+    "Options",
+    "Recording",
+    "RudderPositive",
+]
+
+RudderPositive = Literal["starboard", "port"]
+HeadingUnit = Literal["deg", "rad"]
+InputFormat = Literal["auto", "nmea", "csv"]
+
+DEFAULT_MAX_GAP_S: Final = 5.0
+"""Longest time without a sample of a stream that is bridged by interpolation [s]."""
+
+FloatArray = npt.NDArray[np.float64]
+
+SECONDS_PER_MINUTE: Final = 60.0
+"""Converts a propeller speed in rpm (files) to rev/s (inside)."""
+
+# Names of the streams: keys of Recording.streams and Recording.sources, and the words
+# the notes and error messages use.
+HEADING: Final = "heading"
+RUDDER: Final = "rudder angle"
+RPM: Final = "propeller speed"
+FIXES: Final = "position fixes"
+
+
+@dataclass(frozen=True, eq=False)
+class ConversionResult:
+    """The trial logs made from one recording, and what was skipped on the way.
+
+    Parameters
+    ----------
+    logs : tuple of ManeuverLog
+        One log per piece between gaps, in time order; empty when every piece was
+        shorter than ``min_samples`` (see ``notes``). All pieces share one time base
+        and one tangent plane: time [s] after the first valid fix, x North and y
+        East [m] of it.
+    skipped_lines : int
+        Lines that could not be used: not an NMEA sentence, no checksum (when one is
+        required), a malformed field, not ASCII. Checksum failures are not included.
+        Always 0 for CSV input, where such a line is an error.
+    checksum_failures : int
+        NMEA sentences whose checksum did not match (skipped).
+    gaps : tuple of (float, float)
+        Intervals (start, end) [s, same time base as the logs] in which a stream had
+        no sample for longer than ``max_gap_s``; the recording is split there.
+        Overlapping gaps of different streams are merged.
+    notes : tuple of str
+        Human-readable, one-line remarks: gaps per stream, dropped pieces, ignored
+        sentence types, invalid readings, extrapolation at the ends of pieces,
+        conventions applied.
+    origin_lat_deg, origin_lon_deg : float
+        Latitude and longitude of the first valid fix, the tangent-plane origin [deg].
+    time_origin_utc : str or None
+        ISO 8601 UTC time of the first valid fix (time 0), or None when the input
+        has no date (NMEA without RMC/ZDA dates, CSV with ``time_s``).
+    path : str
+        The input file.
+
+    """
+
+    logs: tuple[ManeuverLog, ...]
+    skipped_lines: int
+    checksum_failures: int
+    gaps: tuple[tuple[float, float], ...]
+    notes: tuple[str, ...]
+    origin_lat_deg: float
+    origin_lon_deg: float
+    time_origin_utc: str | None
+    path: str
+
+
+@dataclass(frozen=True)
+class Options:
+    """Validated conversion settings shared by both input formats.
+
+    Made by :meth:`make`; the fields are the arguments of
+    :func:`~identifier.ingest.convert_nmea` of the same names (``rate_hz`` [Hz],
+    ``max_gap_s`` [s], ``length_m`` [m]).
+    """
+
+    rudder_positive: RudderPositive
+    rate_hz: float | None
+    max_gap_s: float
+    min_samples: int
+    vessel: str | None
+    length_m: float | None
+
+    @property
+    def rudder_sign(self) -> float:
+        """+1 to keep the file's rudder sign, -1 to flip it."""
+        return 1.0 if self.rudder_positive == "starboard" else -1.0
+
+    @classmethod
+    def make(
+        cls,
+        rudder_positive: RudderPositive,
+        rate_hz: float | None,
+        max_gap_s: float,
+        min_samples: int,
+        vessel: str | None,
+        length_m: float | None,
+    ) -> Options:
+        """Check the settings; raise ValueError naming the bad one."""
+        if rudder_positive not in ("starboard", "port"):
+            raise ValueError(
+                f"rudder_positive must be 'starboard' or 'port', got {rudder_positive!r}"
+            )
+        if rate_hz is not None and not (math.isfinite(rate_hz) and rate_hz > 0.0):
+            raise ValueError(f"rate_hz must be a positive number, got {rate_hz!r}")
+        if not (math.isfinite(max_gap_s) and max_gap_s > 0.0):
+            raise ValueError(f"max_gap_s must be a positive number of seconds, got {max_gap_s!r}")
+        if isinstance(min_samples, bool) or not isinstance(min_samples, int) or min_samples < 2:
+            raise ValueError(f"min_samples must be an integer of at least 2, got {min_samples!r}")
+        if vessel is not None and (
+            any(c in vessel for c in "\r\n\0") or not vessel.strip() or vessel != vessel.strip()
+        ):
+            raise ValueError(f"vessel must be one non-empty line without padding, got {vessel!r}")
+        if length_m is not None and not (math.isfinite(length_m) and length_m > 0.0):
+            raise ValueError(f"length_m must be a positive number of metres, got {length_m!r}")
+        return cls(
+            rudder_positive,
+            None if rate_hz is None else float(rate_hz),
+            float(max_gap_s),
+            min_samples,
+            vessel,
+            None if length_m is None else float(length_m),
+        )
+
+
+# --------------------------------------------------------------------------- recordings
+
+
+@dataclass
+class Recording:
+    """What a reader found: each stream with its own times [s, any common origin].
+
+    Parameters
+    ----------
+    path : str
+        The input file.
+    kind : str
+        The input format, for the notes and the ``# source:`` line
+        (``"NMEA 0183"``, ``"latitude/longitude CSV"``).
+    fix_t : numpy.ndarray
+        Times of the valid position fixes [s], increasing.
+    lat_deg, lon_deg : numpy.ndarray
+        Latitude and longitude of the fixes on WGS84 [deg].
+    streams : dict of str to (numpy.ndarray, numpy.ndarray)
+        :data:`HEADING` (true, [rad]), :data:`RUDDER` ([rad], positive to starboard)
+        and :data:`RPM` ([rev/s]): sample times [s] and values (SI units).
+    sources : dict of str to str
+        Per stream, what would have provided it (for the message when it is empty).
+    epoch : datetime.datetime or None
+        UTC instant of time 0 of ``fix_t`` and the streams; None when unknown.
+    skipped_lines, checksum_failures : int
+        As in :class:`ConversionResult`.
+    notes : list of str
+        The reader's remarks, one line each.
+
+    """
+
+    path: str
+    kind: str
+    fix_t: FloatArray
+    lat_deg: FloatArray
+    lon_deg: FloatArray
+    streams: dict[str, tuple[FloatArray, FloatArray]]  # name -> (times, SI values)
+    sources: dict[str, str]  # name -> what would have provided it (for messages)
+    epoch: dt.datetime | None  # UTC instant of time 0 of fix_t and the streams
+    skipped_lines: int = 0
+    checksum_failures: int = 0
+    notes: list[str] = field(default_factory=list)

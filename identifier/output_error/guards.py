@@ -1,0 +1,361 @@
+"""The guards of the refinement: virtual hard-over turns and the keep/reject rules.
+
+Output error on zig-zags alone is unreliable for turns (reference/model_structures.md,
+§6 and §7). After refining, hard-over (35°) turns both ways are simulated from the
+training approach state (:class:`Approach`) with the start and the refined
+coefficients (:func:`virtual_turns`). When no training log turns through 180°
+(:func:`covers_turn`) and the refined tactical diameter differs from the start's by
+more than ``turn_tolerance`` (:func:`turn_spread`), the start estimate is kept and the
+spread reported (unless the start does not even turn through 180°). Independently, a
+refined estimate is only kept when it lowers the cost, every training log replays
+without divergence and both virtual turns stay bounded and pass 360° (:func:`decide`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from fmu_model import ModelParameters
+from identifier.output_error.objective import DIVERGENCE_SPEED_FACTOR
+from identifier.output_error.records import FitSummary, RefineSettings, VirtualTurn
+from identifier.smoothing import SmoothedTrack
+from trials.logs import ManeuverLog
+from trials.maneuvers import turning_circle
+from trials.metrics import MetricsError, turning_metrics
+from trials.run import ModelPlant, run_batch
+
+# Hard-over rudder of the virtual turns [rad] (IMO MSC.137(76) turning test).
+HARD_OVER_RAD = math.radians(35.0)
+# A logged rudder slower than this never moved [rad/s].
+_RUDDER_STILL_RADPS = math.radians(0.01)
+# Steering-gear rate used when the logs never move the rudder [rad/s] (IMO minimum).
+_DEFAULT_RUDDER_RATE_RADPS = math.radians(2.32)
+
+
+@dataclass(frozen=True)
+class Approach:
+    """The training approach the virtual turns start from.
+
+    Attributes
+    ----------
+    speed_mps : float
+        Approach speed U0 [m/s].
+    n_rps : float
+        Propeller speed [rev/s].
+    rudder_rate_radps : float
+        Steering-gear rate [rad/s].
+
+    """
+
+    speed_mps: float
+    n_rps: float
+    rudder_rate_radps: float
+
+    def turns(
+        self, params: ModelParameters, settings: RefineSettings
+    ) -> tuple[VirtualTurn, VirtualTurn]:
+        """Virtual hard-over turns of ``params`` from this approach (:func:`virtual_turns`).
+
+        Parameters
+        ----------
+        params : ModelParameters
+            The model.
+        settings : RefineSettings
+            Run length (``turn_duration_factor``) and largest RK4 step [s].
+
+        Returns
+        -------
+        tuple of VirtualTurn
+            Starboard, port.
+
+        """
+        return virtual_turns(
+            params,
+            speed_mps=self.speed_mps,
+            n_rps=self.n_rps,
+            rudder_rate_radps=self.rudder_rate_radps,
+            duration_factor=settings.turn_duration_factor,
+            max_step_s=settings.max_step_s,
+        )
+
+
+def training_approach(
+    params: ModelParameters,
+    logs: Sequence[ManeuverLog],
+    tracks: Sequence[SmoothedTrack],
+    *,
+    rudder_rate_radps: float | None = None,
+) -> Approach:
+    """Approach speed, propeller speed and rudder rate of the training logs.
+
+    Parameters
+    ----------
+    params : ModelParameters
+        The estimate; its nominal speed [m/s] and propeller speed [rev/s] when given.
+    logs : sequence of ManeuverLog
+        The training logs (propeller speed, fastest rudder movement).
+    tracks : sequence of SmoothedTrack
+        Their smoothed tracks (first u [m/s]).
+    rudder_rate_radps : float, optional
+        Steering-gear rate to use [rad/s]; by default the fastest logged, or the IMO
+        minimum 2.32°/s when no log moves the rudder.
+
+    Returns
+    -------
+    Approach
+        The conditions of the virtual turns.
+
+    """
+    speed = params.nominal_speed_mps or float(np.mean([t.u_mps[0] for t in tracks]))
+    n = params.nominal_n_rps or float(np.mean([log.n_rps[0] for log in logs]))
+    if rudder_rate_radps is None:
+        rates = [
+            float(np.max(np.abs(np.diff(log.rudder_rad)) / np.diff(log.time_s))) for log in logs
+        ]
+        rate = max(rates)
+        rudder_rate_radps = rate if rate > _RUDDER_STILL_RADPS else _DEFAULT_RUDDER_RATE_RADPS
+    return Approach(speed_mps=speed, n_rps=n, rudder_rate_radps=rudder_rate_radps)
+
+
+def virtual_turns(
+    params: ModelParameters,
+    *,
+    speed_mps: float,
+    n_rps: float,
+    rudder_rate_radps: float = _DEFAULT_RUDDER_RATE_RADPS,
+    rudder_rad: float = HARD_OVER_RAD,
+    duration_factor: float = 60.0,
+    step_s: float = 1.0,
+    max_step_s: float | None = None,
+) -> tuple[VirtualTurn, VirtualTurn]:
+    """Simulate hard-over turns to starboard and to port from a straight approach.
+
+    The ship starts at (u, v, r) = (``speed_mps``, 0, 0) with the rudder amidships,
+    the rudder moves at ``rudder_rate_radps`` to ±``rudder_rad`` and stays there for
+    ``duration_factor`` · L / U0 seconds at constant ``n_rps`` (``trials.run``, the one
+    programme runner).
+
+    Parameters
+    ----------
+    params : ModelParameters
+        The model.
+    speed_mps : float
+        Approach speed [m/s].
+    n_rps : float
+        Propeller speed [rev/s].
+    rudder_rate_radps : float
+        Steering-gear rate [rad/s].
+    rudder_rad : float
+        Hard-over rudder angle [rad].
+    duration_factor : float
+        Run length in units of L / U0.
+    step_s : float
+        Communication step of the run [s].
+    max_step_s : float, optional
+        Largest RK4 step [s]; default 0.05 L / U0.
+
+    Returns
+    -------
+    tuple of VirtualTurn
+        Starboard, port.
+
+    """
+    if not (speed_mps > 0.0 and rudder_rate_radps > 0.0):
+        raise ValueError("speed_mps and rudder_rate_radps must be positive")
+    if max_step_s is None:
+        max_step_s = 0.05 * params.length_m / speed_mps
+    turns = []
+    for sign in (1.0, -1.0):
+        run = run_batch(
+            ModelPlant(params, max_step_s=max_step_s),
+            turning_circle(
+                sign * rudder_rad,
+                heading_change_rad=math.inf,  # the whole run: a late divergence counts
+                max_time_s=duration_factor * params.length_m / speed_mps,
+            ),
+            speed_mps=speed_mps,
+            n_rps=n_rps,
+            rudder_rate_radps=rudder_rate_radps,
+            dt_s=step_s,
+            divergence_factor=DIVERGENCE_SPEED_FACTOR,
+        )
+        traj = run.trajectories[0]
+        change = float(np.max(sign * (traj["psi_rad"] - traj["psi_rad"][0])))
+        advance = transfer = tactical = None
+        if change >= math.pi:
+            try:
+                metrics = turning_metrics(traj)
+            except MetricsError:
+                pass
+            else:
+                advance = metrics.advance_m
+                transfer = metrics.transfer_m
+                tactical = metrics.tactical_diameter_m
+        turns.append(
+            VirtualTurn(
+                rudder_rad=sign * rudder_rad,
+                advance_m=advance,
+                transfer_m=transfer,
+                tactical_diameter_m=tactical,
+                heading_change_rad=change,
+                bounded=not bool(run.diverged[0]),
+                passed_360=change >= 2.0 * math.pi,
+            )
+        )
+    return turns[0], turns[1]
+
+
+def turn_spread(reference: Sequence[VirtualTurn], candidate: Sequence[VirtualTurn]) -> float:
+    """Largest relative change of the tactical diameter, candidate vs reference turns.
+
+    max over the turns of |D_T,candidate / D_T,reference − 1|; inf when a turn of
+    either set does not reach 180° of heading change.
+
+    Parameters
+    ----------
+    reference, candidate : sequence of VirtualTurn
+        Turns in the same order (starboard, port).
+
+    Returns
+    -------
+    float
+        The spread (dimensionless), 0 for identical turns.
+
+    """
+    spread = 0.0
+    for ref, cand in zip(reference, candidate, strict=True):
+        if ref.tactical_diameter_m is None or cand.tactical_diameter_m is None:
+            return math.inf
+        spread = max(spread, abs(cand.tactical_diameter_m / ref.tactical_diameter_m - 1.0))
+    return spread
+
+
+def covers_turn(tracks: Sequence[SmoothedTrack]) -> bool:
+    """Whether any track turns through 180° of heading (a turning-circle log)."""
+    return any(float(np.ptp(t.heading_rad)) >= math.pi for t in tracks)
+
+
+def method_label(method: str) -> str:
+    """Name of an estimation method in messages ("EKF" for "ekf")."""
+    return "EKF" if method == "ekf" else method
+
+
+def candidate_disagreement(
+    start: str,
+    start_turns: Sequence[VirtualTurn],
+    others: Mapping[str, ModelParameters],
+    approach: Approach,
+    settings: RefineSettings,
+) -> list[str]:
+    """Warn when another candidate start predicts a different hard-over turn.
+
+    Estimates from the same logs that turn differently mean that the logs do not
+    determine the turn (reference/model_structures.md §8): only a turning log, or
+    cross-validation, can tell which is right.
+
+    Parameters
+    ----------
+    start : str
+        The method of the start estimate.
+    start_turns : sequence of VirtualTurn
+        Its virtual turns.
+    others : mapping of str to ModelParameters
+        The other candidates by method.
+    approach : Approach
+        Conditions of the virtual turns.
+    settings : RefineSettings
+        ``turn_tolerance`` and the turns' run length and step.
+
+    Returns
+    -------
+    list of str
+        One warning naming the candidate that differs most, or none.
+
+    """
+    spreads = {
+        name: turn_spread(start_turns, approach.turns(p, settings)) for name, p in others.items()
+    }
+    worst = max(spreads, key=spreads.__getitem__, default=None)
+    if worst is None or spreads[worst] <= settings.turn_tolerance:
+        return []
+    amount = "through 180 deg" if math.isinf(spreads[worst]) else f"by {spreads[worst]:.0%}"
+    return [
+        f"the {method_label(start)} and {method_label(worst)} estimates from these logs "
+        f"predict virtual 35 deg turns that differ {amount}: the logs do not determine the "
+        "turning circle; add a turning log or check with 'identifier crossval'"
+    ]
+
+
+def decide(
+    initial: FitSummary,
+    refined: FitSummary,
+    *,
+    turn_check: bool,
+    spread: float,
+    tolerance: float,
+    label: str,
+) -> tuple[str, str]:
+    """Which estimate to keep, "initial" or "refined", and why (model_structures.md §6, §7).
+
+    Parameters
+    ----------
+    initial, refined : FitSummary
+        The start estimate and the output-error optimum.
+    turn_check : bool
+        Whether the turn check of §6 applies (no turning log in training).
+    spread : float
+        :func:`turn_spread` of the refined turns against the initial ones.
+    tolerance : float
+        Largest spread accepted under the turn check.
+    label : str
+        Name of the start's method in the reason.
+
+    Returns
+    -------
+    tuple of str
+        "initial" or "refined", and the reason in one sentence.
+
+    """
+    keep = f"kept the {label} estimate"
+    if refined.diverged:
+        return "initial", (
+            "output-error estimate rejected: replaying "
+            + ", ".join(refined.diverged)
+            + f" diverges; {keep}"
+        )
+    if not all(t.sane for t in refined.turns):
+        return "initial", (
+            "output-error estimate rejected: a virtual hard-over turn diverges or does not "
+            f"pass 360 deg; {keep}"
+        )
+    if not refined.cost < initial.cost:
+        return "initial", f"output error did not lower the cost; {keep}"
+    if turn_check and not spread <= tolerance:
+        text = _spread_text(initial, refined, spread)
+        if any(t.tactical_diameter_m is None for t in initial.turns):
+            return "refined", (
+                f"{text}; kept the output-error estimate although no turning log verifies "
+                f"it, because the {label} estimate does not turn through 180 deg"
+            )
+        return "initial", (
+            f"{text}, beyond the {tolerance:.0%} tolerance of the turn check (output error "
+            f"is not trusted on turns without a turning log); {keep}"
+        )
+    return "refined", "output-error estimate accepted"
+
+
+def _spread_text(initial: FitSummary, refined: FitSummary, spread: float) -> str:
+    def td(turn: VirtualTurn) -> str:
+        d = turn.tactical_diameter_m
+        return "none" if d is None else f"{d:.0f} m"
+
+    sides = ", ".join(
+        f"{side} {td(a)} -> {td(b)}"
+        for side, a, b in zip(("stbd", "port"), initial.turns, refined.turns, strict=True)
+    )
+    amount = "beyond 180 deg" if math.isinf(spread) else f"by {spread:.1%}"
+    return f"output error moves the virtual 35 deg tactical diameter {amount} ({sides})"

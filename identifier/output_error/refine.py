@@ -1,0 +1,243 @@
+"""Output-error refinement: fit the coefficients to whole simulated manoeuvres.
+
+The EKF (``identifier.ekf``) fits the coefficients one sample ahead. Output error asks
+more of them: replayed open loop with the logged rudder and propeller speed from each
+log's execute point on, the model must reproduce the whole track. This module composes
+the steps, each of which has its own module in ``identifier.output_error``:
+
+1. the start: the EKF estimate or, when it replays the training logs worse (larger
+   J(θ₀)), the equation-error estimate;
+2. each log's execute sample and the start model's state there, fitted to the
+   approach and then held (``initial_state``);
+3. the objective J(θ) with a Tikhonov prior at the start, minimised by
+   ``scipy.optimize.least_squares`` in whitened coordinates (``objective``);
+4. the covariance of the optimum, the Newey–West sandwich (``covariance``);
+5. virtual hard-over turns and the rules that keep the refined estimate or the
+   start (``guards``);
+6. the result record (``records``), its summary in ``params.identification``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from fmu_model import ModelParameters
+from fmu_model.replay import INPUT_MODES
+from identifier.output_error.covariance import newey_west_covariance
+from identifier.output_error.guards import (
+    Approach,
+    candidate_disagreement,
+    covers_turn,
+    decide,
+    method_label,
+    training_approach,
+    turn_spread,
+)
+from identifier.output_error.initial_state import execute_state, smooth_log
+from identifier.output_error.objective import Objective, prepare_log, whitening
+from identifier.output_error.records import FitSummary, RefinementResult, RefineSettings
+from identifier.smoothing import SmoothedTrack
+from trials.errors import IdentificationError
+from trials.logs import ManeuverLog
+
+
+def refine_output_error(
+    params: ModelParameters,
+    logs: Sequence[ManeuverLog],
+    *,
+    tracks: Sequence[SmoothedTrack] | None = None,
+    settings: RefineSettings | None = None,
+    method: str = "ekf",
+    alternatives: Mapping[str, ModelParameters] | None = None,
+    **overrides: Any,
+) -> RefinementResult:
+    """Refine identified coefficients by output error on whole manoeuvres.
+
+    With ``alternatives`` (e.g. the equation-error estimate beside the EKF's), the
+    start is the candidate whose open-loop replay of the training logs fits best
+    (smallest J at its own estimate, the prior term then being zero): only training
+    data decide, and the paper's one-step-ahead EKF fit is not always the estimate
+    that simulates whole manoeuvres best.
+
+    Every log is replayed from its execute sample on, from the state there that the
+    start model gives when fitted to the approach (:func:`execute_state`). That state is
+    held: fitted to the whole log, it would absorb model error. The coefficients are
+    fitted to the logs from execute to the end.
+
+    Parameters
+    ----------
+    params : ModelParameters
+        The estimate of ``method``: start point, and with its covariance the prior.
+    logs : sequence of ManeuverLog
+        The training logs.
+    tracks : sequence of SmoothedTrack, optional
+        Their smoothed tracks (initial states, noise levels); smoothed here if omitted.
+    settings : RefineSettings, optional
+        Tuning; the defaults when omitted.
+    method : str
+        How ``params`` was estimated (named in the result and its messages).
+    alternatives : mapping of str to ModelParameters, optional
+        Other candidate starts by method name, with their covariances (the prior).
+    **overrides
+        Fields of :class:`RefineSettings` to override, e.g. ``prior_weight=0.1``.
+
+    Returns
+    -------
+    RefinementResult
+        Both fits, the estimate kept and why.
+
+    Raises
+    ------
+    IdentificationError
+        No logs, or logs and tracks that do not match.
+
+    """
+    settings = replace(settings or RefineSettings(), **overrides)
+    if settings.inputs not in INPUT_MODES:
+        raise ValueError(f"inputs must be one of {INPUT_MODES}, got {settings.inputs!r}")
+    if not logs:
+        raise IdentificationError("no logs to refine on")
+    tracks = tuple(tracks) if tracks is not None else tuple(smooth_log(log) for log in logs)
+    if len(tracks) != len(logs):
+        raise IdentificationError(f"{len(logs)} logs but {len(tracks)} smoothed tracks")
+    candidates = {method: params, **(alternatives or {})}
+    approach = training_approach(params, logs, tracks, rudder_rate_radps=settings.rudder_rate_radps)
+    settings = settings.with_step(params.length_m, approach.speed_mps)
+    objectives = {
+        name: _coefficient_objective(candidate, logs, tracks, settings)
+        for name, candidate in candidates.items()
+    }
+    start_costs = {name: o.cost(np.zeros(o.size)) for name, o in objectives.items()}
+    method = min(start_costs, key=start_costs.__getitem__)  # a diverging replay costs inf
+    params, objective = candidates[method], objectives[method]
+    label = method_label(method)
+    initial = _summarise(objective, np.zeros(objective.size), params, approach)
+    if not math.isfinite(start_costs[method]):
+        reason = (
+            f"the {label} estimate diverges replaying "
+            + ", ".join(initial.diverged)
+            + "; output-error refinement skipped"
+        )
+        return RefinementResult(
+            params=params,
+            initial_method=method,
+            kept="initial",
+            reason=reason,
+            initial=initial,
+            refined=initial,
+            turn_check=False,
+            turn_spread=math.nan,
+            nfev=0,
+            status="not run",
+            warnings=(reason,),
+            settings=settings,
+        ).recorded()
+    others = {name: p for name, p in candidates.items() if name != method}
+    warnings = candidate_disagreement(method, initial.turns, others, approach, settings)
+    if not all(t.sane for t in initial.turns):
+        warnings.append(
+            f"the {label} estimate fails the sanity guard: a virtual hard-over turn "
+            "diverges or does not pass 360 deg"
+        )
+    opt = objective.solve(np.zeros(objective.size), settings.max_nfev)
+    refined_params = params.with_vector(objective.theta(opt.x), _covariance(objective, opt))
+    refined = _summarise(objective, opt.x, refined_params, approach)
+    turn_check = not covers_turn(tracks) if settings.check_turns is None else settings.check_turns
+    spread = turn_spread(initial.turns, refined.turns)
+    kept, reason = decide(
+        initial,
+        refined,
+        turn_check=turn_check,
+        spread=spread,
+        tolerance=settings.turn_tolerance,
+        label=label,
+    )
+    if kept == "initial" or "although" in reason:
+        warnings.append(reason)
+    return RefinementResult(
+        params=refined_params if kept == "refined" else params,
+        initial_method=method,
+        kept=kept,
+        reason=reason,
+        initial=initial,
+        refined=refined,
+        turn_check=turn_check,
+        turn_spread=spread,
+        nfev=int(opt.nfev),
+        status=str(opt.message),
+        warnings=tuple(warnings),
+        settings=settings,
+    ).recorded()
+
+
+def _coefficient_objective(
+    params: ModelParameters,
+    logs: Sequence[ManeuverLog],
+    tracks: Sequence[SmoothedTrack],
+    settings: RefineSettings,
+) -> Objective:
+    """Build the output-error objective around ``params`` (its execute states, prior)."""
+    data = []
+    for i, (log, track) in enumerate(zip(logs, tracks, strict=True)):
+        k, state = execute_state(params, log, track, settings=settings)
+        name = log.path or f"log {i + 1}"
+        data.append(replace(prepare_log(log, track, name, settings, start=k), x0=state))
+    return Objective(
+        structure=params.structure,
+        length_m=params.length_m,
+        data=tuple(data),
+        settings=settings,
+        theta0=params.to_vector().copy(),
+        whiten=whitening(params),
+    )
+
+
+def _covariance(objective: Objective, opt: Any) -> np.ndarray:
+    """Covariance of the coefficients at the optimum ``opt`` of ``least_squares``.
+
+    The Newey–West sandwich in z, cov_z, mapped back: Σ_θ = C cov_z Cᵀ (θ = θ₀ + C z),
+    symmetrised.
+    """
+    blocks, prior_rows = objective.row_blocks(opt.jac, objective.replays(opt.x)[0])
+    cov_z = newey_west_covariance(blocks, prior_rows)
+    p, C = objective.p, objective.whiten
+    cov = C @ cov_z[:p, :p] @ C.T
+    return 0.5 * (cov + cov.T)
+
+
+def _summarise(
+    objective: Objective,
+    z: np.ndarray,
+    params: ModelParameters,
+    approach: Approach,
+) -> FitSummary:
+    """How well ``params`` (z in ``objective``) replays the logs, and its virtual turns."""
+    res, states = objective.replays(z)
+    cost = objective.cost(z)
+    diverged = tuple(
+        d.name for d, s in zip(objective.data, states, strict=True) if np.isnan(s).any()
+    )
+    pos_sq, head_sq, counts, per_log = 0.0, 0.0, 0, []
+    for d, s in zip(objective.data, states, strict=True):
+        e = s[1:, 3:6] - d.target[:, :3]
+        p2 = np.square(e[:, 0]) + np.square(e[:, 1])
+        pos_sq += float(np.sum(p2))
+        head_sq += float(np.sum(np.square(e[:, 2])))
+        counts += e.shape[0]
+        per_log.append(math.sqrt(float(np.mean(p2))) / params.length_m)
+    return FitSummary(
+        params=params,
+        cost=cost,
+        residual_rms=math.sqrt(float(np.mean(np.square(res)))),
+        position_rms_L=math.sqrt(pos_sq / counts) / params.length_m,
+        heading_rms_deg=math.degrees(math.sqrt(head_sq / counts)),
+        log_position_rms_L=tuple(per_log),
+        initial_states=tuple(objective.initial_states(z)),
+        diverged=diverged,
+        turns=approach.turns(params, objective.settings),
+    )

@@ -1,0 +1,76 @@
+"""What every command of ``python -m scenarios`` shares: its name, exit codes, progress, errors."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+from tqdm import tqdm
+
+from scenarios.demo import Bar, BarFactory
+
+__all__ = [
+    "EXIT_DATA_ERROR",
+    "EXIT_GATE_FAILED",
+    "PROG",
+    "fail",
+    "make_bars",
+    "progress",
+    "sim_progress",
+]
+
+PROG = "python -m scenarios"
+EXIT_DATA_ERROR = 1
+EXIT_GATE_FAILED = 3
+
+
+def progress(message: str, quiet: bool) -> None:
+    """Print a progress line on stderr unless ``quiet``."""
+    if not quiet:
+        print(message, file=sys.stderr, flush=True)
+
+
+def _tqdm(description: str, total: float | None, unit: str, quiet: bool) -> tqdm:
+    return tqdm(
+        desc=description,
+        total=total,
+        unit=unit,
+        disable=True if quiet else None,  # None: only on a terminal
+        file=sys.stderr,
+        leave=False,
+        dynamic_ncols=True,
+    )
+
+
+def make_bars(quiet: bool) -> BarFactory:
+    """Return a factory of tqdm progress bars on stderr (none when ``quiet``)."""
+
+    def make(description: str, total: float | None, unit: str) -> Bar:
+        return _tqdm(description, total, unit, quiet)
+
+    return make
+
+
+@contextmanager
+def sim_progress(label: str, quiet: bool) -> Iterator[Callable[[float], None]]:
+    """Yield a ``run_program`` progress callback counting simulated seconds (tqdm)."""
+    with _tqdm(label, None, "s", quiet) as bar:
+
+        def update(t_s: float) -> None:
+            bar.update(max(0, int(t_s) - bar.n))
+
+        yield update
+
+
+def fail(command: str, error: str | BaseException) -> int:
+    """Print ``error`` as one line on stderr, ``PROG COMMAND: error: …``; return 1.
+
+    An ``OSError`` that names a file reads ``FILE: STRERROR``.
+    """
+    message = str(error)
+    if isinstance(error, OSError) and error.filename:
+        message = f"{error.filename}: {error.strerror or error}"
+    text = message.replace("\r", "\\r").replace("\n", "\\n")
+    print(f"{PROG} {command}: error: {text}", file=sys.stderr)
+    return EXIT_DATA_ERROR

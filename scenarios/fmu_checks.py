@@ -1,0 +1,217 @@
+"""What the scenarios check of an FMU before they drive it: interface, start values, limits.
+
+:func:`read_fmu_info` reads the start values and limits the scenarios use from an FMU's
+modelDescription.xml and rejects a file that is not a ship FMU of this project's
+interface (DESIGN.md "FMU interface"); :func:`open_fmu` opens one as a plant of the
+programme runner; :func:`check_params_match` and :func:`check_rudder` hold parameters
+and rudder angles against it. Problems are :class:`scenarios.errors.ScenarioError`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from scenarios.errors import ScenarioError
+from scenarios.fmu_plant import FmuPlant
+
+if TYPE_CHECKING:
+    from fmu_model import ModelParameters
+
+__all__ = ["FmuInfo", "check_params_match", "check_rudder", "open_fmu", "read_fmu_info"]
+
+# Variables an FMU must have to be driven by scenarios.fmu_plant.FmuPlant.
+_REQUIRED_VARIABLES = (
+    "rudder_angle",
+    "propeller_rpm",
+    "u",
+    "v",
+    "r",
+    "x",
+    "y",
+    "psi",
+    "length",
+    "u0",
+    "v0",
+    "r0",
+    "x0",
+    "y0",
+    "psi0",
+)
+
+
+@dataclass(frozen=True)
+class FmuInfo:
+    """What the scenarios need from an FMU's modelDescription.xml.
+
+    Attributes
+    ----------
+    path : str
+        The FMU file.
+    model_name : str
+        ``modelName``.
+    length_m : float
+        Start value of ``length`` [m].
+    speed_mps : float
+        Start value of ``u0``, the default approach speed [m/s].
+    rpm : float
+        Start value of ``propeller_rpm``, the default propeller speed [rpm].
+    rudder_limit_rad : float
+        Largest |rudder_angle| the FMU accepts (its declared max; π when none) [rad].
+    max_step_s : float or None
+        Start value of ``max_step``, the FMU's largest internal step, if declared [s].
+    parameters : mapping of str to float
+        Start values of every variable of causality ``parameter`` that has one (the
+        model's coefficients among them) [SI].
+
+    """
+
+    path: str
+    model_name: str
+    length_m: float
+    speed_mps: float
+    rpm: float
+    rudder_limit_rad: float
+    max_step_s: float | None
+    parameters: Mapping[str, float] = field(default_factory=dict)
+
+
+def _float_or_none(value: object) -> float | None:
+    if value is None or value == "":
+        return None
+    try:
+        return float(str(value))
+    except ValueError:
+        return None
+
+
+def read_fmu_info(path: str | os.PathLike[str]) -> FmuInfo:
+    """Read the start values and limits the scenarios use from an FMU.
+
+    Raises
+    ------
+    ScenarioError
+        The file is missing, not an FMU, or lacks a variable of the project's FMU
+        interface (DESIGN.md "FMU interface").
+
+    """
+    name = os.fspath(path)
+    if not os.path.exists(name):
+        raise ScenarioError(f"{name}: no such FMU file")
+    if not os.path.isfile(name):
+        raise ScenarioError(f"{name}: is not a file; expected an .fmu")
+    from fmpy import read_model_description
+
+    try:
+        md = read_model_description(name)
+    except Exception as exc:  # fmpy raises plain Exception for invalid files
+        raise ScenarioError(f"{name}: not a readable FMU ({exc})") from None
+    variables = {v.name: v for v in md.modelVariables}
+    missing = [k for k in _REQUIRED_VARIABLES if k not in variables]
+    if missing:
+        raise ScenarioError(
+            f"{name}: not a ship FMU of this project's interface; missing {', '.join(missing)}"
+        )
+    length = _float_or_none(variables["length"].start)
+    if length is None or not (math.isfinite(length) and length > 0.0):
+        raise ScenarioError(f"{name}: the FMU's 'length' has no positive start value")
+    limits = [
+        abs(x)
+        for x in (
+            _float_or_none(variables["rudder_angle"].min),
+            _float_or_none(variables["rudder_angle"].max),
+        )
+        if x is not None
+    ]
+    max_step = variables.get("max_step")
+    parameters = {
+        v.name: start
+        for v in md.modelVariables
+        if v.causality == "parameter" and (start := _float_or_none(v.start)) is not None
+    }
+    return FmuInfo(
+        path=name,
+        model_name=str(md.modelName),
+        length_m=length,
+        speed_mps=_float_or_none(variables["u0"].start) or 0.0,
+        rpm=_float_or_none(variables["propeller_rpm"].start) or 0.0,
+        rudder_limit_rad=min(limits) if limits else math.pi,
+        max_step_s=None if max_step is None else _float_or_none(max_step.start),
+        parameters=parameters,
+    )
+
+
+@contextmanager
+def open_fmu(path: str | os.PathLike[str]) -> Iterator[FmuPlant]:
+    """Open an FMU as a plant (:class:`trials.run.FmuPlant`); close it on exit.
+
+    Raises
+    ------
+    ScenarioError
+        The FMU cannot be loaded or instantiated on this platform.
+
+    """
+    read_fmu_info(path)  # clear errors for a missing or foreign file first
+    try:
+        plant = FmuPlant(path)
+    except Exception as exc:  # fmpy: OSError, plain Exception, FMICallException
+        raise ScenarioError(f"{os.fspath(path)}: cannot load the FMU ({exc})") from None
+    try:
+        yield plant
+    finally:
+        plant.close()
+
+
+def check_params_match(info: FmuInfo, params: ModelParameters, source: str = "") -> None:
+    """Raise :class:`ScenarioError` unless ``params`` are the ones the FMU was built from.
+
+    The FMU's model name must be the vessel name, its ``length`` the ship length, and
+    every coefficient of the parameters' structure a parameter of the FMU whose start
+    value equals the coefficient (to 1e-12 relative; the exporters write the shortest
+    text that parses back to the same double).
+
+    Parameters
+    ----------
+    info : FmuInfo
+        From :func:`read_fmu_info`.
+    params : ModelParameters
+        E.g. the params.json the FMU is said to come from.
+    source : str, optional
+        Where ``params`` come from (a path), to begin the message with.
+
+    """
+    what = f"the parameters ({params.model}, vessel {params.vessel_name!r})"
+    if source:
+        what = f"{source}: {what}"
+    problems = []
+    if info.model_name != params.vessel_name:
+        problems.append(f"the FMU's model is {info.model_name!r}")
+    if not math.isclose(info.length_m, params.length_m, rel_tol=1e-12):
+        problems.append(f"L = {params.length_m:g} m but the FMU's is {info.length_m:g} m")
+    missing = [name for name in params.names if name not in info.parameters]
+    if missing:
+        problems.append(f"the FMU has no parameter {', '.join(missing)}")
+    else:
+        differ = [
+            f"{name} = {value:.6g} but {info.parameters[name]:.6g} in the FMU"
+            for name, value in params.as_dict().items()
+            if not math.isclose(info.parameters[name], value, rel_tol=1e-12)
+        ]
+        if differ:
+            more = f" (and {len(differ) - 3} more)" if len(differ) > 3 else ""
+            problems.append(", ".join(differ[:3]) + more)
+    if problems:
+        raise ScenarioError(f"{what} do not match the FMU {info.path}: {'; '.join(problems)}")
+
+
+def check_rudder(info: FmuInfo, rudder_rad: float) -> None:
+    """Raise :class:`ScenarioError` when |``rudder_rad``| exceeds the FMU's limit."""
+    if abs(rudder_rad) > info.rudder_limit_rad * (1.0 + 1e-12):
+        raise ScenarioError(
+            f"rudder angle {math.degrees(rudder_rad):g} deg is beyond the FMU's limit of "
+            f"±{math.degrees(info.rudder_limit_rad):g} deg ({info.path})"
+        )

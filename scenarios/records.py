@@ -1,0 +1,381 @@
+"""Records the scenarios share: condition, runs, intervals, comparison rows, validation.
+
+A :class:`Validation` holds the standard manoeuvres (``trials.maneuvers.standard_set``)
+run on a reference ship and on a predicted model (an FMU) at the same approach
+condition; its comparison rows (:func:`compare_runs`) follow Shi et al. (2009),
+Table 2: quantity, reference, predicted, error %. The error of a quantity is
+``100 (predicted − reference) / reference`` [%], for the overshoot angles too (a
+relative error of a small angle is large: a 5° overshoot predicted as 5.5° is a 10 %
+error), so angles also carry the plain difference [deg].
+
+With :class:`UncertaintyBands` (``Validation.uncertainty``) every predicted quantity
+also carries a 95 % interval (:class:`Interval`) from a Monte-Carlo run over the
+identified coefficients' covariance (``scenarios.validation.uncertainty_bands``), and
+a row says whether the reference value lies inside it.
+
+Written out by :mod:`scenarios.report`; produced by :mod:`scenarios.runs` and
+:mod:`scenarios.validation`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from scenarios.imo import Criterion
+from trials.maneuvers import Program
+from trials.metrics import TurningMetrics, ZigzagMetrics
+
+__all__ = [
+    "ComparisonRow",
+    "Condition",
+    "Interval",
+    "ManeuverRun",
+    "UncertaintyBands",
+    "Validation",
+    "compare_runs",
+    "failing_rows",
+    "interval_counts",
+    "maneuver_label",
+    "turn_side",
+]
+
+# The compared quantities: (metrics attribute, label, unit) per kind of manoeuvre.
+_TURNING_QUANTITIES = (
+    ("advance_m", "advance", "m"),
+    ("transfer_m", "transfer", "m"),
+    ("tactical_diameter_m", "tactical diameter", "m"),
+)
+_ZIGZAG_QUANTITIES = (
+    ("first_overshoot_deg", "1st overshoot", "deg"),
+    ("second_overshoot_deg", "2nd overshoot", "deg"),
+)
+
+
+@dataclass(frozen=True)
+class Condition:
+    """Approach condition and step of a simulated manoeuvre.
+
+    Parameters
+    ----------
+    speed_mps : float
+        Approach speed [m/s].
+    n_rps : float
+        Propeller speed [rev/s].
+    rudder_rate_radps : float
+        Steering-gear rate [rad/s].
+    dt_s : float
+        Communication step [s].
+
+    """
+
+    speed_mps: float
+    n_rps: float
+    rudder_rate_radps: float
+    dt_s: float
+
+    def as_dict(self) -> dict[str, float]:
+        """JSON record in display units: ``speed_mps, rpm, rudder_rate_deg_s, dt_s``."""
+        return {
+            "speed_mps": self.speed_mps,
+            "rpm": self.n_rps * 60.0,
+            "rudder_rate_deg_s": math.degrees(self.rudder_rate_radps),
+            "dt_s": self.dt_s,
+        }
+
+
+@dataclass(frozen=True)
+class ManeuverRun:
+    """One manoeuvre simulated: the program, its trajectory and its metrics."""
+
+    program: Program
+    trajectory: np.ndarray
+    metrics: TurningMetrics | ZigzagMetrics
+
+    def metrics_dict(self, length_m: float) -> dict[str, Any]:
+        """Return the metrics' JSON record (``as_dict``); ``length_m`` for the L keys [m]."""
+        if isinstance(self.metrics, TurningMetrics):
+            return dict(self.metrics.as_dict(length_m))
+        return dict(self.metrics.as_dict())
+
+
+@dataclass(frozen=True)
+class Interval:
+    """95 % interval of one predicted quantity under coefficient uncertainty.
+
+    Attributes
+    ----------
+    lo, hi : float
+        Bounds in the quantity's unit (m or deg); NaN when no sample gave a value.
+    mean : float
+        Sample mean, moved by ``offset`` like the bounds; NaN when no sample gave one.
+    offset : float
+        Added to every Monte-Carlo value: predicted value minus the Monte-Carlo value at
+        the identified coefficients (the step-size difference of the two runs); 0 when
+        either is missing [unit].
+    n_samples : int
+        Coefficient sets drawn.
+    n_failed : int
+        Samples without a value (diverged or the run did not reach the event).
+
+    """
+
+    lo: float
+    hi: float
+    mean: float
+    offset: float
+    n_samples: int
+    n_failed: int
+
+    @property
+    def is_finite(self) -> bool:
+        """True when both bounds are finite numbers."""
+        return math.isfinite(self.lo) and math.isfinite(self.hi)
+
+    def contains(self, value: float) -> bool:
+        """Whether ``value`` lies in [lo, hi] (False for an interval without bounds)."""
+        return self.is_finite and self.lo <= value <= self.hi
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON record with the attribute names as keys (NaN left for the writer)."""
+        return {
+            "lo": self.lo,
+            "hi": self.hi,
+            "mean": self.mean,
+            "offset": self.offset,
+            "n_samples": self.n_samples,
+            "n_failed": self.n_failed,
+        }
+
+
+@dataclass(frozen=True)
+class UncertaintyBands:
+    """Monte-Carlo 95 % intervals of the compared quantities.
+
+    Attributes
+    ----------
+    intervals : mapping
+        ``(maneuver, quantity) → Interval``, keys as in :class:`ComparisonRow`.
+    n_samples : int
+        Coefficient sets drawn.
+    seed : int
+        Seed of the draw.
+    dt_s : float
+        Communication step of the Monte-Carlo runs [s].
+    source : str
+        Where the coefficients and their covariance come from (the params.json).
+
+    """
+
+    intervals: Mapping[tuple[str, str], Interval]
+    n_samples: int
+    seed: int
+    dt_s: float
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class ComparisonRow:
+    """One line of the comparison table.
+
+    Attributes
+    ----------
+    maneuver : str
+        Program name, e.g. ``"turning-35-stbd"``.
+    quantity : str
+        Metrics key, e.g. ``"advance_m"``, ``"first_overshoot_deg"``.
+    label : str
+        Human-readable, e.g. ``"35° starboard turn: advance"``.
+    unit : str
+        ``"m"`` or ``"deg"``.
+    reference, predicted : float or None
+        The two values in ``unit``; None when the run does not cover the quantity.
+    error_pct : float or None
+        ``100 (predicted − reference) / reference``; None when either value is
+        missing or the reference is 0 [%].
+    difference : float or None
+        ``predicted − reference`` in ``unit``.
+    interval : Interval or None
+        95 % interval of the predicted value under coefficient uncertainty, when the
+        validation ran the Monte Carlo.
+
+    """
+
+    maneuver: str
+    quantity: str
+    label: str
+    unit: str
+    reference: float | None
+    predicted: float | None
+    error_pct: float | None
+    difference: float | None
+    interval: Interval | None = None
+
+    @property
+    def in_interval(self) -> bool | None:
+        """Whether the reference lies in the 95 % interval; None when either is missing."""
+        if self.interval is None or self.reference is None or not self.interval.is_finite:
+            return None
+        return self.interval.contains(self.reference)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON record with the attribute names as keys, and ``in_interval``."""
+        return {
+            "maneuver": self.maneuver,
+            "quantity": self.quantity,
+            "label": self.label,
+            "unit": self.unit,
+            "reference": self.reference,
+            "predicted": self.predicted,
+            "error_pct": self.error_pct,
+            "difference": self.difference,
+            "interval": None if self.interval is None else self.interval.as_dict(),
+            "in_interval": self.in_interval,
+        }
+
+
+@dataclass(frozen=True)
+class Validation:
+    """A predicted model and a reference ship through the same manoeuvres.
+
+    Parameters
+    ----------
+    fmu_path : str
+        The FMU that played the predicted side.
+    model_name : str
+        Its model name (modelDescription ``modelName``).
+    model_length_m : float
+        Its ship length [m].
+    reference_name : str
+        E.g. ``"kvlcc2-full"``.
+    reference_description : str
+        Where the reference model comes from.
+    reference_length_m : float
+        Reference ship length [m].
+    condition : Condition
+        Approach condition of every run (the reference ship's), both sides.
+    reference, predicted : tuple of ManeuverRun
+        The runs, in the same order of programs.
+    criteria : tuple of Criterion
+        IMO MSC.137(76) verdicts of the predicted model.
+    reference_criteria : tuple of Criterion
+        The same for the reference ship.
+    warnings : tuple of str
+        Anything the reader must know (e.g. the two lengths differ).
+    uncertainty : UncertaintyBands, optional
+        95 % intervals of the predicted quantities (``rows`` carry them).
+
+    """
+
+    fmu_path: str
+    model_name: str
+    model_length_m: float
+    reference_name: str
+    reference_description: str
+    reference_length_m: float
+    condition: Condition
+    reference: tuple[ManeuverRun, ...]
+    predicted: tuple[ManeuverRun, ...]
+    criteria: tuple[Criterion, ...]
+    reference_criteria: tuple[Criterion, ...]
+    warnings: tuple[str, ...] = ()
+    uncertainty: UncertaintyBands | None = None
+    rows: tuple[ComparisonRow, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        intervals = None if self.uncertainty is None else self.uncertainty.intervals
+        rows = compare_runs(self.reference, self.predicted, intervals=intervals)
+        object.__setattr__(self, "rows", tuple(rows))
+
+    @property
+    def max_abs_error_pct(self) -> float | None:
+        """Largest |error| over the rows that have one [%]; None when none has."""
+        errors = [abs(r.error_pct) for r in self.rows if r.error_pct is not None]
+        return max(errors) if errors else None
+
+    @property
+    def imo_passed(self) -> bool:
+        """True when the predicted model passes every evaluated IMO criterion."""
+        return all(c.passed for c in self.criteria)
+
+
+def turn_side(program: Program) -> str:
+    """``"starboard"`` or ``"port"``: the side of the program's (first) rudder."""
+    return "starboard" if program.rudder_rad >= 0.0 else "port"
+
+
+def maneuver_label(program: Program) -> str:
+    """Human-readable name, e.g. ``"35° starboard turn"``, ``"10/10 zig-zag (port first)"``."""
+    delta = round(math.degrees(abs(program.rudder_rad)))
+    if program.kind == "turning":
+        return f"{delta}° {turn_side(program)} turn"
+    psi = round(math.degrees(program.heading_rad))
+    return f"{delta}/{psi} zig-zag ({turn_side(program)} first)"
+
+
+def compare_runs(
+    reference: Sequence[ManeuverRun],
+    predicted: Sequence[ManeuverRun],
+    *,
+    intervals: Mapping[tuple[str, str], Interval] | None = None,
+) -> list[ComparisonRow]:
+    """Compare turning indices and zig-zag overshoots, reference vs predicted.
+
+    Parameters
+    ----------
+    reference, predicted : sequence of ManeuverRun
+        Runs of the same programs in the same order.
+    intervals : mapping, optional
+        ``(maneuver, quantity) → Interval`` of the predicted values; rows without an
+        entry get none.
+
+    Returns
+    -------
+    list of ComparisonRow
+        Advance, transfer, tactical diameter [m] of every turning run; first and second
+        overshoot [deg] of every zig-zag.
+
+    """
+    if [r.program.name for r in reference] != [p.program.name for p in predicted]:
+        raise ValueError("reference and predicted runs must be the same programs in order")
+    rows: list[ComparisonRow] = []
+    for ref, pred in zip(reference, predicted, strict=True):
+        quantities = (
+            _TURNING_QUANTITIES if isinstance(ref.metrics, TurningMetrics) else _ZIGZAG_QUANTITIES
+        )
+        for key, label, unit in quantities:
+            a = getattr(ref.metrics, key)
+            b = getattr(pred.metrics, key)
+            a = None if a is None else float(a)
+            b = None if b is None else float(b)
+            difference = None if a is None or b is None else b - a
+            error = None if difference is None or a == 0.0 or a is None else 100.0 * difference / a
+            rows.append(
+                ComparisonRow(
+                    maneuver=ref.program.name,
+                    quantity=key,
+                    label=f"{maneuver_label(ref.program)}: {label}",
+                    unit=unit,
+                    reference=a,
+                    predicted=b,
+                    error_pct=error,
+                    difference=difference,
+                    interval=None if intervals is None else intervals.get((ref.program.name, key)),
+                )
+            )
+    return rows
+
+
+def failing_rows(rows: Sequence[ComparisonRow], max_error_pct: float) -> list[ComparisonRow]:
+    """Rows whose |error| exceeds ``max_error_pct``, or that have no error to judge [%]."""
+    return [r for r in rows if r.error_pct is None or abs(r.error_pct) > max_error_pct]
+
+
+def interval_counts(rows: Sequence[ComparisonRow]) -> tuple[int, int]:
+    """Rows whose reference lies inside its interval, and rows with a verdict at all."""
+    verdicts = [r.in_interval for r in rows if r.in_interval is not None]
+    return sum(verdicts), len(verdicts)
