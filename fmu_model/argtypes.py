@@ -49,6 +49,32 @@ def positive_or_inf(text: str) -> float:
     return value
 
 
+def within(low: float, high: float, unit: str = "") -> Callable[[str], float]:
+    """Return a parser of numbers in the closed range [``low``, ``high``].
+
+    ``high`` may be ``math.inf``: then the word ``inf`` itself is accepted (e.g. "no
+    limit"), and the message reads "a number >= low or inf". ``unit`` (e.g. ``"m"``) is
+    shown after the bounds in the message.
+    """
+    suffix = f" {unit}" if unit else ""
+    if math.isinf(high):
+        wanted = f"a number >= {low:g}{suffix} or inf"
+    else:
+        wanted = f"a number from {low:g} to {high:g}{suffix}"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {wanted}, got {text!r}") from None
+        if not low <= value <= high:  # also false for nan
+            raise argparse.ArgumentTypeError(f"expected {wanted}, got {text!r}")
+        return value
+
+    parse.__name__ = f"within({low:g}, {high:g})"
+    return parse
+
+
 def count(minimum: int) -> Callable[[str], int]:
     """Return a parser of whole numbers ≥ ``minimum``."""
 

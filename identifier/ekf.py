@@ -176,8 +176,9 @@ def ekf_identify(
     P_theta = np.array(covariance0, dtype=float)
     if theta.shape != (p,) or P_theta.shape != (p, p):
         raise ValueError(f"theta0/covariance0 must have shapes ({p},) and ({p}, {p})")
-    q_theta = (settings.param_random_walk * np.sqrt(np.diag(P_theta))) ** 2
-    variance_limit = settings.divergence_factor * np.maximum(np.diag(P_theta), 1e-300)
+    with np.errstate(over="ignore"):  # an infinite Q or limit: the pass reports divergence
+        q_theta = (settings.param_random_walk * np.sqrt(np.diag(P_theta))) ** 2
+        variance_limit = settings.divergence_factor * np.maximum(np.diag(P_theta), 1e-300)
     # Model error enters the accelerations; the kinematics are exact.
     q_state = np.concatenate(
         [np.asarray(settings.state_process_std, dtype=float) ** 2, np.zeros(3)]
@@ -201,17 +202,24 @@ def ekf_identify(
         else:
             offset, y, r_var = 0, seg.velocities, seg.velocity_std**2
         states = np.empty((n, 6))
-        status, sample = _ekf_pass(
-            phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length_m, settings.max_substep_s,
-            offset,
-            np.ascontiguousarray(seg.time_s, dtype=float),
-            np.ascontiguousarray(y, dtype=float),
-            np.ascontiguousarray(r_var, dtype=float),
-            np.ascontiguousarray(seg.rudder_rad, dtype=float),
-            np.ascontiguousarray(seg.n_rps, dtype=float),
-            x, P, q_state, q_theta, variance_limit,
-            states, theta_hist[row : row + n], std_hist[row : row + n],
-        )  # fmt: skip
+        try:
+            status, sample = _ekf_pass(
+                phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length_m,
+                settings.max_substep_s, offset,
+                np.ascontiguousarray(seg.time_s, dtype=float),
+                np.ascontiguousarray(y, dtype=float),
+                np.ascontiguousarray(r_var, dtype=float),
+                np.ascontiguousarray(seg.rudder_rad, dtype=float),
+                np.ascontiguousarray(seg.n_rps, dtype=float),
+                x, P, q_state, q_theta, variance_limit,
+                states, theta_hist[row : row + n], std_hist[row : row + n],
+            )  # fmt: skip
+        except ZeroDivisionError:  # numba's scalar division, e.g. by a speed of exactly 0
+            raise IdentificationError(
+                "the model divides by zero: the ship's speed through the water reached 0 "
+                "(the speed-scaled models need headway throughout the log)",
+                log=seg.name,
+            ) from None
         if status != _OK:
             raise IdentificationError(_STATUS_MESSAGES[status], log=seg.name, sample=int(sample))
         theta = x[6:].copy()

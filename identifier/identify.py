@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from fmu_model import DEFAULT_MODEL, ModelParameters, get_model
+from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
+from fmu_model.params import text_problem
 from fmu_model.variants import parse_family
 from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import EquationErrorFit, equation_error_fit
@@ -36,6 +38,29 @@ from trials.logs import ManeuverLog
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
 MAX_SAMPLE_INTERVAL_S = 5.0
+# Plausibility of the track. No ship sails faster than this over ground [m/s] (about 97
+# kn; the fastest high-speed craft make 30-40 m/s): a faster track has wrong units of
+# time or position.
+MAX_SPEED_OVER_GROUND_MPS = 50.0
+# A log whose median smoothed speed over ground is within this many of its standard
+# deviations of zero (or below the FMU's least start speed) shows a ship that does not
+# move; the speed-scaled models divide by the speed.
+STILL_SPEED_SIGMAS = 3.0
+
+# Ranges of the numeric settings, the command line's usage errors (README, "Plausibility
+# bounds"). α of the paper's start, P(0) = α I: prior standard deviations from 1e-6 to
+# 1e6 in the coefficients' units.
+ALPHA_RANGE = (1e-12, 1e12)
+# Relative random walk ρ of the coefficients per step: 0 keeps them constant, 1 adds the
+# whole prior variance at every step, beyond which the prior means nothing.
+PARAM_RANDOM_WALK_RANGE = (0.0, 1.0)
+# Logger noise: from a micrometre (motion capture of a model is 1e-4 m) to a kilometre
+# [m]; from 1e-6 deg to 90 deg (a heading noise of 90 deg or more says nothing).
+POSITION_NOISE_RANGE_M = (1e-6, 1e3)
+HEADING_NOISE_RANGE_DEG = (1e-6, 90.0)
+# Largest Euler substep of the EKF [s]: 1 ms (a thousand substeps per second of log)
+# to inf (one step per sample, the paper's).
+MAX_SUBSTEP_RANGE_S = (1e-3, math.inf)
 # Above these estimated noise levels the logger is suspect (warning) [m], [rad].
 MAX_POSITION_NOISE_M = 20.0
 MAX_HEADING_NOISE_RAD = math.radians(3.0)
@@ -174,10 +199,16 @@ def _check_sampling(log: ManeuverLog, name: str) -> None:
 
 
 def vessel_length(logs: Sequence[ManeuverLog], length_m: float | None) -> float:
-    """Return the ship length: given, or from the logs' ``# length_m:`` (which must agree)."""
+    """Return the ship length: given, or from the logs' ``# length_m:`` (which must agree).
+
+    A given length must be within the FMU's bounds, :data:`MIN_LENGTH_M` to
+    :data:`MAX_LENGTH_M` [m] (the logs' are checked on reading).
+    """
     if length_m is not None:
-        if not (math.isfinite(length_m) and length_m > 0.0):
-            raise IdentificationError(f"ship length must be positive, got {length_m}")
+        if not MIN_LENGTH_M <= length_m <= MAX_LENGTH_M:
+            raise IdentificationError(
+                f"ship length must be from {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} m, got {length_m!r}"
+            )
         return float(length_m)
     lengths = {log.length_m for log in logs if log.length_m is not None}
     if not lengths:
@@ -187,6 +218,86 @@ def vessel_length(logs: Sequence[ManeuverLog], length_m: float | None) -> float:
     if len(lengths) > 1:
         raise IdentificationError(f"the logs disagree on the ship length: {sorted(lengths)} m")
     return lengths.pop()
+
+
+def vessel_name(logs: Sequence[ManeuverLog]) -> str:
+    """Return the vessel of the logs' ``# vessel:`` lines (``"ship"`` when none has one).
+
+    Raises
+    ------
+    IdentificationError
+        If two logs name different vessels (exact text), or a name is not printable text
+        (it becomes the FMU's model name).
+
+    """
+    first: dict[str, str] = {}  # vessel name → the first log naming it
+    for i, log in enumerate(logs):
+        name = log.metadata.get("vessel")
+        if name is None:
+            continue
+        problem = text_problem(name)
+        if problem is not None:
+            raise IdentificationError(f"vessel name {name!r} {problem}", log=_log_name(log, i))
+        first.setdefault(name, _log_name(log, i))
+    if len(first) > 1:
+        (a, log_a), (b, log_b) = list(first.items())[:2]
+        raise IdentificationError(
+            f"the logs are of different vessels: {a!r} ({log_a}) and {b!r} ({log_b}); "
+            "identify one vessel at a time"
+        )
+    return next(iter(first), "ship")
+
+
+def _check_track(track: SmoothedTrack, name: str) -> None:
+    """Reject a track too fast for a ship, or of a ship that does not move.
+
+    Raises
+    ------
+    IdentificationError
+        If the smoothed speed over ground exceeds :data:`MAX_SPEED_OVER_GROUND_MPS`
+        (wrong units of time or position), or its median is within
+        :data:`STILL_SPEED_SIGMAS` standard deviations of zero (or below the FMU's least
+        start speed, :data:`~fmu_model.interface.MIN_START_SPEED_MPS`).
+
+    """
+    derived = (track.u_mps, track.v_mps, track.r_radps, track.u_std_mps, track.v_std_mps)
+    if not all(np.all(np.isfinite(a)) for a in derived):
+        raise IdentificationError(
+            "the smoothed track is not finite (the times or positions overflow the smoother)",
+            log=name,
+        )
+    k = int(np.argmax(track.speed_mps))
+    fastest = float(track.speed_mps[k])
+    if fastest > MAX_SPEED_OVER_GROUND_MPS:
+        raise IdentificationError(
+            f"the track implies a speed over ground of {fastest:.3g} m/s, expected at most "
+            f"{MAX_SPEED_OVER_GROUND_MPS:g} m/s: check the units of time_s, x_m and y_m",
+            log=name,
+            sample=k,
+        )
+    speed = float(np.median(track.speed_mps))
+    threshold = max(STILL_SPEED_SIGMAS * float(np.median(track.speed_std_mps)), MIN_START_SPEED_MPS)
+    if not speed > threshold:
+        raise IdentificationError(
+            f"the ship does not move: its median speed over ground, {speed:.3g} m/s, is not "
+            f"above {threshold:.3g} m/s ({STILL_SPEED_SIGMAS:g} standard deviations of the "
+            f"smoothed speed, at least {MIN_START_SPEED_MPS:g} m/s); expected a ship under way "
+            "(the models need headway)",
+            log=name,
+        )
+
+
+def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
+    """Reject logs in which the rudder never leaves midship (nothing to identify)."""
+    if any(np.max(np.abs(log.rudder_rad)) > EXECUTE_RUDDER_RAD for log in logs):
+        return
+    limit = math.degrees(EXECUTE_RUDDER_RAD)
+    where = "the log" if len(logs) == 1 else "every log"
+    raise IdentificationError(
+        f"no rudder excitation: nothing to identify (the rudder stays within ±{limit:g} deg "
+        f"in {where}); expected a manoeuvre: a zig-zag or a turning circle",
+        log=_log_name(logs[0], 0) if len(logs) == 1 else None,
+    )
 
 
 def identify(
@@ -212,7 +323,9 @@ def identify(
     Raises
     ------
     IdentificationError
-        No logs, no ship length, coarse sampling, or a diverging EKF.
+        No logs, no ship length or one out of bounds, logs of different vessels, coarse
+        sampling, a track too fast for a ship or of a ship that does not move, no rudder
+        excitation in any log, or a diverging EKF.
 
     """
     settings = settings or FitSettings()
@@ -221,6 +334,22 @@ def identify(
     if settings.initial not in ("equation-error", "zero"):
         raise ValueError(f"unknown initial guess {settings.initial!r}")
     length = vessel_length(logs, length_m)
+    vessel = vessel_name(logs)
+    # Every result below is checked (the smoothed track, the equation-error fit, the
+    # EKF's states and covariance), so numpy's overflow and division warnings would only
+    # repeat on stderr what the error says.
+    with np.errstate(all="ignore"):
+        return _identify(logs, settings, length, vessel, progress)
+
+
+def _identify(
+    logs: Sequence[ManeuverLog],
+    settings: FitSettings,
+    length: float,
+    vessel: str,
+    progress: Callable[[int], None] | None,
+) -> IdentificationResult:
+    """:func:`identify` after the checks of its arguments."""
     warnings: list[str] = []
     tracks: list[SmoothedTrack] = []
     segments: list[EkfSegment] = []
@@ -235,6 +364,7 @@ def identify(
             position_noise_m=settings.position_noise_m,
             heading_noise_rad=settings.heading_noise_rad,
         )
+        _check_track(track, name)
         if track.position_noise_m > MAX_POSITION_NOISE_M:
             warnings.append(
                 f"{name}: position noise {track.position_noise_m:.1f} m is unusually high"
@@ -263,6 +393,7 @@ def identify(
         if progress is not None:
             progress(log.n_samples)
 
+    _check_rudder(logs)
     nominal_speed_mps, nominal_n_rps = _nominal(logs, tracks)
     family, fixed = parse_family(settings.model) or (None, {})
     shape = None
@@ -272,6 +403,11 @@ def identify(
         )
     structure = get_model(settings.model) if shape is None else shape.structure
     ls = equation_error_fit(structure, segments, length)
+    if not (np.all(np.isfinite(ls.theta)) and np.all(np.isfinite(ls.covariance))):
+        raise IdentificationError(
+            "the equation-error fit is not finite (the model's terms overflow or divide by "
+            "zero on these logs)"
+        )
     ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
     if settings.initial == "equation-error":
         theta0 = ls.theta
@@ -323,7 +459,6 @@ def identify(
             strict=True,
         )
     )
-    vessel = next((log.metadata["vessel"] for log in logs if "vessel" in log.metadata), "ship")
     params = ModelParameters(
         model=structure.name,
         coefficients=ekf.theta,

@@ -621,8 +621,10 @@ def _local_polynomial_weights(
     n = t_s.size
     start = np.clip(np.arange(n) - window // 2, 0, n - window)
     idx = start[:, None] + np.arange(window)
-    h = float(t_s[-1] - t_s[0]) * window / n  # about the window's span, for conditioning
-    tau = (t_s[idx] - t_s[:, None]) / h  # (N, window)
+    # Each window's own time scale, so that τ ∈ [−1, 1] wherever the window lies: a gap
+    # elsewhere in the log (irregular sampling) does not degrade the other windows.
+    h = np.max(np.abs(t_s[idx] - t_s[:, None]), axis=1)  # (N,), > 0: times increase
+    tau = (t_s[idx] - t_s[:, None]) / h[:, None]  # (N, window)
     powers = np.empty((2 * degree + 1, n, window))  # τ^m, m = 0 … 2·degree
     powers[0] = 1.0
     for m in range(1, 2 * degree + 1):
@@ -633,7 +635,13 @@ def _local_polynomial_weights(
     e = np.zeros((n, degree + 1, 1))
     e[:, derivative, 0] = math.factorial(derivative) / h**derivative
     # w = e_dᵀ (VᵀV)⁻¹ Vᵀ, the factor d!/h^d turning the τ-coefficient into the derivative.
-    g = np.linalg.solve(VtV, e)[..., 0]  # (N, degree + 1)
+    try:
+        g = np.linalg.solve(VtV, e)[..., 0]  # (N, degree + 1)
+    except np.linalg.LinAlgError:
+        # A window across a gap far longer than its other intervals has too few distinct
+        # times for the polynomial: the least-norm fit there (its residual is an outlier,
+        # which the estimator's clipping discards); the other windows are unchanged.
+        g = (np.linalg.pinv(VtV) @ e)[..., 0]
     return start, np.einsum("nd,dnw->nw", g, powers[: degree + 1])
 
 

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterator, Mapping
+import re
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from fmu_model import get_model
 from scenarios.errors import ScenarioError
 from scenarios.fmu_plant import FmuPlant
 
@@ -67,6 +69,11 @@ class FmuInfo:
     parameters : mapping of str to float
         Start values of every variable of causality ``parameter`` that has one (the
         model's coefficients among them) [SI].
+    structure_name : str or None
+        The model structure the FMU was built from (``fmu_model.get_model`` name, e.g.
+        ``prime-rudder[k=0.0004,…]``), as its coefficient parameters' descriptions
+        name it (``coefficient of … (<structure>)``, ``fmu_model.interface``); None
+        when they name none.
 
     """
 
@@ -78,6 +85,7 @@ class FmuInfo:
     rudder_limit_rad: float
     max_step_s: float | None
     parameters: Mapping[str, float] = field(default_factory=dict)
+    structure_name: str | None = None
 
 
 def _float_or_none(value: object) -> float | None:
@@ -89,14 +97,35 @@ def _float_or_none(value: object) -> float | None:
         return None
 
 
+# The description of a coefficient parameter (fmu_model.interface.fmu_variables):
+# "coefficient of <regressor> (<structure name>)"; a structure name has no parentheses.
+_COEFFICIENT_DESCRIPTION = re.compile(r"coefficient of .* \((?P<structure>[^()]+)\)", re.DOTALL)
+
+
+def _structure_name(name: str, descriptions: Iterable[str | None]) -> str | None:
+    """Return the structure the coefficient descriptions name; None when none names one."""
+    found = {
+        match["structure"]
+        for text in descriptions
+        if text and (match := _COEFFICIENT_DESCRIPTION.fullmatch(text))
+    }
+    if len(found) > 1:
+        raise ScenarioError(
+            f"{name}: the FMU's coefficients name different model structures "
+            f"({', '.join(sorted(found))})"
+        )
+    return found.pop() if found else None
+
+
 def read_fmu_info(path: str | os.PathLike[str]) -> FmuInfo:
     """Read the start values and limits the scenarios use from an FMU.
 
     Raises
     ------
     ScenarioError
-        The file is missing, not an FMU, or lacks a variable of the project's FMU
-        interface (DESIGN.md "FMU interface").
+        The file is missing, not an FMU, lacks a variable of the project's FMU
+        interface (DESIGN.md "FMU interface"), or its coefficients name different
+        model structures.
 
     """
     name = os.fspath(path)
@@ -142,6 +171,9 @@ def read_fmu_info(path: str | os.PathLike[str]) -> FmuInfo:
         rudder_limit_rad=min(limits) if limits else math.pi,
         max_step_s=None if max_step is None else _float_or_none(max_step.start),
         parameters=parameters,
+        structure_name=_structure_name(
+            name, (v.description for v in md.modelVariables if v.causality == "parameter")
+        ),
     )
 
 
@@ -166,13 +198,25 @@ def open_fmu(path: str | os.PathLike[str]) -> Iterator[FmuPlant]:
         plant.close()
 
 
+def _resolved(name: str) -> str:
+    """Canonical name of the structure ``name`` resolves to (``fmu_model.get_model``)."""
+    try:
+        return get_model(name).name
+    except (KeyError, ValueError):
+        return name  # not a structure known here: it can only equal itself
+
+
 def check_params_match(info: FmuInfo, params: ModelParameters, source: str = "") -> None:
     """Raise :class:`ScenarioError` unless ``params`` are the ones the FMU was built from.
 
-    The FMU's model name must be the vessel name, its ``length`` the ship length, and
-    every coefficient of the parameters' structure a parameter of the FMU whose start
-    value equals the coefficient (to 1e-12 relative; the exporters write the shortest
-    text that parses back to the same double).
+    The FMU's model structure (:attr:`FmuInfo.structure_name`) must be the parameters'
+    structure: both names are resolved (``fmu_model.get_model``) and compared, so a
+    family's shape counts, whether written in full, in part or not at all. The FMU's
+    model name must be the vessel name, its ``length`` the ship length, and every
+    coefficient of the parameters' structure a parameter of the FMU whose start value
+    equals the coefficient (to 1e-12 relative; the exporters write the shortest text
+    that parses back to the same double). An FMU whose coefficients name no structure
+    (not built by this project's exporters) is held to its coefficients only.
 
     Parameters
     ----------
@@ -188,6 +232,13 @@ def check_params_match(info: FmuInfo, params: ModelParameters, source: str = "")
     if source:
         what = f"{source}: {what}"
     problems = []
+    structure = params.structure.name
+    if info.structure_name is not None and _resolved(info.structure_name) != structure:
+        # A different structure: its coefficients would not say more.
+        raise ScenarioError(
+            f"{what} do not match the FMU {info.path}: their model structure is {structure} "
+            f"but the FMU's is {_resolved(info.structure_name)}"
+        )
     if info.model_name != params.vessel_name:
         problems.append(f"the FMU's model is {info.model_name!r}")
     if not math.isclose(info.length_m, params.length_m, rel_tol=1e-12):

@@ -33,16 +33,41 @@ from trials.metrics import (
 from trials.run import Plant, run_program
 
 __all__ = [
+    "MAX_STEPS",
     "STANDARD_LIMIT_L_OVER_U",
     "imo_criteria",
     "measure",
     "reference_runs",
     "run_standard_set",
     "simulate",
+    "too_many_steps",
 ]
 
 STANDARD_LIMIT_L_OVER_U = 60.0
 """Time limit of every standard manoeuvre, in units of L/U (``standard_set``)."""
+
+MAX_STEPS = 10_000_000
+"""Most communication steps a programme may take: the runner reserves memory for all of
+them (64 bytes a step and ship), and no manoeuvre needs more (KVLCC2's 35° turn at
+0.1 s may take 24 000); more means a step or a speed given in the wrong unit."""
+
+
+def too_many_steps(program: Program, dt_s: float) -> str | None:
+    """Why ``program`` cannot run at the step ``dt_s`` [s], or None.
+
+    The reason is the number of steps ``trials.run.run_batch`` reserves room for (the
+    approach and every leg's time limit, one step for a leg without one) when it is
+    over :data:`MAX_STEPS`, or beyond the floating-point range.
+    """
+    limits_s = program.approach_s + sum(leg.until.time_s or 0.0 for leg in program.legs)
+    steps = limits_s / dt_s + len(program.legs) + 1
+    if steps <= MAX_STEPS:  # also False for nan
+        return None
+    return (
+        f"{program.name}: {limits_s:.3g} s of time limits in steps of {dt_s:.3g} s are "
+        f"{steps:.3g} steps, more than {MAX_STEPS:.0e}; take a longer step or a shorter "
+        "time limit (by default 60 L/U: the slower the approach, the longer)"
+    )
 
 
 def simulate(
@@ -56,11 +81,15 @@ def simulate(
     Raises
     ------
     ScenarioError
-        The FMU reported an error or the simulation diverged.
+        The FMU reported an error, the simulation diverged, or the programme's time
+        limits take more than :data:`MAX_STEPS` steps (:func:`too_many_steps`).
 
     """
     from fmpy.fmi1 import FMICallException
 
+    problem = too_many_steps(program, condition.dt_s)
+    if problem is not None:
+        raise ScenarioError(problem)
     try:
         return run_program(
             plant,

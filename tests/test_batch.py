@@ -6,11 +6,16 @@ import csv
 import json
 import logging
 import math
+import signal
+import subprocess
+import sys
+import time
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
+import psutil
 import pytest
 
 from fmu_model import ModelParameters, load_params
@@ -21,6 +26,7 @@ from tests.conftest import SEED_COEFFICIENTS
 from trials.logs import write_log
 
 BAD_LOG = "time_s,x_m,y_m,heading_deg,rudder_deg,rpm\n0,0,0,0,0,abc\n"
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _ship() -> TruthShip:
@@ -239,3 +245,82 @@ def test_cli_usage_errors_exit_2(tmp_path: Path) -> None:
         with pytest.raises(SystemExit) as info:
             main(argv)
         assert info.value.code == 2
+
+
+# ------------------------------------------------ the workers end with the batch
+
+# How long the worker processes may outlive a killed batch [s]. SIGTERM: none, the batch
+# kills them first. SIGKILL: nothing runs in the batch; a worker exits as soon as it
+# watches its parent, which it does once it has imported its modules (seconds on a busy
+# machine: the time of `python -c "import identifier.cli, distributed"`).
+OUTLIVE_S = {signal.SIGTERM: 2.0, signal.SIGKILL: 20.0}
+
+
+def _alive(process: psutil.Process) -> bool:
+    try:
+        return bool(process.status() != psutil.STATUS_ZOMBIE)
+    except psutil.NoSuchProcess:
+        return False
+
+
+def _children(parent: psutil.Process) -> list[psutil.Process]:
+    """Descendants of ``parent`` whose command line is read (psutil keeps it)."""
+    found = []
+    for child in parent.children(recursive=True):
+        try:
+            child.cmdline()
+        except psutil.Error:
+            continue
+        found.append(child)
+    return found
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The manifest of :func:`_manifest`, written once for the module."""
+    return _manifest(tmp_path_factory.mktemp("fleet"))
+
+
+@pytest.mark.parametrize("phase", ["starting", "working"])
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
+def test_killed_batch_leaves_no_worker_process(
+    fleet: Path, tmp_path: Path, signum: signal.Signals, phase: str
+) -> None:
+    """Kill ``python -m identifier batch`` as its workers start, or a few seconds later.
+
+    Its child processes (the LocalCluster's workers, the resource tracker) must end with
+    it: at once on SIGTERM, within the start-up of a worker process on SIGKILL.
+    """
+    argv = ["-m", "identifier", "batch", str(fleet), "--out", str(tmp_path / "out")]
+    stderr = tmp_path / "stderr.txt"
+    with stderr.open("wb") as err:  # a file: the children share it and may outlive the batch
+        batch = subprocess.Popen(
+            [sys.executable, *argv, "--no-fmu", "--quiet"],
+            cwd=ROOT,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+        )
+    try:
+        parent = psutil.Process(batch.pid)
+        deadline = time.monotonic() + 120.0
+        while not any("spawn_main" in " ".join(c.cmdline()) for c in _children(parent)):
+            assert batch.poll() is None, stderr.read_text()
+            assert time.monotonic() < deadline, "no worker process started"
+            time.sleep(0.02)
+        if phase == "working":
+            time.sleep(6.0)
+        children = _children(parent)
+        assert len(children) >= 2 and batch.poll() is None
+        batch.send_signal(signum)
+        assert batch.wait(timeout=60) == -signum
+        killed = time.monotonic()
+        while any(map(_alive, children)) and time.monotonic() - killed < OUTLIVE_S[signum]:
+            time.sleep(0.02)
+        left = [f"{c.pid} {' '.join(c.cmdline())[:80]}" for c in children if _alive(c)]
+        assert left == [], f"alive {OUTLIVE_S[signum]} s after {signum.name}: {left}"
+        if signum == signal.SIGTERM:
+            assert stderr.read_text() == ""
+    finally:
+        if batch.poll() is None:
+            batch.kill()
+            batch.wait()

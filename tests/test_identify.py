@@ -134,16 +134,24 @@ def _straight_log() -> ManeuverLog:
     return synthesize_log(_ship(), program, seed=3)
 
 
-def test_straight_run_reports_unidentifiable_coefficients() -> None:
-    result = identify([_straight_log()], SEED)
-    weak = set(result.not_identifiable)
-    # Nothing excites the rudder and turning terms.
-    assert {"a4", "a6", "a7", "b2", "b3", "b4", "c3"} <= weak
-    assert any("not identifiable" in w and "c3" in w for w in result.warnings)
+def test_straight_run_alone_is_refused_naming_the_missing_manoeuvre() -> None:
+    # Nothing excites the rudder and turning terms: no coefficients to report, and the
+    # reason is the log, not a setting.
+    with pytest.raises(IdentificationError, match="no rudder excitation: nothing to identify"):
+        identify([_straight_log()], SEED)
 
 
-def test_diverging_filter_raises_with_log_and_sample() -> None:
-    log = _straight_log()
+def test_straight_run_beside_a_manoeuvre_reports_unidentifiable_coefficients(
+    log_files: list[Path],
+) -> None:
+    zigzag = read_log(log_files[1])
+    result = identify([_straight_log(), zigzag], SEED)
+    assert result.params.length_m == 100.0
+    assert any("not identifiable" in w for w in result.warnings)
+
+
+def test_diverging_filter_raises_with_log_and_sample(log_files: list[Path]) -> None:
+    log = read_log(log_files[1])
     with pytest.raises(IdentificationError, match=r"sample \d+: .*(diverged|exploded)") as info:
         identify([log], FitSettings(model="shi2009", param_random_walk=100.0))
     assert info.value.sample is not None and info.value.sample > 0
@@ -211,11 +219,11 @@ def test_cli_max_substep_accepts_inf_and_rejects_zero_negative_nan(capsys) -> No
             parse(bad)
         assert info.value.code == 2
         err = capsys.readouterr().err
-        assert f"--max-substep-s: expected a positive number or inf, got '{bad}'" in err
+        assert f"--max-substep-s: expected a number >= 0.001 s or inf, got '{bad}'" in err
     with pytest.raises(SystemExit) as info:
         parse("abc")
     assert info.value.code == 2
-    assert "expected a number or inf, got 'abc'" in capsys.readouterr().err
+    assert "expected a number >= 0.001 s or inf, got 'abc'" in capsys.readouterr().err
 
 
 def test_cli_fit_with_max_substep_inf_writes_params(

@@ -583,6 +583,116 @@ def test_ths_heading_and_invalid_readings(tmp_path: Path) -> None:
     np.testing.assert_allclose(heading, 10.0 + (log.time_s - 0.25), atol=1e-9)
 
 
+def test_an_rpm_beyond_the_floating_point_range_is_a_malformed_sentence(tmp_path: Path) -> None:
+    lines = _simple_nmea(20)
+    lines[4 * 5 + 3] = _sentence("IIRPM,S,0," + "9" * 400 + ".0,,A")  # float() gives inf
+    lines[4 * 6 + 3] = _sentence("IIRPM,S,0,7000.0,,A")  # beyond the FMU's ±6000 rpm
+    result = convert_nmea(_nmea_file(tmp_path, lines))
+    (log,) = result.logs
+    assert result.skipped_lines == 2  # counted and skipped like any malformed field
+    np.testing.assert_allclose(log.n_rps * 60.0, 60.0 + (log.time_s - 0.75), atol=1e-12)
+
+
+def _dated_nmea(
+    start: dt.datetime, n: int = 20, *, leap_at: int | None = None, zda_shift_days: int = 0
+) -> list[str]:
+    """A 1 Hz RMC recording from ``start``; ``leap_at``: that second is 23:59:60.
+
+    With ``zda_shift_days``, each fix is followed by a ZDA whose date is that many days
+    early (a GPS week-number rollover: 7168).
+    """
+    lines = []
+    for k in range(n):
+        stamp = start + dt.timedelta(seconds=k - (leap_at is not None and k > leap_at))
+        hhmmss = stamp.strftime("%H%M%S")
+        if k == leap_at:
+            stamp -= dt.timedelta(seconds=1)  # 23:59:60 belongs to the day it ends
+            hhmmss = "235960"
+        lat_text, _ = _dm(_track(k)[0], 2)
+        lon_text, _ = _dm(_track(k)[1], 3)
+        date = stamp.strftime("%d%m%y")
+        lines.append(_sentence(f"GPRMC,{hhmmss},A,{lat_text},N,{lon_text},E,9,30,{date},,"))
+        if zda_shift_days:
+            zda = stamp.date() - dt.timedelta(days=zda_shift_days)
+            lines.append(
+                _sentence(f"GPZDA,{hhmmss}.00,{zda.day:02d},{zda.month:02d},{zda.year},00,00")
+            )
+        lines += [
+            _sentence(f"HEHDT,{10.0 + k},T"),
+            _sentence(f"IIRSA,{k * 0.5},A,,"),
+            _sentence(f"IIRPM,S,0,{60 + k},,A"),
+        ]
+    return lines
+
+
+@pytest.mark.parametrize(
+    ("start", "leap_at", "origin"),
+    [
+        (dt.datetime(2016, 12, 31, 23, 59, 50), 10, "2016-12-31T23:59:50.000Z"),
+        (dt.datetime(2016, 12, 31, 23, 59, 59), 1, "2016-12-31T23:59:59.000Z"),
+    ],
+)
+def test_a_leap_second_is_one_second_after_23_59_59(
+    tmp_path: Path, start: dt.datetime, leap_at: int, origin: str
+) -> None:
+    result = convert_nmea(_nmea_file(tmp_path, _dated_nmea(start, leap_at=leap_at)))
+    (log,) = result.logs
+    np.testing.assert_array_equal(log.time_s, np.arange(20.0))  # no fix lost, none 1 s short
+    assert result.time_origin_utc == origin
+    assert any(note.startswith("leap second (23:59:60) on line ") for note in result.notes)
+
+
+def test_the_time_origin_after_a_leap_second_is_its_utc_time(tmp_path: Path) -> None:
+    # A ZDA at 23:59:59 and 23:59:60 dates the file; the fixes start after the leap second.
+    lines = [
+        _sentence("GPZDA,235959.00,31,12,2016,00,00"),
+        _sentence("GPZDA,235960.00,31,12,2016,00,00"),
+        *_dated_nmea(dt.datetime(2017, 1, 1, 0, 0, 1)),
+    ]
+    result = convert_nmea(_nmea_file(tmp_path, lines))
+    assert result.time_origin_utc == "2017-01-01T00:00:01.000Z"
+    np.testing.assert_array_equal(result.logs[0].time_s, np.arange(20.0))
+
+
+def test_a_second_of_60_outside_23_59_is_malformed(tmp_path: Path) -> None:
+    lines = _simple_nmea(20)
+    lines[4 * 5] = _sentence(lines[4 * 5][1:-3].replace("GPGGA,120005", "GPGGA,120060"))
+    result = convert_nmea(_nmea_file(tmp_path, lines))
+    assert result.skipped_lines == 1
+    assert 5.0 not in result.logs[0].time_s
+
+
+def test_rmc_dates_go_on_from_2099_into_2100(tmp_path: Path) -> None:
+    lines = _dated_nmea(dt.datetime(2099, 12, 31, 23, 59, 50))
+    result = convert_nmea(_nmea_file(tmp_path, lines))
+    (log,) = result.logs
+    np.testing.assert_array_equal(log.time_s, np.arange(20.0))
+    assert result.time_origin_utc == "2099-12-31T23:59:50.000Z"
+
+
+@pytest.mark.parametrize("rollovers", [1, 2])
+def test_zda_dates_off_by_gps_week_rollovers_yield_to_the_rmc_dates(
+    tmp_path: Path, rollovers: int
+) -> None:
+    start = dt.datetime(2024, 5, 17, 23, 59, 50)  # across midnight
+    lines = _dated_nmea(start, zda_shift_days=1024 * 7 * rollovers)
+    result = convert_nmea(_nmea_file(tmp_path, lines))
+    (log,) = result.logs
+    np.testing.assert_array_equal(log.time_s, np.arange(20.0))
+    assert result.time_origin_utc == "2024-05-17T23:59:50.000Z"
+    assert (
+        "ZDA dates off the RMC dates by a multiple of 1024 weeks (GPS week-number rollover), "
+        "corrected to the RMC dates: 20"
+    ) in result.notes
+
+
+def test_zda_dates_that_disagree_with_the_rmc_dates_otherwise_are_dropped(tmp_path: Path) -> None:
+    lines = _dated_nmea(dt.datetime(2024, 5, 17, 12, 0, 0), zda_shift_days=3)
+    result = convert_nmea(_nmea_file(tmp_path, lines))
+    np.testing.assert_array_equal(result.logs[0].time_s, np.arange(20.0))
+    assert "ZDA dates that disagree with the RMC dates (dropped): 20" in result.notes
+
+
 def _north_azimuth_deg_rad(log: ManeuverLog) -> np.ndarray:
     """North azimuth [rad] at a log's positions (inverse projection)."""
     plane = TangentPlane(ORIGIN_LAT, ORIGIN_LON)

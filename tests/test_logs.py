@@ -19,6 +19,7 @@ from fmu_model.atomic import write_atomic
 from trials.errors import IdentificationError, LogFormatError
 from trials.logs import (
     LOG_COLUMNS,
+    MAX_POSITION_M,
     MIN_SAMPLES,
     ManeuverLog,
     format_log,
@@ -812,7 +813,9 @@ def test_write_atomic_error_when_the_temporary_file_cannot_be_created() -> None:
 
 @st.composite
 def maneuver_logs(draw: st.DrawFn) -> ManeuverLog:
-    """Random valid logs: any finite positions, heading steps below π (survives unwrap)."""
+    """Random valid logs: any positions within the bounds, heading steps below π (survives
+    unwrap), no time step longer than the others together, rpm ahead.
+    """
     n = draw(st.integers(MIN_SAMPLES, 30))
 
     def floats(low: float, high: float, size: int) -> np.ndarray:
@@ -820,12 +823,16 @@ def maneuver_logs(draw: st.DrawFn) -> ManeuverLog:
         return np.array(draw(st.lists(element, min_size=size, max_size=size)))
 
     t0 = draw(st.floats(-1e6, 1e6))
-    time_s = t0 + np.concatenate([[0.0], np.cumsum(floats(1e-3, 100.0, n - 1))])
-    anything = st.floats(allow_nan=False, allow_infinity=False)
-    x_m, y_m = (np.array(draw(st.lists(anything, min_size=n, max_size=n))) for _ in "xy")
+    steps = floats(1e-3, 100.0, n - 1)
+    largest, second = np.argsort(steps)[[-1, -2]]
+    steps[largest] = steps[second]  # the largest step twice: none is longer than the rest
+    time_s = t0 + np.concatenate([[0.0], np.cumsum(steps)])
+    anywhere = st.floats(-MAX_POSITION_M, MAX_POSITION_M)
+    x_m, y_m = (np.array(draw(st.lists(anywhere, min_size=n, max_size=n))) for _ in "xy")
     heading_rad = draw(st.floats(-50.0, 50.0)) + np.cumsum(floats(-3.0, 3.0, n))
     keys = st.from_regex(r"\A[A-Za-z_][A-Za-z0-9_.\-]{0,12}\Z").filter(lambda k: k != "length_m")
-    values = st.text(st.characters(exclude_categories=("Cs", "Cc")), max_size=20).map(str.strip)
+    printable = st.characters(exclude_categories=("Cs", "Cc"), exclude_characters="\ufffe\uffff")
+    values = st.text(printable, max_size=20).map(str.strip)
     metadata = draw(st.dictionaries(keys, values, max_size=4))
     if draw(st.booleans()):
         metadata["length_m"] = repr(draw(st.floats(1.0, 500.0)))
@@ -835,7 +842,7 @@ def maneuver_logs(draw: st.DrawFn) -> ManeuverLog:
         y_m=y_m,
         heading_rad=heading_rad,
         rudder_rad=floats(-0.7, 0.7, n),
-        n_rps=floats(-5.0, 5.0, n),
+        n_rps=floats(0.0, 5.0, n),
         metadata=metadata,
     )
 

@@ -13,14 +13,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmu_model import ModelParameters
+from fmu_model import ModelParameters, get_model, save_params
 from fmu_model.export_native import build_native_fmu
 from scenarios.cli import PROG, main
-from scenarios.fmu_checks import read_fmu_info
+from scenarios.errors import ScenarioError
+from scenarios.fmu_checks import check_params_match, read_fmu_info
 from scenarios.fmu_plant import FmuPlant
 from scenarios.runs import reference_runs
 from scenarios.synthesize import maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
+from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
 from trials.logs import read_log
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import turning_metrics, zigzag_metrics
@@ -287,6 +289,26 @@ def test_validate_report_and_error_gate(fmu, tmp_path, capsys):
     assert json.loads((report / "validation.json").read_text())["gate"]["passed"] is True
 
 
+def test_quiet_validate_with_intervals_prints_nothing_on_stderr(fmu, params, tmp_path, capfd):
+    """The Monte Carlo's local cluster (two worker processes) starts and ends in silence.
+
+    Its teardown used to print distributed's heartbeat errors and a traceback about one
+    run in ten; every one of several runs must leave stderr empty (fd 2: the worker
+    processes write there too).
+    """
+    theta = params.to_vector()
+    uncertain = params.with_vector(theta, np.diag((0.01 * theta) ** 2))
+    save_params(tmp_path / "params.json", uncertain)
+    argv = ["validate", "--fmu", str(fmu), "--params", str(tmp_path / "params.json")]
+    argv += ["--dt-s", "1", "--uncertainty-samples", "4", "--uncertainty-dt-s", "2", "--quiet"]
+    capfd.readouterr()
+    for run in range(3):
+        assert main([*argv, "--report", str(tmp_path / f"report-{run}")]) == 0
+        captured = capfd.readouterr()
+        assert captured.err == "", f"run {run}: {captured.err}"
+        assert "95 % intervals: 4 Monte-Carlo samples" in captured.out
+
+
 # -------------------------------------------------------------------- bad input
 
 
@@ -314,6 +336,21 @@ def test_turn_that_never_reaches_90_degrees(fmu, capsys):
     assert main(["turning-circle", "--fmu", str(fmu), "--max-time-s", "20", "--quiet"]) == 1
     line = _one_line(capsys.readouterr().err)
     assert "turning-35-stbd" in line and "90 deg" in line
+
+
+@pytest.mark.parametrize(
+    "option",
+    [["--speed-mps", "2.2e-16"], ["--dt-s", "1e-300"], ["--max-time-s", "1e308"]],
+    ids=["creeping-approach", "tiny-step", "endless-limit"],
+)
+def test_runs_of_absurdly_many_steps_are_refused(fmu, tmp_path, capsys, option):
+    """60 L/U at 2.2e-16 m/s used to be a traceback from numpy (too large an array)."""
+    out = tmp_path / "turn.json"
+    assert main(["turning-circle", "--fmu", str(fmu), "--quiet", "--json", str(out), *option]) == 1
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith(f"{PROG} turning-circle: error: turning-35-stbd: ")
+    assert "steps, more than 1e+07; take a longer step or a shorter time limit" in line
+    assert not out.exists()
 
 
 def test_file_that_is_not_an_fmu(tmp_path, capsys):
@@ -377,3 +414,77 @@ def test_validate_help_shows_single_percent_signs(capsys):
     assert "%%" not in out
     assert "95 % intervals of the predicted quantities" in out
     assert "exceeds P % (overshoot angles" in out
+
+
+# ------------------------------------------------- params of another model structure
+
+# The family member the FMU is built from, and names of other members (or of none).
+PRIME_MODEL = "prime-rudder[k=0.00015,gamma=0.52,dgamma=0.12,l=-0.7,wake=0.35,dwake=0.25]"
+OTHER_MODELS = {
+    "another-shape": "prime-rudder[k=0.00015,gamma=0.52,dgamma=0.12,l=-0.7,wake=0.35,dwake=0]",
+    "partial-name": "prime-rudder[k=0.00015,gamma=0.52,dgamma=0.12,l=-0.7]",
+    "bare-family": "prime-rudder",
+    "duplicated-key": (
+        "prime-rudder[k=0.00015,gamma=0.52,dgamma=0.12,l=-0.7,wake=0.35,dwake=0.25,k=0.0004]"
+    ),
+}
+
+
+def _prime(model: str) -> ModelParameters:
+    """A 320 m tanker in ``model``, the same coefficients whatever the shape, 1 % std."""
+    theta = np.array(list(PRIME_COEFFICIENTS.values()))
+    return ModelParameters.from_vector(
+        model,
+        theta,
+        length_m=320.0,
+        vessel_name="tanker",
+        nominal_speed_mps=8.0,
+        nominal_n_rps=1.75,
+        covariance=np.diag((0.01 * theta) ** 2),
+    )
+
+
+@pytest.fixture(scope="session")
+def prime_fmu(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return build_native_fmu(_prime(PRIME_MODEL), tmp_path_factory.mktemp("prime") / "t.fmu")
+
+
+def test_the_fmu_names_its_structure_and_an_equal_one_in_other_words_matches(prime_fmu):
+    info = read_fmu_info(prime_fmu)
+    assert info.structure_name == get_model(PRIME_MODEL).name
+    # The same structure, its shape constants in another order: accepted.
+    check_params_match(info, _prime(PRIME_MODEL))
+    check_params_match(
+        info, _prime("prime-rudder[dwake=0.25,wake=0.35,l=-0.7,dgamma=0.12,gamma=0.52,k=1.5e-4]")
+    )
+
+
+@pytest.mark.parametrize("case", OTHER_MODELS)
+def test_validate_refuses_params_of_another_structure(case, prime_fmu, tmp_path, capsys):
+    """Same coefficient names and values, another shape: exit 1 naming both, nothing run."""
+    model = OTHER_MODELS[case]
+    theirs = get_model(model).name
+    params = tmp_path / "params.json"
+    save_params(params, _prime(model))
+    report = tmp_path / "report"
+    argv = ["validate", "--fmu", str(prime_fmu), "--params", str(params)]
+    argv += ["--report", str(report), "--uncertainty-samples", "2", "--quiet"]
+    assert main(argv) == 1
+    captured = capsys.readouterr()
+    line = _one_line(captured.err)
+    assert line.startswith(f"{PROG} validate: error: {params}: ")
+    assert (
+        f"their model structure is {theirs} but the FMU's is {get_model(PRIME_MODEL).name}" in line
+    )
+    assert captured.out == ""
+    assert not report.exists()
+    with pytest.raises(ScenarioError, match="model structure"):
+        check_params_match(read_fmu_info(prime_fmu), _prime(model))
+
+
+def test_params_of_an_unrelated_structure_are_refused_by_structure(prime_fmu):
+    with pytest.raises(ScenarioError) as excinfo:
+        check_params_match(read_fmu_info(prime_fmu), _params(), "p.json")
+    message = str(excinfo.value)
+    assert message.startswith("p.json: the parameters (shi2009, vessel 'testship') do not match")
+    assert message.endswith(f"their model structure is shi2009 but the FMU's is {PRIME_MODEL}")

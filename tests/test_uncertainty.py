@@ -13,10 +13,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import math
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
+import distributed
 import numpy as np
 import pytest
 from distributed import Client, LocalCluster
@@ -316,11 +319,68 @@ def test_scheduler_address(client: Client) -> None:
     np.testing.assert_allclose(via_address.programs[0].values, via_client.programs[0].values)
 
 
+# Loggers that spoke during a LocalCluster's teardown: the parent's and the workers'.
+TEARDOWN_LOGGERS = (
+    "distributed",
+    "distributed.worker",
+    "distributed.nanny",
+    "distributed.batched",
+    "distributed.core",
+    "distributed.client",
+    "distributed.scheduler",
+    "tornado.application",
+    "asyncio",
+)
+
+
+def _speaking(names: tuple[str, ...], level: int) -> list[str]:
+    return [name for name in names if logging.getLogger(name).isEnabledFor(level)]
+
+
+def test_own_local_cluster_is_silent_and_closes_quietly(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A --quiet run must not print distributed's shutdown noise (heartbeat errors).
+
+    The cluster silences its and its workers' logs (``silence_logs`` at CRITICAL: a
+    failed heartbeat is logged at ERROR), the client is closed before the cluster, and
+    both close with distributed's loggers silenced, which are put back afterwards.
+    """
+    events: list[tuple[str, list[str]]] = []
+    made: dict[str, Any] = {}
+
+    class RecordingCluster(LocalCluster):
+        def __init__(self, **kwargs: Any) -> None:
+            made.update(kwargs)
+            super().__init__(**kwargs)
+
+        def close(self, *args: Any, **kwargs: Any) -> Any:
+            events.append(("cluster", _speaking(TEARDOWN_LOGGERS, logging.CRITICAL)))
+            return super().close(*args, **kwargs)
+
+    class RecordingClient(Client):
+        def close(self, *args: Any, **kwargs: Any) -> Any:
+            if not any(what == "client" for what, _ in events):
+                events.append(("client", _speaking(TEARDOWN_LOGGERS, logging.CRITICAL)))
+            return super().close(*args, **kwargs)
+
+    monkeypatch.setattr(distributed, "LocalCluster", RecordingCluster)
+    monkeypatch.setattr(distributed, "Client", RecordingClient)
+    levels = {name: logging.getLogger(name).level for name in TEARDOWN_LOGGERS}
+    result = monte_carlo_metrics(
+        linear_ship(c3_std=0.05 * C3), [TURN], n_samples=2, seed=1, n_workers=1, processes=False
+    )
+    assert np.all(result.programs[0].status == STATUS_OK)
+    assert made["silence_logs"] >= logging.CRITICAL
+    assert [what for what, _ in events[:2]] == ["client", "cluster"]
+    assert all(speaking == [] for _, speaking in events), events
+    assert {name: logging.getLogger(name).level for name in TEARDOWN_LOGGERS} == levels
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
         ({"n_samples": 0}, "at least 1"),
         ({"dt_s": 0.0}, "dt_s"),
+        ({"dt_s": 1e-300}, r"turning-35-stbd: .* steps, more than 1e\+07"),
         ({"speed_mps": -1.0}, "approach speed"),
         ({"chunk_size": 0}, "chunk_size"),
         ({"scheduler": "tcp://x:1", "client": object()}, "either"),

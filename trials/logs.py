@@ -16,7 +16,8 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
   ``# key: value`` (key: a letter or ``_`` followed by letters, digits, ``_``, ``.``
   or ``-``) becomes ``metadata[key] = value`` with surrounding whitespace removed;
   other ``#`` lines are free comments and are ignored. A key may appear only once.
-  ``length_m``, if present, must be a positive finite number of metres.
+  ``length_m``, if present, must be a ship length from 0.1 to 1000 m (the FMU's
+  bounds), and ``vessel`` printable text (it becomes the FMU's name).
 - The header names the columns; ``time_s, x_m, y_m, heading_deg, rudder_deg, rpm``
   must all be present, in any order; other columns are ignored (their cells are
   not checked). Names are case-sensitive; whitespace around names is ignored.
@@ -28,7 +29,13 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
   is a plain decimal number (``12``, ``-0.5``, ``1.5e-3``; whitespace around it is
   ignored) and finite: ``nan``, ``inf``, empty cells, text and values that overflow
   (``1e999``) are rejected.
-- ``time_s`` increases strictly (irregular sampling is fine); at least
+- Plausibility bounds, so that no value overflows the arithmetic downstream:
+  ``|time_s|`` ≤ :data:`MAX_TIME_S`, ``|x_m|`` and ``|y_m|`` ≤ :data:`MAX_POSITION_M`,
+  ``|heading_deg|`` ≤ :data:`MAX_HEADING_DEG`, ``|rudder_deg|`` ≤
+  :data:`MAX_RUDDER_DEG`, and ``rpm`` from 0 to :data:`MAX_RPM` (astern, a negative
+  rpm, cannot be identified by these models).
+- ``time_s`` increases strictly (irregular sampling is fine), without a step longer
+  than the rest of the log together (two runs in one file: split it there); at least
   :data:`MIN_SAMPLES` rows.
 - Blank lines are allowed at the end only; ``#`` lines only before the header.
 - UTF-8 with or without a byte-order mark, LF or CRLF line endings. Anything that
@@ -57,11 +64,19 @@ import numpy as np
 import numpy.typing as npt
 
 from fmu_model.atomic import write_atomic
+from fmu_model.interface import MAX_LENGTH_M, MAX_PROPELLER_RPM, MIN_LENGTH_M
+from fmu_model.interface import MAX_POSITION_M as MAX_POSITION_M_FMU
+from fmu_model.params import text_problem
 from trials.errors import LogFormatError
 from trials.text_input import NUMBER, decode_utf8, read_bytes, show, split_fields
 
 __all__ = [
     "LOG_COLUMNS",
+    "MAX_HEADING_DEG",
+    "MAX_POSITION_M",
+    "MAX_RPM",
+    "MAX_RUDDER_DEG",
+    "MAX_TIME_S",
     "MIN_SAMPLES",
     "ManeuverLog",
     "format_log",
@@ -85,6 +100,21 @@ a log is informative enough; the identification judges that.
 LOG_COLUMNS: Final = ("time_s", "x_m", "y_m", "heading_deg", "rudder_deg", "rpm")
 """The required columns of a trial log, in the order :func:`format_log` writes them."""
 
+MAX_TIME_S: Final = 1.0e10
+"""Largest ``|time_s|`` [s]: about 317 years, so that Unix or GPS time in seconds fits,
+and milliseconds since 1970 (1.7e12) do not."""
+MAX_POSITION_M: Final = MAX_POSITION_M_FMU
+"""Largest ``|x_m|``, ``|y_m|`` [m]: 2.5 times the Earth's circumference (the FMU's bound
+of x0, y0), so that UTM northings fit."""
+MAX_HEADING_DEG: Final = 36000.0
+"""Largest ``|heading_deg|``: a continuous heading of up to 100 turns."""
+MAX_RUDDER_DEG: Final = 90.0
+"""Largest ``|rudder_deg|``: no rudder turns further."""
+MAX_RPM: Final = MAX_PROPELLER_RPM
+"""Largest ``rpm``, the FMU's input bound (100 rev/s: no ship propeller turns faster).
+The least is 0: the models have no astern-propeller terms, so astern running cannot be
+identified or validated."""
+
 _SEPARATOR: Final = ","
 _OTHER_SEPARATORS: Final = ((";", "';'"), ("\t", "a tab"), ("|", "'|'"))
 _METADATA_KEY: Final = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*", re.ASCII)
@@ -93,6 +123,28 @@ _MAX_SHOWN_HEADER_CHARS: Final = 160
 _SECONDS_PER_MINUTE: Final = 60.0
 _NMEA_HINT: Final = (
     " (an NMEA recording? convert it first: python -m identifier convert FILE -o DIR)"
+)
+
+# Plausibility bounds of the required columns: (least, largest, what the column holds).
+_BOUNDS: Final = {
+    "time_s": (-MAX_TIME_S, MAX_TIME_S, f"a time within ±{MAX_TIME_S:g} s"),
+    "x_m": (-MAX_POSITION_M, MAX_POSITION_M, f"a position within ±{MAX_POSITION_M:g} m"),
+    "y_m": (-MAX_POSITION_M, MAX_POSITION_M, f"a position within ±{MAX_POSITION_M:g} m"),
+    "heading_deg": (
+        -MAX_HEADING_DEG,
+        MAX_HEADING_DEG,
+        f"a heading within ±{MAX_HEADING_DEG:g} deg (100 turns)",
+    ),
+    "rudder_deg": (
+        -MAX_RUDDER_DEG,
+        MAX_RUDDER_DEG,
+        f"a rudder angle within ±{MAX_RUDDER_DEG:g} deg",
+    ),
+    "rpm": (0.0, MAX_RPM, f"a propeller speed from 0 to {MAX_RPM:g} rpm"),
+}
+_ASTERN_HINT: Final = (
+    " (astern: the models have no astern-propeller terms, so astern running cannot be "
+    "identified; cut it out of the log)"
 )
 
 _FloatArray = npt.NDArray[np.float64]
@@ -375,7 +427,11 @@ def _binary_hint(raw: bytes, path: str) -> str:
 
 
 def _parse_length_m(text: str, path: str | None, line: int | None) -> float:
-    """Return the ``length_m`` metadata value [m], or raise LogFormatError."""
+    """Return the ``length_m`` metadata value [m], or raise LogFormatError.
+
+    A ship length is within the FMU's bounds, :data:`~fmu_model.interface.MIN_LENGTH_M`
+    to :data:`~fmu_model.interface.MAX_LENGTH_M`.
+    """
     value = float(text) if NUMBER.fullmatch(text) else math.nan
     if not (math.isfinite(value) and value > 0.0):
         raise LogFormatError(
@@ -383,6 +439,14 @@ def _parse_length_m(text: str, path: str | None, line: int | None) -> float:
             path=path,
             line=line,
             expected="a positive finite number",
+        )
+    if not MIN_LENGTH_M <= value <= MAX_LENGTH_M:
+        what = f"a ship length from {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} m"
+        raise LogFormatError(
+            f"metadata 'length_m': expected {what}, got {show(text)}",
+            path=path,
+            line=line,
+            expected=what,
         )
     return value
 
@@ -461,6 +525,9 @@ class _Parser:
             )
         if key == "length_m":
             _parse_length_m(value, path=self.path, line=number)
+        problem = text_problem(value) if key == "vessel" else None
+        if problem is not None:  # the name of the FMU: XML and a C string
+            raise self.error(f"metadata 'vessel': {problem}", number, expected="printable text")
         self.metadata[key] = value
         self.metadata_lines[key] = number
 
@@ -559,8 +626,36 @@ class _Parser:
                     column=column,
                     expected="a finite number",
                 )
+            low, high, what = _BOUNDS[column]
+            if not low <= value <= high:
+                hint = _ASTERN_HINT if column == "rpm" and value < 0.0 else ""
+                raise self.error(
+                    f"expected {what}, got {show(cell)}{hint}",
+                    number,
+                    column=column,
+                    expected=what,
+                )
             values.append(value)
         self.row_lines.append(number)
+
+    def check_gap(self, time_s: _FloatArray, steps: _FloatArray) -> None:
+        """Reject a time step longer than the rest of the log together.
+
+        Such a gap is far longer than the manoeuvre: the log holds two runs (or a time
+        stamp is wrong), and no smoother or model bridges it.
+        """
+        k = int(np.argmax(steps))
+        gap = float(steps[k])
+        rest = float(time_s[-1] - time_s[0]) - gap
+        if gap > rest:
+            raise self.error(
+                f"expected no gap in time longer than the rest of the log ({rest:.6g} s), got "
+                f"{gap:.6g} s after {float(time_s[k])!r} s on line {self.row_lines[k]}: far "
+                "longer than the manoeuvre; split the log there",
+                self.row_lines[k + 1],
+                column="time_s",
+                expected="no gap longer than the rest of the log",
+            )
 
     def finish(self) -> ManeuverLog:
         """Check the whole-file rules and build the log."""
@@ -598,6 +693,7 @@ class _Parser:
                 column="time_s",
                 expected="strictly increasing time",
             )
+        self.check_gap(time_s, steps)
         return ManeuverLog(
             time_s=time_s,
             x_m=x_m,

@@ -7,6 +7,13 @@ the log files at the paths the client resolved (a shared file system). The clien
 writes all outputs (:mod:`identifier.batch.records`). A vessel's failure (unreadable
 log, diverging EKF, FMU compile error, even a crashed worker) is recorded and the
 other vessels go on.
+
+The worker processes of a LocalCluster end with the process that started them: on
+SIGTERM or SIGHUP it kills them (and whatever they started) before it ends
+(:func:`_children_end_with_us`), on SIGINT its KeyboardInterrupt closes the cluster;
+when it is killed outright (SIGKILL) each worker exits as soon as it notices
+(``distributed`` watches the parent from every worker process once the worker has
+imported its modules, within seconds).
 """
 
 from __future__ import annotations
@@ -14,9 +21,12 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import FrameType
 from typing import Any
 
 from fmu_model import DEFAULT_MODEL, model_names
@@ -34,9 +44,69 @@ from identifier.batch.task import VesselJob, describe_error, identify_vessel, sh
 __all__ = ["run_batch"]
 
 
+# Signals whose default action ends this process without a word to its children.
+_ENDING_SIGNALS = tuple(
+    getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+
+
+@contextlib.contextmanager
+def _children_end_with_us() -> Iterator[None]:
+    """Inside, SIGTERM and SIGHUP kill the child processes started inside, then this one.
+
+    Left to their default action, these signals end this process at once, and a worker
+    process still importing its modules outlives it by as long as that takes (it only
+    then starts watching its parent), seconds on a busy machine. The handler kills every
+    descendant process started since entering (the worker processes, the resource
+    tracker, a worker's compiler) and then ends this process by the same signal, as the
+    default action would. A signal someone else handles (or ignores) is left alone, and
+    so is everything when not called from the main thread (only it may set signal
+    handlers). SIGINT is left to Python: its KeyboardInterrupt closes the cluster on
+    the way out (during the cluster's start, distributed's exit handler does).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    import psutil
+
+    me = psutil.Process()
+    before = {child.pid for child in me.children(recursive=True)}
+    ours = [signum for signum in _ENDING_SIGNALS if signal.getsignal(signum) == signal.SIG_DFL]
+
+    def end(signum: int, frame: FrameType | None) -> None:
+        for other in ours:  # a second signal must not interrupt the clean-up
+            signal.signal(other, signal.SIG_IGN)
+        children = []
+        with contextlib.suppress(psutil.Error):
+            children = me.children(recursive=True)
+        # SIGKILL: the multiprocessing resource tracker ignores SIGTERM, and nothing a
+        # worker holds needs a clean exit (the client writes every output). No waiting
+        # before this process ends: other threads must not have time to start anything
+        # new (e.g. relaunch the resource tracker).
+        for child in children:
+            if child.pid not in before:
+                with contextlib.suppress(psutil.Error):
+                    child.kill()
+        signal.signal(signum, signal.SIG_DFL)
+        signal.raise_signal(signum)
+
+    for signum in ours:
+        signal.signal(signum, end)
+    try:
+        yield
+    finally:
+        for signum in ours:
+            if signal.getsignal(signum) is end:
+                signal.signal(signum, signal.SIG_DFL)
+
+
 @contextlib.contextmanager
 def _client(scheduler: str | None, n_workers: int) -> Iterator[Any]:
-    """Yield a ``distributed.Client`` on ``scheduler`` or on a new LocalCluster of processes."""
+    """Yield a ``distributed.Client`` on ``scheduler`` or on a new LocalCluster of processes.
+
+    The worker processes of a LocalCluster end with this process
+    (:func:`_children_end_with_us`).
+    """
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
@@ -44,6 +114,7 @@ def _client(scheduler: str | None, n_workers: int) -> Iterator[Any]:
             yield client
         return
     with (
+        _children_end_with_us(),
         LocalCluster(
             n_workers=n_workers,
             threads_per_worker=1,

@@ -12,8 +12,16 @@ from pathlib import Path
 from typing import Any
 
 from fmu_model import argtypes
+from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
+from fmu_model.params import text_problem
 from identifier.cli.common import error, os_error_text
-from identifier.ingest import DEFAULT_MAX_GAP_S, convert_file, output_paths
+from identifier.ingest import (
+    DEFAULT_MAX_GAP_S,
+    MAX_RATE_HZ,
+    MIN_RATE_HZ,
+    convert_file,
+    output_paths,
+)
 from trials.errors import LogFormatError
 from trials.logs import MIN_SAMPLES, write_log
 
@@ -23,6 +31,9 @@ __all__ = ["add_parser", "run"]
 def _vessel(text: str) -> str:
     if not text.strip() or text != text.strip() or any(c in text for c in "\r\n\0"):
         raise argparse.ArgumentTypeError(f"expected a one-line name, got {text!r}")
+    problem = text_problem(text)
+    if problem is not None:  # an escape sequence, a tab, a lone surrogate from bad bytes
+        raise argparse.ArgumentTypeError(f"{problem}, got {text!r}")
     return text
 
 
@@ -61,7 +72,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--format", choices=("auto", "nmea", "csv"), default="auto", help="default: from content"
     )
     convert.add_argument("--vessel", type=_vessel, help="written as '# vessel:'")
-    convert.add_argument("--length-m", type=argtypes.positive, help="ship length [m]")
+    convert.add_argument(
+        "--length-m",
+        type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
+        help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g}",
+    )
     convert.add_argument(
         "--rudder-positive",
         choices=("starboard", "port"),
@@ -75,7 +90,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="CSV 'heading' column unit (default deg; heading_deg/heading_rad: from the name)",
     )
     convert.add_argument(
-        "--rate-hz", type=argtypes.positive, help="resample at this rate [Hz] (default: fix times)"
+        "--rate-hz",
+        type=argtypes.within(MIN_RATE_HZ, MAX_RATE_HZ, "Hz"),
+        help="resample at this rate [Hz] (default: fix times)",
     )
     convert.add_argument(
         "--max-gap-s",

@@ -15,6 +15,7 @@ from typing import Any
 
 from fmu_model import DEFAULT_MODEL, argtypes, model_names
 from fmu_model.atomic import write_atomic
+from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
 from identifier.crossval import KINDS, format_table, run_cross_validation
 from identifier.identify import FitSettings
@@ -54,7 +55,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     cv.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     cv.add_argument("--refine", action="store_true", help="output-error refinement after the EKF")
     cv.add_argument(
-        "--length-m", type=argtypes.positive, help="ship length [m] (default: from logs)"
+        "--length-m",
+        type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
+        help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} (default: from logs)",
     )
     cv.add_argument("--json", metavar="OUT", help="write the results as JSON")
     cv.add_argument("--quiet", action="store_true", help="no table on stdout")

@@ -10,8 +10,18 @@ from typing import Any
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
+from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
-from identifier.identify import FitSettings, IdentificationResult, identify
+from identifier.identify import (
+    ALPHA_RANGE,
+    HEADING_NOISE_RANGE_DEG,
+    MAX_SUBSTEP_RANGE_S,
+    PARAM_RANDOM_WALK_RANGE,
+    POSITION_NOISE_RANGE_M,
+    FitSettings,
+    IdentificationResult,
+    identify,
+)
 from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]
@@ -24,7 +34,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     fit.add_argument("-o", "--output", required=True, metavar="params.json")
     fit.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     fit.add_argument(
-        "--length-m", type=argtypes.positive, help="ship length [m] (default: from logs)"
+        "--length-m",
+        type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
+        help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} (default: from logs)",
     )
     fit.add_argument(
         "--initial",
@@ -32,7 +44,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         default="equation-error",
         help="EKF start: least-squares fit (default) or the paper's zero start with P0 = alpha I",
     )
-    fit.add_argument("--alpha", type=argtypes.positive, default=1.0, help="alpha of --initial zero")
+    fit.add_argument(
+        "--alpha",
+        type=argtypes.within(*ALPHA_RANGE),
+        default=1.0,
+        help="alpha of --initial zero, {:g} to {:g} (default 1)".format(*ALPHA_RANGE),
+    )
     fit.add_argument(
         "--measurements",
         choices=("track", "velocities"),
@@ -41,14 +58,32 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     fit.add_argument(
         "--max-substep-s",
-        type=argtypes.positive_or_inf,
+        type=argtypes.within(*MAX_SUBSTEP_RANGE_S, "s"),
         default=0.1,
-        help="largest Euler substep of the EKF [s] (inf: one step per sample, the paper)",
+        help=f"largest Euler substep of the EKF [s], at least {MAX_SUBSTEP_RANGE_S[0]:g} "
+        "(inf: one step per sample, the paper; default 0.1)",
     )
-    fit.add_argument("--param-random-walk", type=float, default=1e-4, metavar="RHO")
-    fit.add_argument("--position-noise-m", type=argtypes.positive, help="logger position noise [m]")
     fit.add_argument(
-        "--heading-noise-deg", type=argtypes.positive, help="logger heading noise [deg]"
+        "--param-random-walk",
+        type=argtypes.within(*PARAM_RANDOM_WALK_RANGE),
+        default=1e-4,
+        metavar="RHO",
+        help="relative random walk of the coefficients per step, {:g} to {:g} "
+        "(default 1e-4)".format(*PARAM_RANDOM_WALK_RANGE),
+    )
+    fit.add_argument(
+        "--position-noise-m",
+        type=argtypes.within(*POSITION_NOISE_RANGE_M, "m"),
+        help="logger position noise [m], {:g} to {:g} (default: from the logs)".format(
+            *POSITION_NOISE_RANGE_M
+        ),
+    )
+    fit.add_argument(
+        "--heading-noise-deg",
+        type=argtypes.within(*HEADING_NOISE_RANGE_DEG, "deg"),
+        help="logger heading noise [deg], {:g} to {:g} (default: from the logs)".format(
+            *HEADING_NOISE_RANGE_DEG
+        ),
     )
     fit.add_argument("--plot", metavar="DIR", help="write track, velocity, convergence PNGs")
     fit.add_argument("--quiet", action="store_true", help="no progress bar, no summary")

@@ -66,10 +66,17 @@ from identifier.ingest.convert import (
     output_paths,
 )
 from identifier.ingest.geodesy import TangentPlane
-from identifier.ingest.recording import DEFAULT_MAX_GAP_S, ConversionResult
+from identifier.ingest.recording import (
+    DEFAULT_MAX_GAP_S,
+    MAX_RATE_HZ,
+    MIN_RATE_HZ,
+    ConversionResult,
+)
 
 __all__ = [
     "DEFAULT_MAX_GAP_S",
+    "MAX_RATE_HZ",
+    "MIN_RATE_HZ",
     "ConversionResult",
     "TangentPlane",
     "convert_file",

@@ -52,6 +52,7 @@ from identifier.ingest.recording import (
     Recording,
 )
 from trials.errors import LogFormatError
+from trials.logs import MAX_HEADING_DEG, MAX_RPM, MAX_RUDDER_DEG, MAX_TIME_S
 from trials.text_input import NUMBER, decode_utf8, show, split_fields
 
 __all__ = ["LAT_COLUMNS", "LON_COLUMNS", "read_latlon_csv"]
@@ -66,8 +67,8 @@ _HEADING_COLUMNS: Final = ("heading_deg", "heading_rad", "heading")
 _RUDDER_COLUMNS: Final = ("rudder_deg", "rudder_rad")
 _RPM_COLUMNS: Final = ("rpm",)
 
-_MAX_HEADING_RAD: Final = math.radians(36000.0)  # a continuous heading of up to 100 turns
-_MAX_RUDDER_RAD: Final = math.pi / 2.0
+_MAX_HEADING_RAD: Final = math.radians(MAX_HEADING_DEG)  # the trial log's bounds
+_MAX_RUDDER_RAD: Final = math.radians(MAX_RUDDER_DEG)
 
 
 @dataclass(frozen=True)
@@ -231,7 +232,7 @@ class _CsvReader:
                 self.first_iso = stamp
             time = (stamp - self.first_iso).total_seconds()
         else:
-            value = self.number(fields, columns.time, number)
+            value = self.number(fields, columns.time, number, -MAX_TIME_S, MAX_TIME_S)
             if value is None:
                 raise self.error(
                     "expected a time, got an empty field",
@@ -269,7 +270,7 @@ class _CsvReader:
             ("lon", lon, 1.0),
             (HEADING, heading, columns.heading_scale),
             (RUDDER, rudder, self.rudder_sign * columns.rudder_scale),
-            (RPM, self.number(fields, columns.rpm, number), 1.0 / SECONDS_PER_MINUTE),
+            (RPM, self.number(fields, columns.rpm, number, 0.0, MAX_RPM), 1.0 / SECONDS_PER_MINUTE),
         )
         for name, sample, scale in samples:
             if sample is not None:

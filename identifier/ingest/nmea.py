@@ -25,11 +25,11 @@ RPM   source ``S`` (shaft), shaft number, speed [rpm], status      status ``A``
   :attr:`~identifier.ingest.ConversionResult.checksum_failures`. A sentence without
   a checksum is skipped (a line cut short would otherwise give a wrong number) unless
   ``require_checksum=False``. Lines that are not NMEA sentences, sentences with a
-  malformed field (``4807.0x8``, a minute of 61, a heading of 400 deg, ...) and
-  non-ASCII lines are skipped and counted in
-  :attr:`~identifier.ingest.ConversionResult.skipped_lines`. Neither is fatal. Other
-  sentence types (GSV, VTG, AIS ``!`` lines, proprietary ``$P...`` sentences) are
-  ignored and only counted in the notes.
+  malformed field (``4807.0x8``, a minute of 61, a heading of 400 deg, a propeller
+  speed beyond ±6000 rpm or the floating-point range, ...) and non-ASCII lines are
+  skipped and counted in :attr:`~identifier.ingest.ConversionResult.skipped_lines`.
+  Neither is fatal. Other sentence types (GSV, VTG, AIS ``!`` lines, proprietary
+  ``$P...`` sentences) are ignored and only counted in the notes.
 - **Time.** GGA, RMC and ZDA carry the UTC time of day; RMC and ZDA also the date.
   A GGA time takes its day from the time-stamped sentence before it (at the start
   of the file: after it), the day that puts it within 12 hours of that one; so a
@@ -44,6 +44,16 @@ RPM   source ``S`` (shaft), shaft number, speed [rpm], status      status ``A``
   time (the GGA and RMC of one fix) or a few wrong ones (a clock step, a bad time
   with a valid checksum) cost only those sentences (noted), not the rest of the
   file.
+- **Dates.** An RMC date has a two-digit year: its century is the one nearest to the
+  previous date in the file (RMC, else ZDA), so that a recording goes on from 2099 into
+  2100; the first without a previous date is in 2000-2099. Where RMC dates are present
+  they win: a ZDA date off the nearest RMC date by a multiple of 1024 weeks (a GPS
+  week-number rollover, 19.6 years) is corrected by it, one off by another amount of
+  more than a day is dropped (both noted).
+- **Leap seconds.** 23:59:60 (only then may the seconds reach 60) is the second after
+  23:59:59, and the times count elapsed seconds: from there on one more than the
+  difference of the UTC clock times (noted); ``time_origin_utc`` stays the UTC time of
+  the first fix.
 - **Several sources.** When fixes come from several talkers (e.g. ``GP`` and
   ``GN``), or heading, rudder or RPM from several talkers or sentence types, the one
   with the most valid samples is used and the others are noted. RPM: shaft
@@ -63,12 +73,13 @@ import math
 import re
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Final
 
 import numpy as np
 import pynmea2
 
+from fmu_model.interface import MAX_PROPELLER_RPM
 from identifier.ingest.recording import (
     HEADING,
     RPM,
@@ -82,6 +93,7 @@ from trials.errors import LogFormatError
 __all__ = ["read_nmea"]
 
 _SECONDS_PER_DAY: Final = 86400.0
+_GPS_ROLLOVER_DAYS: Final = 1024 * 7  # GPS week numbers count modulo 1024
 _HALF_DAY_S: Final = 43200.0
 
 _DECIMAL: Final = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)", re.ASCII)
@@ -123,9 +135,11 @@ def _time_of_day(text: str) -> float:
     if match is None:
         raise _MalformedError
     hours, minutes, seconds = int(match[1]), int(match[2]), float(match[3])
-    if hours > 23 or minutes > 59 or seconds >= 61.0:  # 60.x: leap second
+    if hours > 23 or minutes > 59 or seconds >= 61.0:
         raise _MalformedError
-    return hours * 3600.0 + minutes * 60.0 + seconds
+    if seconds >= 60.0 and (hours, minutes) != (23, 59):  # a leap second ends a UTC day
+        raise _MalformedError
+    return hours * 3600.0 + minutes * 60.0 + seconds  # 23:59:60.x: 86400 + x
 
 
 def _degrees_minutes(text: str, hemisphere: str, pattern: re.Pattern[str], limit: float) -> float:
@@ -156,21 +170,34 @@ def _decimal(text: str, low: float = -math.inf, high: float = math.inf) -> float
     """Read a plain decimal number within [low, high]."""
     if _DECIMAL.fullmatch(text) is None:
         raise _MalformedError
-    value = float(text)
-    if not low <= value <= high:
+    value = float(text)  # inf for a number beyond the floating-point range
+    if not (math.isfinite(value) and low <= value <= high):
         raise _MalformedError
     return value
 
 
-def _rmc_date(text: str) -> dt.date | None:
-    """``ddmmyy`` → date (years 2000-2099); empty → None."""
+def _rmc_date(text: str, near: dt.date | None) -> dt.date | None:
+    """``ddmmyy`` → date; empty → None.
+
+    The century is the one that puts the year nearest to ``near`` (the previous date of
+    the file), so that a recording across 31 Dec 2099 goes on into 2100; without a
+    previous date, the years 2000-2099.
+    """
     if not text:
         return None
     match = _DATE.fullmatch(text)
     if match is None:
         raise _MalformedError
+    two_digits = int(match[3])
+    year = 2000 + two_digits
+    if near is not None:
+        century = near.year // 100 * 100
+        year = min(
+            (century + offset + two_digits for offset in (-100, 0, 100)),
+            key=lambda candidate: abs(candidate - near.year),
+        )
     try:
-        return dt.date(2000 + int(match[3]), int(match[2]), int(match[1]))
+        return dt.date(year, int(match[2]), int(match[1]))
     except ValueError:
         raise _MalformedError from None
 
@@ -196,6 +223,8 @@ class _NmeaReader:
         self.tally: Counter[str] = Counter()  # invalid readings, missing checksums, ...
         self.other: Counter[str] = Counter()  # ignored sentence types
         self.timed: list[_Timed] = []
+        self.last_date: dt.date | None = None  # of the last RMC (or ZDA) with a date
+        self.last_rmc_date: dt.date | None = None
         self.samples: dict[str, list[_Sample]] = {HEADING: [], RUDDER: [], RPM: []}
 
     def feed(self, number: int, raw: bytes) -> None:
@@ -297,7 +326,9 @@ class _NmeaReader:
         time_of_day = _time_of_day(time_text)
         if status not in ("A", "V"):
             raise _MalformedError
-        date = _rmc_date(get("datestamp", 8))
+        date = _rmc_date(get("datestamp", 8), self.last_rmc_date or self.last_date)
+        if date is not None:
+            self.last_date = self.last_rmc_date = date
         valid = status == "A" and get("mode_indicator", 11) != "N"
         fix = None
         if valid:
@@ -313,6 +344,7 @@ class _NmeaReader:
         """Read ``$--ZDA,hhmmss.ss,dd,mm,yyyy,zh,zm``."""
         time_of_day = _time_of_day(get("timestamp", 0))
         date = _zda_date(get("day", 1), get("month", 2), get("year", 3))
+        self.last_date = date
         self.timed.append(_Timed(number, talker, "ZDA", time_of_day, date, None))
 
     def hdt(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
@@ -350,7 +382,7 @@ class _NmeaReader:
         source, shaft, status = get("source", 0), get("engine_no", 1), get("status", 4)
         if source not in ("S", "E") or not shaft.isdigit() or status not in ("A", "V"):
             raise _MalformedError
-        speed = _decimal(get("speed", 2))
+        speed = _decimal(get("speed", 2), -MAX_PROPELLER_RPM, MAX_PROPELLER_RPM)
         if status != "A":
             self.tally["RPM sentences with status V (ignored)"] += 1
         elif source == "E":
@@ -412,8 +444,10 @@ def read_nmea(
             expected="valid GGA or RMC position fixes",
         )
     talker = _most_common(fixes_by_talker, "position fixes", notes)
-    timed = [r for r in reader.timed if r.talker == talker or r.kind == "ZDA"]
-    times, epoch = _resolve_times(timed, notes)
+    timed = _prefer_rmc_dates(
+        [r for r in reader.timed if r.talker == talker or r.kind == "ZDA"], notes
+    )
+    times, epoch, leaps = _resolve_times(timed, notes)
 
     # Time stamps must increase. A few wrong ones (a receiver's clock step, a bad time
     # with a valid checksum) must not discard the rest of the file, so the longest
@@ -439,6 +473,10 @@ def read_nmea(
             f"{len(timed) - len(anchors)}"
         )
 
+    if epoch is not None and leaps:
+        # Times count elapsed seconds; a leap second before the first fix would put its
+        # clock time (epoch + time, where datetime has no leap seconds) 1 s late.
+        epoch -= dt.timedelta(seconds=sum(leap <= fix_t[0] for leap in leaps))
     lines = np.array(anchor_lines, dtype=np.float64)
     clock = np.array(anchor_times, dtype=np.float64)
     streams: dict[str, tuple[FloatArray, FloatArray]] = {}
@@ -516,12 +554,62 @@ def _choose_samples(
     return [s for s in samples if s.source == source]
 
 
-def _resolve_times(timed: list[_Timed], notes: list[str]) -> tuple[list[float], dt.datetime | None]:
+def _prefer_rmc_dates(timed: list[_Timed], notes: list[str]) -> list[_Timed]:
+    """Check the ZDA dates against the RMC dates beside them; the RMC dates win.
+
+    A receiver whose week number has rolled over (GPS counts weeks modulo 1024) puts its
+    ZDA date 1024 weeks (19.6 years) early, or a multiple of that, while its RMC date is
+    right (or the other way round in older firmware). A ZDA date that differs from the
+    nearest RMC date (in line order) by a multiple of 1024 weeks, within a day (around
+    midnight the two sentences may straddle it), is corrected by that multiple; one that
+    differs otherwise by more than a day is dropped. Both are noted.
+    """
+    rmc_lines = [i for i, r in enumerate(timed) if r.kind == "RMC" and r.date is not None]
+    if not rmc_lines:
+        return timed
+    kept: list[_Timed] = []
+    corrected = dropped = 0
+    for i, record in enumerate(timed):
+        if record.kind != "ZDA" or record.date is None:
+            kept.append(record)
+            continue
+        k = bisect.bisect_left(rmc_lines, i)
+        nearest = min(rmc_lines[max(k - 1, 0) : k + 1], key=lambda j: abs(j - i))
+        rmc_date = timed[nearest].date
+        assert rmc_date is not None  # by the choice of rmc_lines
+        days = (rmc_date - record.date).days
+        rollovers = round(days / _GPS_ROLLOVER_DAYS)
+        if abs(days - rollovers * _GPS_ROLLOVER_DAYS) > 1:
+            dropped += 1
+        elif rollovers:
+            corrected += 1
+            shift = dt.timedelta(days=rollovers * _GPS_ROLLOVER_DAYS)
+            kept.append(replace(record, date=record.date + shift))
+        else:
+            kept.append(record)
+    if corrected:
+        notes.append(
+            "ZDA dates off the RMC dates by a multiple of 1024 weeks (GPS week-number "
+            f"rollover), corrected to the RMC dates: {corrected}"
+        )
+    if dropped:
+        notes.append(f"ZDA dates that disagree with the RMC dates (dropped): {dropped}")
+    return kept
+
+
+def _resolve_times(
+    timed: list[_Timed], notes: list[str]
+) -> tuple[list[float], dt.datetime | None, list[float]]:
     """Seconds after midnight of the first date in the file, for every timed record.
 
     Records with a date use it; the others take the day that puts them within 12 h
     of the neighbouring record (the previous one, or the next for those before the
     first dated record), which unwraps midnight rollovers.
+
+    A leap second, 23:59:60, is the second after 23:59:59: the times count elapsed
+    seconds, so every later time is one second more than the difference of the clock
+    times (noted). Also returned: the times at which the leap seconds ended (midnight
+    after them, on the returned scale).
     """
     dates = [record.date for record in timed if record.date is not None]
     reference = dates[0] if dates else None
@@ -544,10 +632,38 @@ def _resolve_times(timed: list[_Timed], notes: list[str]) -> tuple[list[float], 
         later = times[i + 1]
         assert later is not None  # filled from ``first`` downwards
         times[i] = _nearest_day(timed[i].time_of_day_s, later)
+    resolved = [float(time) for time in times if time is not None]
+    # Midnights that follow a leap second (23:59:60 on the clock, 86400 s of its day).
+    boundaries = sorted(
+        {
+            time - (record.time_of_day_s - _SECONDS_PER_DAY)
+            for time, record in zip(resolved, timed, strict=True)
+            if record.time_of_day_s >= _SECONDS_PER_DAY
+        }
+    )
+    if boundaries:
+        # A time at or after a boundary is one second later per leap second before it;
+        # a leap second itself only after the earlier ones.
+        leap = [record.time_of_day_s >= _SECONDS_PER_DAY for record in timed]
+        resolved = [
+            time
+            + (
+                bisect.bisect_left(boundaries, time - (record.time_of_day_s - _SECONDS_PER_DAY))
+                if is_leap
+                else bisect.bisect_right(boundaries, time)
+            )
+            for time, record, is_leap in zip(resolved, timed, leap, strict=True)
+        ]
+        first = leap.index(True)
+        notes.append(
+            f"leap second (23:59:60) on line {timed[first].line}: later times count elapsed "
+            "seconds, one more than the difference of the UTC clock times"
+        )
     epoch = None
     if reference is not None:
         epoch = dt.datetime.combine(reference, dt.time(), tzinfo=dt.UTC)
-    return [float(time) for time in times if time is not None], epoch
+    leaps = [b + k + 1 for k, b in enumerate(boundaries)]  # on the shifted scale
+    return resolved, epoch, leaps
 
 
 def _increasing(values: Sequence[float]) -> list[int]:

@@ -16,12 +16,16 @@ from typing import Final, Literal
 import numpy as np
 import numpy.typing as npt
 
+from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
+from fmu_model.params import text_problem
 from trials.logs import ManeuverLog
 
 __all__ = [
     "DEFAULT_MAX_GAP_S",
     "FIXES",
     "HEADING",
+    "MAX_RATE_HZ",
+    "MIN_RATE_HZ",
     "RPM",
     "RUDDER",
     "SECONDS_PER_MINUTE",
@@ -39,6 +43,10 @@ HeadingUnit = Literal["deg", "rad"]
 InputFormat = Literal["auto", "nmea", "csv"]
 
 DEFAULT_MAX_GAP_S: Final = 5.0
+MIN_RATE_HZ: Final = 0.01
+MAX_RATE_HZ: Final = 100.0
+"""Resampling rates accepted [Hz]: manoeuvring dynamics need no more than a few Hz, and
+100 Hz over the longest input is already tens of millions of rows."""
 """Longest time without a sample of a stream that is bridged by interpolation [s]."""
 
 FloatArray = npt.NDArray[np.float64]
@@ -136,8 +144,10 @@ class Options:
             raise ValueError(
                 f"rudder_positive must be 'starboard' or 'port', got {rudder_positive!r}"
             )
-        if rate_hz is not None and not (math.isfinite(rate_hz) and rate_hz > 0.0):
-            raise ValueError(f"rate_hz must be a positive number, got {rate_hz!r}")
+        if rate_hz is not None and not MIN_RATE_HZ <= rate_hz <= MAX_RATE_HZ:
+            raise ValueError(
+                f"rate_hz must be from {MIN_RATE_HZ:g} to {MAX_RATE_HZ:g} Hz, got {rate_hz!r}"
+            )
         if not (math.isfinite(max_gap_s) and max_gap_s > 0.0):
             raise ValueError(f"max_gap_s must be a positive number of seconds, got {max_gap_s!r}")
         if isinstance(min_samples, bool) or not isinstance(min_samples, int) or min_samples < 2:
@@ -146,8 +156,14 @@ class Options:
             any(c in vessel for c in "\r\n\0") or not vessel.strip() or vessel != vessel.strip()
         ):
             raise ValueError(f"vessel must be one non-empty line without padding, got {vessel!r}")
-        if length_m is not None and not (math.isfinite(length_m) and length_m > 0.0):
-            raise ValueError(f"length_m must be a positive number of metres, got {length_m!r}")
+        problem = None if vessel is None else text_problem(vessel)
+        if problem is not None:
+            raise ValueError(f"vessel {problem}, got {vessel!r}")
+        if length_m is not None and not MIN_LENGTH_M <= length_m <= MAX_LENGTH_M:
+            raise ValueError(
+                f"length_m must be a ship length from {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} m, "
+                f"got {length_m!r}"
+            )
         return cls(
             rudder_positive,
             None if rate_hz is None else float(rate_hz),

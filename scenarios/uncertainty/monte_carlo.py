@@ -11,6 +11,7 @@ is :func:`scenarios.uncertainty.sampling.draw_coefficients`, the records
 from __future__ import annotations
 
 import itertools
+import logging
 import math
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -21,6 +22,7 @@ import numpy as np
 
 from fmu_model import ModelParameters
 from scenarios.errors import UncertaintyError
+from scenarios.runs import too_many_steps
 from scenarios.uncertainty.results import (
     METRICS,
     STATUS_DIVERGED,
@@ -122,15 +124,60 @@ def _simulate_chunk(theta: np.ndarray, setup: _Setup) -> list[tuple[np.ndarray, 
 # --------------------------------------------------------------------------------------
 
 
+# Loggers that report a local cluster's teardown: lost comms, failed heartbeats, late
+# tasks (distributed's own, and those of the event loops under it).
+_TEARDOWN_LOGGERS = ("distributed", "tornado", "asyncio", "bokeh")
+
+
+class _QuietTeardown:
+    """Silence :data:`_TEARDOWN_LOGGERS` from :meth:`start` until the context exits.
+
+    A LocalCluster's shutdown races its workers' heartbeats and open comms, and what
+    distributed logs about that (errors with tracebacks) is noise to a caller that
+    already has its results. Every logger of those trees with a level of its own is
+    raised above CRITICAL and put back on exit.
+    """
+
+    def __init__(self) -> None:
+        self._saved: dict[logging.Logger, int] = {}
+
+    def start(self) -> None:
+        """Silence the loggers (idempotent)."""
+        if self._saved:
+            return
+        names = [
+            name
+            for name in logging.root.manager.loggerDict
+            if name.split(".")[0] in _TEARDOWN_LOGGERS
+        ]
+        for name in {*_TEARDOWN_LOGGERS, *names}:
+            logger = logging.getLogger(name)
+            if name in _TEARDOWN_LOGGERS or logger.level != logging.NOTSET:
+                self._saved[logger] = logger.level
+                logger.setLevel(logging.CRITICAL + 1)
+
+    def __enter__(self) -> _QuietTeardown:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        for logger, level in self._saved.items():
+            logger.setLevel(level)
+        self._saved.clear()
+
+
 @contextmanager
 def _dask_client(
     scheduler: str | None, client: Client | None, n_workers: int, processes: bool
 ) -> Iterator[Client]:
-    """Yield ``client``, a client of ``scheduler``, or one of a new ``LocalCluster``."""
+    """Yield ``client``, a client of ``scheduler``, or one of a new ``LocalCluster``.
+
+    A LocalCluster logs nothing (``silence_logs``: its own and its workers' loggers
+    at CRITICAL), and its teardown (the client closed first, then the cluster) runs
+    with distributed's loggers silenced (:class:`_QuietTeardown`).
+    """
     if client is not None:
         yield client
         return
-    import logging
 
     from distributed import Client, LocalCluster
 
@@ -139,17 +186,21 @@ def _dask_client(
             yield remote
         return
     with (
+        _QuietTeardown() as quiet,
         LocalCluster(
             n_workers=n_workers,
             threads_per_worker=1,
             processes=processes,
             dashboard_address=None,  # no dashboard; its HTTP server on a free port:
             scheduler_kwargs={"dashboard_address": ":0"},
-            silence_logs=logging.ERROR,
+            silence_logs=logging.CRITICAL,
         ) as cluster,
-        Client(cluster) as local,
+        Client(cluster) as local,  # closed before the cluster
     ):
-        yield local
+        try:
+            yield local
+        finally:
+            quiet.start()  # until the cluster is closed
 
 
 def monte_carlo_metrics(
@@ -220,7 +271,8 @@ def monte_carlo_metrics(
     ------
     UncertaintyError
         No usable covariance, no approach speed, an unsupported program kind,
-        duplicate program names, or invalid settings.
+        duplicate program names, a program of more than ``scenarios.runs.MAX_STEPS``
+        steps, or invalid settings.
 
     """
     if scheduler is not None and client is not None:
@@ -253,6 +305,10 @@ def monte_carlo_metrics(
     names = [p.name for p in chosen]
     if len(set(names)) != len(names):
         raise UncertaintyError(f"program names must be unique, got {names}")
+    for program in chosen:
+        problem = too_many_steps(program, dt_s)
+        if problem is not None:
+            raise UncertaintyError(problem)
 
     samples, jitter = draw_coefficients(params, n_samples, seed)
     setup = _Setup(
