@@ -34,8 +34,8 @@ import numpy as np
 import psutil
 import pytest
 from hypothesis import HealthCheck, event, given, settings
-from hypothesis.control import currently_in_test_context
 from hypothesis import strategies as st
+from hypothesis.control import currently_in_test_context
 
 import build_fmu
 from fmu_model import ModelParameters
