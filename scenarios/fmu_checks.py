@@ -19,31 +19,12 @@ from typing import TYPE_CHECKING
 
 from fmu_model import get_model
 from scenarios.errors import ScenarioError
-from scenarios.fmu_plant import FmuPlant
+from scenarios.fmu_plant import REQUIRED_VARIABLES, FmuPlant
 
 if TYPE_CHECKING:
     from fmu_model import ModelParameters
 
 __all__ = ["FmuInfo", "check_params_match", "check_rudder", "open_fmu", "read_fmu_info"]
-
-# Variables an FMU must have to be driven by scenarios.fmu_plant.FmuPlant.
-_REQUIRED_VARIABLES = (
-    "rudder_angle",
-    "propeller_rpm",
-    "u",
-    "v",
-    "r",
-    "x",
-    "y",
-    "psi",
-    "length",
-    "u0",
-    "v0",
-    "r0",
-    "x0",
-    "y0",
-    "psi0",
-)
 
 
 @dataclass(frozen=True)
@@ -140,7 +121,7 @@ def read_fmu_info(path: str | os.PathLike[str]) -> FmuInfo:
     except Exception as exc:  # fmpy raises plain Exception for invalid files
         raise ScenarioError(f"{name}: not a readable FMU ({exc})") from None
     variables = {v.name: v for v in md.modelVariables}
-    missing = [k for k in _REQUIRED_VARIABLES if k not in variables]
+    missing = [k for k in REQUIRED_VARIABLES if k not in variables]
     if missing:
         raise ScenarioError(
             f"{name}: not a ship FMU of this project's interface; missing {', '.join(missing)}"

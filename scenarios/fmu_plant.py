@@ -11,6 +11,15 @@ import numpy as np
 
 from trials.run import SingleShip
 
+INPUTS = ("rudder_angle", "propeller_rpm")
+"""Input variables the plant sets every step (rudder [rad], propeller speed [rpm])."""
+OUTPUTS = ("u", "v", "r", "x", "y", "psi")
+"""Output variables it reads back: the 6-state in ``fmu_model``'s order."""
+INITIAL_STATE = ("u0", "v0", "r0", "x0", "y0", "psi0")
+"""Parameters it sets before initialisation."""
+REQUIRED_VARIABLES = (*INPUTS, *OUTPUTS, "length", *INITIAL_STATE)
+"""Every variable an FMU must have to be driven by :class:`FmuPlant`."""
+
 
 class FmuPlant(SingleShip):
     """An FMU with this project's interface, through fmpy's ``FMU2Slave``.
@@ -42,15 +51,14 @@ class FmuPlant(SingleShip):
         self._instantiated = True
         self._initialised = False
         self._time = 0.0
-        self._outputs = [self._vr[k] for k in ("u", "v", "r", "x", "y", "psi")]
-        self._inputs = [self._vr["rudder_angle"], self._vr["propeller_rpm"]]
+        self._outputs = [self._vr[k] for k in OUTPUTS]
+        self._inputs = [self._vr[k] for k in INPUTS]
 
     def reset(self, initial_state: np.ndarray) -> None:
         """Reset the FMU and initialise it at ``initial_state``."""
         if self._initialised:
             self._slave.reset()
-        names = ("u0", "v0", "r0", "x0", "y0", "psi0")
-        self._slave.setReal([self._vr[k] for k in names], [float(s) for s in initial_state])
+        self._slave.setReal([self._vr[k] for k in INITIAL_STATE], [float(s) for s in initial_state])
         self._slave.setupExperiment(startTime=0.0)
         self._slave.enterInitializationMode()
         self._slave.exitInitializationMode()

@@ -14,6 +14,7 @@ the next communication step (≤ 0.5 % on overshoots at 0.1 s full scale, refere
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -44,15 +45,19 @@ class Plant(Protocol):
         ...
 
 
-class SingleShip:
+class SingleShip(ABC):
     """Base of a plant of one ship: implement ``reset`` and ``step``; this adds the batch API."""
 
     length_m: float
     n_ships = 1
 
+    @abstractmethod
+    def reset(self, initial_state: np.ndarray) -> None:
+        """Start again from ``initial_state`` (6,)."""
+
+    @abstractmethod
     def step(self, rudder_rad: float, n_rps: float, dt_s: float) -> np.ndarray:
         """Advance ``dt_s`` with the inputs held; return the new state (6,)."""
-        raise NotImplementedError
 
     def step_ships(
         self, ships: np.ndarray, rudder_rad: np.ndarray, n_rps: np.ndarray, dt_s: float
