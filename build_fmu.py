@@ -1,8 +1,11 @@
-"""Build an FMI 2.0 co-simulation FMU from params.json (DESIGN.md, command-line contract).
+"""Build an FMU from params.json (DESIGN.md, command-line contract).
 
     python build_fmu.py [--params params.json] [-o build/NAME.fmu]
-                        [--backend native|pythonfmu] [--max-step-s S]
+                        [--backend native|pythonfmu] [--fmi-version 2|3]
+                        [--kind cs|me|both] [--max-step-s S]
 
+The native backend builds FMI 2.0 (default) or 3.0, co-simulation, model exchange or
+both in one FMU (default); the pythonfmu backend builds FMI 2.0 co-simulation only.
 Prints the path of the FMU written. Exit status 0 on success, 1 on a data or build
 error (one line on stderr, nothing written), 2 on a usage error. The native backend
 compiles with ``$CC`` when it is set.
@@ -20,11 +23,13 @@ from fmu_model.errors import FmuBuildError
 from fmu_model.params import ParamsFormatError, load_params
 
 DEFAULT_PARAMS = Path("build") / "params.json"
+# --kind: the kinds of FMU in one file.
+_KINDS = {"cs": ("cs",), "me": ("me",), "both": ("cs", "me")}
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="build_fmu.py", description="Build an FMI 2.0 co-simulation FMU from params.json."
+        prog="build_fmu.py", description="Build an FMU from params.json."
     )
     parser.add_argument(
         "--params",
@@ -40,6 +45,19 @@ def _parser() -> argparse.ArgumentParser:
         choices=("native", "pythonfmu"),
         default="native",
         help="native C (default) or pythonfmu",
+    )
+    parser.add_argument(
+        "--fmi-version",
+        choices=("2", "3"),
+        default="2",
+        help="FMI 2.0 (default) or FMI 3.0 (native backend only)",
+    )
+    parser.add_argument(
+        "--kind",
+        choices=tuple(_KINDS),
+        default=None,
+        help="co-simulation, model exchange or both in one FMU (default: both for the "
+        "native backend, cs for pythonfmu, which has no model exchange)",
     )
     parser.add_argument(
         "--max-step-s",
@@ -60,14 +78,24 @@ def _fail(message: str) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.backend == "pythonfmu" and (args.fmi_version != "2" or args.kind not in (None, "cs")):
+        parser.error("the pythonfmu backend builds FMI 2.0 co-simulation only")
     try:
         params = load_params(args.params)
         if args.backend == "native":
             from fmu_model.export_native import build_native_fmu, model_identifier
 
             output = args.output or Path("build") / f"{model_identifier(params.vessel_name)}.fmu"
-            written = build_native_fmu(params, output, max_step_s=args.max_step_s)
+            kinds = _KINDS[args.kind or "both"]
+            written = build_native_fmu(
+                params,
+                output,
+                max_step_s=args.max_step_s,
+                fmi_version=args.fmi_version,
+                kinds=kinds,
+            )
         else:
             from fmu_model.export_native import model_identifier
             from fmu_model.export_pythonfmu import build_pythonfmu_fmu

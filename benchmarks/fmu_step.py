@@ -1,16 +1,18 @@
-"""Cost of one fmi2DoStep and of a 1-hour manoeuvre, per FMU backend.
+"""Cost of one co-simulation step and of a 1-hour manoeuvre, per FMU backend and kind.
 
     python benchmarks/fmu_step.py [--params build/params.json] [--steps 20000]
 
 For every backend in :func:`backends` (a list of (label, FMU path); adding a backend is
-one line there) it reports
+one line there: native C FMI 2.0, native C FMI 3.0, pythonfmu) it reports
 
-* µs per step in an fmpy loop (setReal inputs, doStep, getReal outputs, h = 0.1 s),
-* µs per step in the C host ``tests/c_host/host.c`` (same loop without Python; a
-  pythonfmu FMU runs there with libpython preloaded, :func:`python_host_environment`),
-* seconds for a 1-hour run at 0.1 s with ``fmpy.simulate_fmu``,
+* µs per step in an fmpy loop (set inputs, DoStep, get outputs, h = 0.1 s),
+* µs per step in the C host ``tests/c_host/host.c`` (FMI 2.0 only; same loop without
+  Python; a pythonfmu FMU runs there with libpython preloaded,
+  :func:`python_host_environment`),
+* seconds for a 1-hour run at 0.1 s with ``fmpy.simulate_fmu`` in co-simulation, and,
+  for an FMU with model exchange, with fmpy's CVode (relative tolerance 1e-6),
 
-and the fmpy-loop cost of every backend relative to the first one (native C).
+and the fmpy-loop cost of every backend relative to the first one (native C, FMI 2.0).
 
 Without ``--params`` (or when the file does not exist) a built-in demo ship is used.
 """
@@ -31,6 +33,7 @@ from pathlib import Path
 import numpy as np
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi3 import FMU3Slave
 
 from fmu_model import ModelParameters, load_params
 from fmu_model.export_native import build_native_fmu, fmi_headers_dir
@@ -67,6 +70,7 @@ def backends(params: ModelParameters, workdir: Path) -> list[tuple[str, Path]]:
     """(label, FMU path) of every backend to compare; one line per backend."""
     return [
         ("native C", build_native_fmu(params, workdir / "native" / "ship.fmu")),
+        ("native FMI3", build_native_fmu(params, workdir / "fmi3" / "ship.fmu", fmi_version="3")),
         ("pythonfmu", build_pythonfmu_fmu(params, workdir / "pythonfmu" / "ship.fmu")),
     ]
 
@@ -76,22 +80,27 @@ def fmpy_loop_us(fmu_path: Path, steps: int) -> float:
     unzipped = extract(fmu_path)
     try:
         md = read_model_description(unzipped)
-        fmu = FMU2Slave(
-            guid=md.guid,
-            unzipDirectory=unzipped,
-            modelIdentifier=md.coSimulation.modelIdentifier,
-            instanceName="bench",
-        )
-        fmu.instantiate()
-        fmu.setupExperiment(startTime=0.0)
-        fmu.enterInitializationMode()
-        fmu.exitInitializationMode()
+        identifier = md.coSimulation.modelIdentifier
         rudder = np.radians(20.0) * np.sin(2.0 * np.pi * np.arange(steps) * STEP_S / 200.0)
+        if md.fmiVersion == "2.0":
+            fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=identifier)
+            fmu.instantiate()
+            fmu.setupExperiment(startTime=0.0)
+            fmu.enterInitializationMode()
+            set_values, get_values = fmu.setReal, fmu.getReal
+        else:
+            fmu = FMU3Slave(
+                guid=md.instantiationToken, unzipDirectory=unzipped, modelIdentifier=identifier
+            )
+            fmu.instantiate()
+            fmu.enterInitializationMode(startTime=0.0)
+            set_values, get_values = fmu.setFloat64, fmu.getFloat64
+        fmu.exitInitializationMode()
         start = time.perf_counter()
         for k in range(steps):
-            fmu.setReal(VR_INPUTS, [float(rudder[k]), 120.0])
+            set_values(VR_INPUTS, [float(rudder[k]), 120.0])
             fmu.doStep(k * STEP_S, STEP_S)
-            fmu.getReal(VR_OUTPUTS)
+            get_values(VR_OUTPUTS)
         elapsed = time.perf_counter() - start
         fmu.terminate()
         fmu.freeInstance()
@@ -119,7 +128,7 @@ def host_us(host: Path | None, fmu_path: Path, steps: int, workdir: Path) -> flo
     md = read_model_description(unzipped)
     identifier = md.coSimulation.modelIdentifier
     libraries = list((unzipped / "binaries").glob(f"*/{identifier}.*"))
-    if not libraries:
+    if not libraries or md.fmiVersion != "2.0":  # the C host speaks FMI 2.0
         return None
     result = subprocess.run(
         [str(host), str(libraries[0]), str(steps), "--bench"],
@@ -147,15 +156,24 @@ def python_host_environment() -> dict[str, str]:
     return {**os.environ, "LD_PRELOAD": str(libpython), "PYTHONPATH": os.pathsep.join(paths)}
 
 
-def hour_s(fmu_path: Path) -> float:
-    """Seconds for a 1-hour turning run at 0.1 s with fmpy.simulate_fmu."""
+def hour_s(fmu_path: Path, fmi_type: str = "CoSimulation") -> float | None:
+    """Seconds for a 1-hour turning run, output every 0.1 s, with fmpy.simulate_fmu.
+
+    Co-simulation steps at 0.1 s; model exchange integrates with CVode (relative
+    tolerance 1e-6). None when the FMU has no such kind.
+    """
+    md = read_model_description(str(fmu_path))
+    if (md.modelExchange if fmi_type == "ModelExchange" else md.coSimulation) is None:
+        return None
+    options = {"solver": "CVode", "relative_tolerance": 1e-6} if fmi_type == "ModelExchange" else {}
     start = time.perf_counter()
     simulate_fmu(
         str(fmu_path),
+        fmi_type=fmi_type,
         stop_time=HOUR_S,
-        step_size=STEP_S,
         output_interval=STEP_S,
         start_values={"rudder_angle": np.radians(10.0)},
+        **options,
     )
     return time.perf_counter() - start
 
@@ -173,29 +191,39 @@ def main() -> int:
         rows = []
         for label, path in backends(params, workdir):
             in_host = host_us(host, path, 10 * args.steps, workdir)
-            rows.append((label, fmpy_loop_us(path, args.steps), in_host, hour_s(path)))
+            cs_hour, me_hour = hour_s(path), hour_s(path, "ModelExchange")
+            assert cs_hour is not None  # every backend has co-simulation
+            rows.append((label, fmpy_loop_us(path, args.steps), in_host, cs_hour, me_hour))
     base_label, base_us = rows[0][0], rows[0][1]
     print(
         f"{'backend':<12} {'fmpy µs/step':>13} {f'x {base_label}':>12} {'C host µs/step':>15} "
-        f"{'1 h simulate_fmu s':>19}"
+        f"{'1 h CS s':>9} {'1 h ME CVode s':>15}"
     )
-    for label, fmpy_us, c_us, hour in rows:
+    for label, fmpy_us, c_us, cs_hour, me_hour in rows:
         c_text = "n/a" if c_us is None else f"{c_us:.3f}"
-        print(f"{label:<12} {fmpy_us:>13.2f} {fmpy_us / base_us:>12.1f} {c_text:>15} {hour:>19.2f}")
+        me_text = "n/a" if me_hour is None else f"{me_hour:.2f}"
+        print(
+            f"{label:<12} {fmpy_us:>13.2f} {fmpy_us / base_us:>12.2f} {c_text:>15} "
+            f"{cs_hour:>9.2f} {me_text:>15}"
+        )
     print(
         "fmpy loop, µs per doStep: "
-        + ", ".join(f"{label} {fmpy_us:.2f}" for label, fmpy_us, _, _ in rows)
-        + "".join(f"; {label}/{base_label} = {us / base_us:.1f}" for label, us, _, _ in rows[1:])
+        + ", ".join(f"{row[0]} {row[1]:.2f}" for row in rows)
+        + "".join(f"; {row[0]}/{base_label} = {row[1] / base_us:.2f}" for row in rows[1:])
+    )
+    print(
+        "1 h manoeuvre, model exchange (CVode) / co-simulation: "
+        + ", ".join(f"{row[0]} {me / row[3]:.2f}" for row in rows if (me := row[4]) is not None)
     )
     base_host = rows[0][2]
     if base_host is not None:
         print(
             "C host, µs per doStep: "
-            + ", ".join(f"{label} {c_us:.3f}" for label, _, c_us, _ in rows if c_us is not None)
+            + ", ".join(f"{row[0]} {row[2]:.3f}" for row in rows if row[2] is not None)
             + "".join(
-                f"; {label}/{base_label} = {c_us / base_host:.0f}"
-                for label, _, c_us, _ in rows[1:]
-                if c_us is not None
+                f"; {row[0]}/{base_label} = {row[2] / base_host:.0f}"
+                for row in rows[1:]
+                if row[2] is not None
             )
         )
     return 0

@@ -1,16 +1,23 @@
-"""C source of a model structure, generated from its symbolic definition.
+"""Source code of a model structure's equations, generated from its symbolic definition.
 
 The native FMU is one hand-written, reviewed FMI layer (``fmu_model/c/``) over a small
 generated model part, after the Modelica Reference-FMUs pattern (``config.h`` +
-``model.c``). This module emits that model part: the coefficient names and the
-right-hand side ``model_rhs`` of the 6-state (u, v, r, x, y, ψ), with common
-subexpressions shared (``sympy.cse``) and C99 ``math.h`` calls (``sympy.ccode``).
-Nothing of the equations is typed twice.
+``model.c``); the pythonfmu FMU is a thin slave over generated numpy-free Python. This
+module emits both model parts from the same sympy expressions: the right-hand side of
+the 6-state (u, v, r, x, y, ψ) and its exact Jacobians with respect to the state and the
+two inputs (rudder angle [rad], propeller speed [rev/s]), which the FMUs' directional
+derivatives are made of. Common subexpressions are shared (``sympy.cse``); C uses C99
+``math.h`` calls (``sympy.ccode``), Python the ``math`` module. Nothing of the equations
+is typed twice.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
 
 from fmu_model.structure import INPUT_SYMBOLS, KINEMATICS, STATE_SYMBOLS, L, ModelStructure
 
@@ -18,17 +25,26 @@ RHS_SIGNATURE = (
     "static void model_rhs(const double *theta, double length, const double *x,"
     " double rudder, double n_rps, double *dx)"
 )
+JACOBIAN_SIGNATURE = (
+    "static void model_jacobian(const double *theta, double length, const double *x,"
+    " double rudder, double n_rps, double *dfdx, double *dfdu)"
+)
+# Arguments of the generated Python functions (after the output arrays' names).
+_PY_ARGUMENTS = "theta, length, x, rudder, n_rps"
 
 
-def generate_model_c(structure: ModelStructure) -> str:
-    """Return the C translation unit of ``structure``'s equations.
+@dataclass(frozen=True)
+class _Equations:
+    """The structure's equations in the generated code's argument names."""
 
-    The file defines ``MODEL_STRUCTURE_NAME``, ``MODEL_N_COEFFICIENTS``,
-    ``MODEL_COEFFICIENT_NAMES`` and ``model_rhs`` with the signature
-    :data:`RHS_SIGNATURE`: ``theta`` the coefficients in structure order, ``length`` [m],
-    ``x`` the state (u, v, r, x, y, ψ), ``rudder`` [rad], ``n_rps`` [rev/s], ``dx`` the
-    derivative (out).
-    """
+    rhs: list[sp.Expr]  # d/dt (u, v, r, x, y, psi)
+    dfdx: list[sp.Expr]  # row-major 6 x 6: d rhs_i / d x_j
+    dfdu: list[sp.Expr]  # row-major 6 x 2: d rhs_i / d (rudder, n_rps)
+
+
+def _equations(structure: ModelStructure) -> _Equations:
+    """Differentiate the equations, then rename the symbols to the code's arguments."""
+    exprs = [*structure.accelerations(), *KINEMATICS]
     theta = sp.IndexedBase("theta", shape=(structure.n_coefficients,))
     state = sp.IndexedBase("x", shape=(len(STATE_SYMBOLS),))
     subs: dict[sp.Symbol, sp.Expr] = {
@@ -39,10 +55,49 @@ def generate_model_c(structure: ModelStructure) -> str:
     subs.update(
         {rudder_sym: sp.Symbol("rudder"), n_sym: sp.Symbol("n_rps"), L: sp.Symbol("length")}
     )
-    exprs = [e.subs(subs, simultaneous=True) for e in (*structure.accelerations(), *KINEMATICS)]
-    temporaries, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("t"))
 
+    def rename(items: list[sp.Expr]) -> list[sp.Expr]:
+        return [e.subs(subs, simultaneous=True) for e in items]
+
+    return _Equations(
+        rhs=rename(exprs),
+        dfdx=rename([sp.diff(e, s) for e in exprs for s in STATE_SYMBOLS]),
+        dfdu=rename([sp.diff(e, s) for e in exprs for s in INPUT_SYMBOLS]),
+    )
+
+
+def _body(
+    outputs: list[tuple[str, list[sp.Expr]]],
+    print_expr: Callable[[sp.Expr], str],
+    temporary: str,
+    assignment: str,
+) -> list[str]:
+    """Statements computing every ``name[i] = expr`` of ``outputs`` with shared CSE."""
+    flat = [e for _, exprs in outputs for e in exprs]
+    temporaries, reduced = sp.cse(flat, symbols=sp.numbered_symbols("t"))
+    lines = [temporary.format(sym, print_expr(expr)) for sym, expr in temporaries]
+    position = 0
+    for name, exprs in outputs:
+        for i in range(len(exprs)):
+            lines.append(assignment.format(name, i, print_expr(reduced[position])))
+            position += 1
+    return lines
+
+
+def generate_model_c(structure: ModelStructure) -> str:
+    """Return the C translation unit of ``structure``'s equations.
+
+    The file defines ``MODEL_STRUCTURE_NAME``, ``MODEL_N_COEFFICIENTS``,
+    ``MODEL_COEFFICIENT_NAMES``, ``model_rhs`` with the signature :data:`RHS_SIGNATURE`
+    (``theta`` the coefficients in structure order, ``length`` [m], ``x`` the state
+    (u, v, r, x, y, ψ), ``rudder`` [rad], ``n_rps`` [rev/s], ``dx`` the derivative, out)
+    and ``model_jacobian`` with :data:`JACOBIAN_SIGNATURE` (same inputs; out ``dfdx``
+    6 × 6 and ``dfdu`` 6 × 2 row-major, the partial derivatives of ``dx`` with respect
+    to the state and to (rudder, n_rps)).
+    """
+    eq = _equations(structure)
     names = ", ".join(f'"{name}"' for name in structure.coefficient_names)
+    unused = "    (void)theta; (void)length; (void)x; (void)rudder; (void)n_rps;"
     lines = [
         f"/* Generated by fmu_model.codegen from model '{structure.name}'. Do not edit. */",
         f"/* {structure.description} */",
@@ -56,9 +111,65 @@ def generate_model_c(structure: ModelStructure) -> str:
         "/* d/dt (u, v, r, x, y, psi): accelerations of the structure, then kinematics. */",
         RHS_SIGNATURE,
         "{",
-        "    (void)length; (void)rudder; (void)n_rps; (void)theta;",
+        unused,
+        *_body([("dx", eq.rhs)], sp.ccode, "    const double {} = {};", "    {}[{}] = {};"),
+        "}",
+        "",
+        "/* The exact partial derivatives of model_rhs (row i: dx[i]): dfdx[6 * i + j] with",
+        "   respect to x[j], dfdu[2 * i + k] with respect to (rudder [rad], n_rps [rev/s])[k]. */",
+        JACOBIAN_SIGNATURE,
+        "{",
+        unused,
+        *_body(
+            [("dfdx", eq.dfdx), ("dfdu", eq.dfdu)],
+            sp.ccode,
+            "    const double {} = {};",
+            "    {}[{}] = {};",
+        ),
+        "}",
+        "",
     ]
-    lines += [f"    const double {sym} = {sp.ccode(expr)};" for sym, expr in temporaries]
-    lines += [f"    dx[{i}] = {sp.ccode(expr)};" for i, expr in enumerate(reduced)]
-    lines += ["}", ""]
+    return "\n".join(lines)
+
+
+def generate_model_py(structure: ModelStructure) -> str:
+    """Return a Python module of ``structure``'s equations that imports only ``math``.
+
+    The module the pythonfmu FMU evaluates (so that its host needs neither sympy nor
+    this package's symbolic part): ``STRUCTURE_NAME``, ``COEFFICIENT_NAMES``, and
+    ``rhs(dx, theta, length, x, rudder, n_rps)`` and
+    ``jacobian(dfdx, dfdu, theta, length, x, rudder, n_rps)``, the twins of the C
+    functions of :func:`generate_model_c` (same arguments and units; the outputs are
+    filled in place, item by item, so any mutable sequence of floats works).
+    """
+    eq = _equations(structure)
+    printer = PythonCodePrinter({"fully_qualified_modules": True})
+    names = ", ".join(repr(name) for name in structure.coefficient_names)
+    lines = [
+        f'"""Equations of model {structure.name!r}, generated by fmu_model.codegen. Do not edit.',
+        "",
+        f"{structure.description}. Equations: {structure.reference}.",
+        '"""',
+        "",
+        "import math",
+        "",
+        f"STRUCTURE_NAME = {structure.name!r}",
+        f"COEFFICIENT_NAMES = ({names},)",
+        "",
+        "",
+        f"def rhs(dx, {_PY_ARGUMENTS}):",
+        '    """Fill dx with d/dt (u, v, r, x, y, psi)."""',
+        *_body([("dx", eq.rhs)], printer.doprint, "    {} = {}", "    {}[{}] = {}"),
+        "",
+        "",
+        f"def jacobian(dfdx, dfdu, {_PY_ARGUMENTS}):",
+        '    """Fill dfdx (6 x 6) and dfdu (6 x 2, rudder and n_rps) row-major."""',
+        *_body(
+            [("dfdx", eq.dfdx), ("dfdu", eq.dfdu)],
+            printer.doprint,
+            "    {} = {}",
+            "    {}[{}] = {}",
+        ),
+        "",
+    ]
     return "\n".join(lines)

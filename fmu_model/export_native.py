@@ -1,26 +1,26 @@
-"""Native FMI 2.0 co-simulation FMU: the shared C layer over a generated model part.
+"""Native FMU (FMI 2.0 or 3.0, co-simulation and/or model exchange) from one model part.
 
-The FMU is the hand-written FMI layer ``fmu_model/c/fmi2_cosimulation.c`` (with its
-contract ``ship_fmu.h``) compiled together with two generated headers:
+The FMU is the hand-written FMI layer of ``fmu_model/c/`` - one file per FMI API
+version (``fmi2_functions.c``, ``fmi3_functions.c``), each including the shared helpers
+``ship_common.c`` and the contract ``ship_fmu.h`` - compiled together with two
+generated headers (after the Reference-FMUs layout: FMI layer, ``config.h``, ``model.c``):
 
-* ``model_equations.h`` - the right-hand side from :func:`fmu_model.codegen.generate_model_c`;
+* ``model_equations.h`` - the right-hand side and its exact Jacobians from
+  :func:`fmu_model.codegen.generate_model_c`;
 * ``model_config.h`` - GUID, value-reference layout, the variable table (start, min,
   max, causality) from :func:`fmu_model.interface.fmu_variables`, and the rules and
-  messages of :mod:`fmu_model.interface` (divergence, largest step, least start speed,
+  messages of :mod:`fmu_model.fmi_rules` (divergence, step, least start speed,
   restored states).
 
-All four files go into the FMU's ``sources/`` (``fmi2_cosimulation.c`` is the one file
-listed in ``<SourceFiles>``; the FMI headers come from the importing tool, e.g. fmpy), so
-``fmpy compile`` rebuilds the binary for another platform.
+The FMI API file, ``ship_common.c``, ``ship_fmu.h`` and the two headers go into the
+FMU's ``sources/`` (the API file is the one file to compile: ``<SourceFiles>`` in FMI
+2.0, ``sources/buildDescription.xml`` in FMI 3.0; the FMI headers come from the
+importing tool, e.g. fmpy), so ``fmpy compile`` rebuilds the binary for another platform.
+One binary serves every kind the model description declares.
 
-Behaviour of the FMU (details in the header comment of ``fmi2_cosimulation.c``): the
-state u, v, r, x, y, ψ follows the parameters u0 ... ψ0 until
-``fmi2ExitInitializationMode`` and then evolves by ``fmi2DoStep`` with RK4 in
-``n_substeps(h, max_step)`` equal steps, inputs held (as ``fmu_model.simulate``).
-Non-finite or out-of-range values (set or in a restored FMU state), fixed parameters set
-after initialisation, bad step sizes, a start below the model's least speed and
-unsupported calls give ``fmi2Error`` and leave the instance unchanged; a diverging state
-and a status the FMU cannot give give ``fmi2Discard``. Messages go to the logger callback.
+Behaviour of the FMU: see the header comment of ``ship_common.c``; the statuses are
+those of FMI 2.0 and 3.0 alike (error: nothing changed; discard: a diverged state or a
+status the FMU cannot give; never fatal). Messages go to the logger callback.
 """
 
 from __future__ import annotations
@@ -41,7 +41,8 @@ from pathlib import Path
 from fmu_model.atomic import write_atomic
 from fmu_model.codegen import generate_model_c
 from fmu_model.errors import FmuBuildError
-from fmu_model.interface import (
+from fmu_model.fmi_rules import (
+    DIVERGED_STATE_FORMAT,
     DIVERGENCE_FORMAT,
     MAX_SPEED_MPS,
     MAX_SUBSTEPS,
@@ -49,17 +50,22 @@ from fmu_model.interface import (
     START_SPEED_FORMAT,
     STATE_NONFINITE_FORMAT,
     STATE_RANGE_FORMAT,
+    STEP_SIZE_FORMAT,
+    STEP_TIME_FORMAT,
+    STEP_TIME_TOLERANCE,
     SUBSTEP_LIMIT_FORMAT,
     TIME_STALL_FORMAT,
     FmuVariable,
-    fmu_variables,
-    min_start_speed_mps,
     model_identifier,
 )
+from fmu_model.interface import derivative_name, fmu_variables, min_start_speed_mps
 from fmu_model.model_description import (
     GUID_PLACEHOLDER,
+    KINDS,
+    build_description_xml,
     content_guid,
     generation_time,
+    model_description_fmi3_xml,
     model_description_xml,
     osp_model_description_xml,
 )
@@ -68,7 +74,8 @@ from fmu_model.structure import STATE_NAMES, ModelStructure
 
 __all__ = [
     "C_DIR",
-    "LAYER_SOURCE",
+    "FMI_VERSIONS",
+    "KINDS",
     "NativeFmuText",
     "build_native_fmu",
     "fmi_headers_dir",
@@ -79,14 +86,22 @@ __all__ = [
 ]
 
 C_DIR = Path(__file__).with_name("c")
-LAYER_SOURCE = "fmi2_cosimulation.c"
+# The FMI versions the native layer implements, and the file of each (the one to compile).
+FMI_VERSIONS = ("2", "3")
+LAYER_SOURCES = {"2": "fmi2_functions.c", "3": "fmi3_functions.c"}
+COMMON_SOURCE = "ship_common.c"
 LAYER_HEADER = "ship_fmu.h"
 CONFIG_HEADER = "model_config.h"
 EQUATIONS_HEADER = "model_equations.h"
+BUILD_DESCRIPTION = "buildDescription.xml"
 # -ffp-contract=off: no fused multiply-add, so the RK4 rounds as numpy does.
 CFLAGS = ("-shared", "-fPIC", "-O2", "-std=c99", "-ffp-contract=off", "-fvisibility=hidden")
-# Binary folder and library suffix of FMI 2.0 per sys.platform.
-_PLATFORMS = {"linux": ("linux64", ".so"), "darwin": ("darwin64", ".dylib")}
+# Binary folder (FMI 2.0 section 2.3, FMI 3.0 section 2.5.1.4) and library suffix per
+# sys.platform.
+_PLATFORMS = {
+    "linux": ({"2": "linux64", "3": "x86_64-linux"}, ".so"),
+    "darwin": ({"2": "darwin64", "3": "x86_64-darwin"}, ".dylib"),
+}
 
 
 def osp_sidecar_path(fmu_path: str | os.PathLike[str]) -> Path:
@@ -96,12 +111,15 @@ def osp_sidecar_path(fmu_path: str | os.PathLike[str]) -> Path:
 
 
 def fmi_headers_dir() -> Path:
-    """Directory of the FMI 2.0 headers shipped with fmpy (``fmi2Functions.h`` ...)."""
+    """Directory of the FMI 2.0 and 3.0 headers shipped with fmpy (``fmi2Functions.h`` ...)."""
     import fmpy
 
     directory = Path(fmpy.__file__).parent / "c-code"
-    if not (directory / "fmi2Functions.h").is_file():
-        raise FmuBuildError(f"FMI 2.0 headers not found in {directory} (is fmpy installed?)")
+    for header in ("fmi2Functions.h", "fmi3Functions.h"):
+        if not (directory / header).is_file():
+            raise FmuBuildError(
+                f"FMI header {header} not found in {directory} (is fmpy installed?)"
+            )
     return directory
 
 
@@ -152,8 +170,16 @@ def _layout(variables: tuple[FmuVariable, ...], structure: ModelStructure) -> di
         "VR_MAX_STEP": block(("max_step",), "max step"),
         "VR_INITIAL_STATE": block(tuple(f"{name}0" for name in STATE_NAMES), "initial state"),
         "VR_COEFFICIENTS": block(structure.coefficient_names, "coefficients"),
+        "VR_DERIVATIVES": block(tuple(derivative_name(n) for n in STATE_NAMES), "derivatives"),
+        "VR_TIME": block(("time",), "time"),
     }
-    expected = {"VR_RUDDER_ANGLE": "input", "VR_PROPELLER_RPM": "input", "VR_STATE": "output"}
+    expected = {
+        "VR_RUDDER_ANGLE": "input",
+        "VR_PROPELLER_RPM": "input",
+        "VR_STATE": "output",
+        "VR_DERIVATIVES": "local",
+        "VR_TIME": "independent",
+    }
     for key, causality in expected.items():
         if variables[layout[key]].causality != causality:
             raise FmuBuildError(f"{key}: variable must have causality {causality!r}")
@@ -167,7 +193,13 @@ def _config_header(
     layout: dict[str, int],
     min_start_speed: float,
 ) -> str:
-    causality = {"input": "SHIP_INPUT", "output": "SHIP_OUTPUT", "parameter": "SHIP_PARAMETER"}
+    causality = {
+        "input": "SHIP_INPUT",
+        "output": "SHIP_OUTPUT",
+        "parameter": "SHIP_PARAMETER",
+        "local": "SHIP_LOCAL",
+        "independent": "SHIP_INDEPENDENT",
+    }
     lines = [
         "/* Generated by fmu_model.export_native from fmu_model.interface.fmu_variables. */",
         "/* Do not edit: rebuild the FMU with build_fmu.py. See ship_fmu.h for the contract. */",
@@ -181,15 +213,19 @@ def _config_header(
         f"#define MODEL_N_VARIABLES {len(variables)}",
         *(f"#define {key} {value}" for key, value in layout.items()),
         "",
-        "/* Divergence rule (fmu_model.interface): a state that is non-finite or beyond these",
-        "   bounds [m/s, rad/s] ends fmi2DoStep with fmi2Discard and this message. */",
+        "/* Divergence rule (fmu_model.fmi_rules): a state that is non-finite or beyond these",
+        "   bounds [m/s, rad/s] ends DoStep, or a derivative evaluation, with a discard. */",
         f"#define DIVERGENCE_MAX_SPEED {_c_double(MAX_SPEED_MPS)}",
         f"#define DIVERGENCE_MAX_YAW_RATE {_c_double(MAX_YAW_RATE_RADPS)}",
         f"#define DIVERGENCE_FORMAT {_c_string(DIVERGENCE_FORMAT)}",
+        f"#define DIVERGED_STATE_FORMAT {_c_string(DIVERGED_STATE_FORMAT)}",
         "",
-        "/* Rules of fmi2DoStep and of the start (fmu_model.interface): the largest number of",
-        "   internal steps of one call, a step that must advance the time, the least start",
-        "   speed sqrt(u0^2 + v0^2) [m/s] (0: the model starts from rest). */",
+        "/* Rules of DoStep and of the start (fmu_model.fmi_rules): a positive finite step at",
+        "   the FMU's time that advances it, the largest number of internal steps of one",
+        "   call, the least start speed sqrt(u0^2 + v0^2) [m/s] (0: starts from rest). */",
+        f"#define STEP_SIZE_FORMAT {_c_string(STEP_SIZE_FORMAT)}",
+        f"#define STEP_TIME_FORMAT {_c_string(STEP_TIME_FORMAT)}",
+        f"#define STEP_TIME_TOLERANCE {_c_double(STEP_TIME_TOLERANCE)}",
         f"#define MAX_SUBSTEPS {_c_double(float(MAX_SUBSTEPS))}",
         f"#define SUBSTEP_LIMIT_FORMAT {_c_string(SUBSTEP_LIMIT_FORMAT)}",
         f"#define TIME_STALL_FORMAT {_c_string(TIME_STALL_FORMAT)}",
@@ -206,7 +242,9 @@ def _config_header(
     for var in variables:
         if var.causality not in causality:
             raise FmuBuildError(f"variable {var.name!r}: unsupported causality {var.causality!r}")
-        start = 0.0 if var.start is None or var.causality == "output" else var.start
+        start = (
+            0.0 if var.start is None or var.causality not in ("input", "parameter") else var.start
+        )
         fields = [
             _c_string(var.name),
             causality[var.causality],
@@ -221,10 +259,21 @@ def _config_header(
     return "\n".join(lines)
 
 
+def _check_target(fmi_version: str, kinds: tuple[str, ...]) -> None:
+    if fmi_version not in FMI_VERSIONS:
+        raise FmuBuildError(f"FMI version must be one of {FMI_VERSIONS}, got {fmi_version!r}")
+    if not kinds or set(kinds) - set(KINDS) or len(set(kinds)) != len(kinds):
+        raise FmuBuildError(f"kinds must be one or both of {KINDS}, got {kinds}")
+
+
 def generate_sources(
-    params: ModelParameters, *, max_step_s: float | None = None, guid: str = GUID_PLACEHOLDER
+    params: ModelParameters,
+    *,
+    max_step_s: float | None = None,
+    guid: str = GUID_PLACEHOLDER,
+    fmi_version: str = "2",
 ) -> dict[str, str]:
-    """Return the files of the FMU's ``sources/`` folder, by name.
+    """Return the C files of the FMU's ``sources/`` folder, by name.
 
     Parameters
     ----------
@@ -233,27 +282,33 @@ def generate_sources(
     max_step_s : float, optional
         Start value of ``max_step`` [s]; default ``fmu_model.interface.DEFAULT_MAX_STEP_S``.
     guid : str
-        The FMU's GUID, written into ``model_config.h``.
+        The FMU's GUID (instantiation token), written into ``model_config.h``.
+    fmi_version : {"2", "3"}
+        The FMI API version: which layer file (``fmi2_functions.c`` or
+        ``fmi3_functions.c``) is the one to compile.
 
     Returns
     -------
     dict of str to str
-        ``fmi2_cosimulation.c``, ``ship_fmu.h``, ``model_config.h`` and
+        The layer file, ``ship_common.c``, ``ship_fmu.h``, ``model_config.h`` and
         ``model_equations.h``.
 
     Raises
     ------
     FmuBuildError
-        For parameters :func:`fmu_model.interface.fmu_variables` rejects or an interface
-        the C layer cannot serve.
+        For parameters :func:`fmu_model.interface.fmu_variables` rejects, an interface
+        the C layer cannot serve, or an unknown FMI version.
 
     """
+    _check_target(fmi_version, KINDS)
     structure = params.structure
     variables = fmu_variables(params, max_step_s)
     identifier = model_identifier(params.vessel_name)
     layout = _layout(variables, structure)
+    layer = LAYER_SOURCES[fmi_version]
     return {
-        LAYER_SOURCE: (C_DIR / LAYER_SOURCE).read_text(encoding="utf-8"),
+        layer: (C_DIR / layer).read_text(encoding="utf-8"),
+        COMMON_SOURCE: (C_DIR / COMMON_SOURCE).read_text(encoding="utf-8"),
         LAYER_HEADER: (C_DIR / LAYER_HEADER).read_text(encoding="utf-8"),
         CONFIG_HEADER: _config_header(
             identifier, guid, variables, layout, min_start_speed_mps(structure)
@@ -285,7 +340,7 @@ def _first_error_line(output: str) -> str:
     return lines[0] if lines else "no compiler output"
 
 
-def _compile(sources: Path, library: Path, compiler: list[str]) -> None:
+def _compile(sources: Path, layer: str, library: Path, compiler: list[str]) -> None:
     command = [
         *compiler,
         *CFLAGS,
@@ -293,7 +348,7 @@ def _compile(sources: Path, library: Path, compiler: list[str]) -> None:
         str(fmi_headers_dir()),
         "-I",
         ".",
-        LAYER_SOURCE,
+        layer,
         "-o",
         str(library),
         "-lm",
@@ -334,13 +389,20 @@ class NativeFmuText:
     model_identifier : str
         C-safe identifier; the library is ``binaries/<platform>/<model_identifier>.so``.
     guid : str
-        Content-derived GUID, in ``model_description`` and ``model_config.h``.
+        Content-derived GUID (FMI 3.0: instantiation token), in ``model_description``
+        and ``model_config.h``.
+    fmi_version : str
+        ``"2"`` or ``"3"``.
+    kinds : tuple of str
+        ``"cs"`` and/or ``"me"``.
     model_description : str
         ``modelDescription.xml``.
     osp_model_description : str
         The OSP-IS sidecar ``<stem>_OspModelDescription.xml``.
     sources : dict of str to str
-        Files of ``sources/`` by name.
+        Files of ``sources/`` by name (FMI 3.0: with ``buildDescription.xml``).
+    layer_source : str
+        The one file of ``sources`` to compile.
     created : datetime
         ``generationDateAndTime``, also the time stamp of the zip entries.
 
@@ -348,36 +410,67 @@ class NativeFmuText:
 
     model_identifier: str
     guid: str
+    fmi_version: str
+    kinds: tuple[str, ...]
     model_description: str
     osp_model_description: str
     sources: dict[str, str]
+    layer_source: str
     created: datetime
 
 
-def render_native_fmu(params: ModelParameters, *, max_step_s: float | None = None) -> NativeFmuText:
+def render_native_fmu(
+    params: ModelParameters,
+    *,
+    max_step_s: float | None = None,
+    fmi_version: str = "2",
+    kinds: tuple[str, ...] = KINDS,
+) -> NativeFmuText:
     """Generate the texts of the native FMU (no compiler needed).
 
     The GUID is a hash of the model description and the sources (rendered with a
-    placeholder GUID), so any change of coefficients, interface or C layer changes it.
+    placeholder GUID), so any change of coefficients, interface, FMI version, kinds or
+    C layer changes it.
+
+    Parameters
+    ----------
+    params : ModelParameters
+        Identified model: variant, coefficients, vessel.
+    max_step_s : float, optional
+        Start value of ``max_step`` [s].
+    fmi_version : {"2", "3"}
+        FMI 2.0 or FMI 3.0.
+    kinds : tuple of {"cs", "me"}
+        Co-simulation, model exchange, or both (default), served by one binary.
 
     Raises
     ------
     FmuBuildError
-        Non-finite coefficients or vessel data, a bad ``max_step_s``.
+        Non-finite coefficients or vessel data, a bad ``max_step_s``, an unknown FMI
+        version or kind.
 
     """
+    _check_target(fmi_version, kinds)
     variables = fmu_variables(params, max_step_s)
     identifier = model_identifier(params.vessel_name)
     created = generation_time(params)
-    sources = generate_sources(params, max_step_s=max_step_s)
+    sources = generate_sources(params, max_step_s=max_step_s, fmi_version=fmi_version)
+    layer = LAYER_SOURCES[fmi_version]
     try:
-        description = model_description_xml(
-            params,
-            variables,
-            model_identifier=identifier,
-            source_files=(LAYER_SOURCE,),
-            created=created,
-        )
+        if fmi_version == "2":
+            description = model_description_xml(
+                params,
+                variables,
+                model_identifier=identifier,
+                kinds=kinds,
+                source_files=(layer,),
+                created=created,
+            )
+        else:
+            description = model_description_fmi3_xml(
+                params, variables, model_identifier=identifier, kinds=kinds, created=created
+            )
+            sources[BUILD_DESCRIPTION] = build_description_xml(identifier, (layer,))
         sidecar = osp_model_description_xml(params, variables)
     except ValueError as exc:
         raise FmuBuildError(str(exc)) from None
@@ -389,9 +482,12 @@ def render_native_fmu(params: ModelParameters, *, max_step_s: float | None = Non
     return NativeFmuText(
         model_identifier=identifier,
         guid=guid,
+        fmi_version=fmi_version,
+        kinds=tuple(kinds),
         model_description=description.replace(GUID_PLACEHOLDER, guid),
         osp_model_description=sidecar,
         sources=sources,
+        layer_source=layer,
         created=created,
     )
 
@@ -402,8 +498,10 @@ def build_native_fmu(
     *,
     max_step_s: float | None = None,
     cc: str | None = None,
+    fmi_version: str = "2",
+    kinds: tuple[str, ...] = KINDS,
 ) -> Path:
-    """Generate, compile and pack the native FMI 2.0 co-simulation FMU.
+    """Generate, compile and pack the native FMU.
 
     Writes ``output`` (atomically: a reader never sees half an FMU) and the OSP-IS
     sidecar ``<stem>_OspModelDescription.xml`` next to it. A rebuild from the same
@@ -421,6 +519,10 @@ def build_native_fmu(
         [s]; default ``fmu_model.interface.DEFAULT_MAX_STEP_S``.
     cc : str, optional
         C compiler command (may include options); default ``$CC``, else cc, gcc, clang.
+    fmi_version : {"2", "3"}
+        FMI 2.0 (default) or FMI 3.0.
+    kinds : tuple of {"cs", "me"}
+        Co-simulation, model exchange, or both (default), served by one binary.
 
     Returns
     -------
@@ -430,17 +532,17 @@ def build_native_fmu(
     Raises
     ------
     FmuBuildError
-        Non-finite coefficients or vessel data, a bad ``max_step_s``, no C compiler, a
-        compile failure (with the compiler's first error line), an unsupported platform.
-        Nothing is written then.
+        Non-finite coefficients or vessel data, a bad ``max_step_s``, an unknown FMI
+        version or kind, no C compiler, a compile failure (with the compiler's first
+        error line), an unsupported platform. Nothing is written then.
 
     """
     output = Path(output)
     platform = next((v for k, v in _PLATFORMS.items() if sys.platform.startswith(k)), None)
     if platform is None:
         raise FmuBuildError(f"native FMU build is not supported on {sys.platform!r}")
-    binary_dir, suffix = platform
-    text = render_native_fmu(params, max_step_s=max_step_s)
+    binary_dirs, suffix = platform
+    text = render_native_fmu(params, max_step_s=max_step_s, fmi_version=fmi_version, kinds=kinds)
     compiler = _compiler(cc)
     with tempfile.TemporaryDirectory(prefix="shipid-fmu-") as tmp:
         source_dir = Path(tmp) / "sources"
@@ -448,9 +550,10 @@ def build_native_fmu(
         for name, content in text.sources.items():
             (source_dir / name).write_text(content, encoding="utf-8")
         library = Path(tmp) / f"{text.model_identifier}{suffix}"
-        _compile(source_dir, library, compiler)
+        _compile(source_dir, text.layer_source, library, compiler)
         binary = library.read_bytes()
 
+    binary_dir = binary_dirs[fmi_version]
     entries = [
         ("modelDescription.xml", text.model_description.encode("utf-8")),
         (f"binaries/{binary_dir}/{text.model_identifier}{suffix}", binary),

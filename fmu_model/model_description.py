@@ -1,11 +1,18 @@
-"""FMI 2.0 ``modelDescription.xml`` and the OSP-IS sidecar, from the shared FMU interface.
+"""``modelDescription.xml`` (FMI 2.0 and 3.0) and the OSP-IS sidecar, from the shared interface.
 
 Backend-neutral: everything is derived from :func:`fmu_model.interface.fmu_variables`
 (the variables in value-reference order) and the model structure; the exporter only
-adds what is specific to it (model identifier, GUID, source files). Units are declared
-with FMI ``BaseUnit`` exponents derived from the (metre, second) dimension tuples of
+adds what is specific to it (model identifier, GUID, source files, which kinds of FMU:
+co-simulation ``"cs"``, model exchange ``"me"`` or both). Units are declared with FMI
+``BaseUnit`` exponents derived from the (metre, second) dimension tuples of
 ``fmu_model.structure``; angles carry ``rad`` (display unit ``deg``), the propeller
 speed ``rpm`` = 1/60 s⁻¹.
+
+The outputs u ... ψ are the continuous states of model exchange, the locals
+der(u) ... der(ψ) their derivatives (``derivative`` attribute), with the dependencies
+of :func:`fmu_model.interface.derivative_dependencies` in ``ModelStructure``; an output
+depends on nothing but its own state (no direct feed-through from the inputs). Model
+exchange is event-free: no event indicators, no time events.
 """
 
 from __future__ import annotations
@@ -19,7 +26,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from importlib import metadata
 
-from fmu_model.interface import FmuVariable
+from fmu_model.interface import FmuVariable, derivative_dependencies
 from fmu_model.params import ModelParameters, text_problem
 from fmu_model.structure import ModelStructure, unit_string
 
@@ -35,7 +42,11 @@ LOG_CATEGORIES: tuple[tuple[str, str], ...] = (
     ("logAll", "Trace of every FMI call"),
 )
 
-# CoSimulation flags of the native FMU (the defaults of model_description_xml).
+# The kinds of FMU: co-simulation and model exchange.
+KINDS = ("cs", "me")
+
+# CoSimulation flags of the native FMU, FMI 2.0 section 4.3.1 (the defaults of
+# model_description_xml).
 NATIVE_CAPABILITIES: Mapping[str, bool] = {
     "canHandleVariableCommunicationStepSize": True,
     "canInterpolateInputs": False,
@@ -44,7 +55,40 @@ NATIVE_CAPABILITIES: Mapping[str, bool] = {
     "canNotUseMemoryManagementFunctions": False,
     "canGetAndSetFMUstate": True,
     "canSerializeFMUstate": True,
-    "providesDirectionalDerivative": False,
+    "providesDirectionalDerivative": True,
+}
+# ModelExchange flags of the native FMU, FMI 2.0 section 3.3.1: no events, so the FMU
+# needs no fmi2CompletedIntegratorStep.
+_FMI2_MODEL_EXCHANGE: Mapping[str, bool] = {
+    "completedIntegratorStepNotNeeded": True,
+    "canBeInstantiatedOnlyOncePerProcess": False,
+    "canNotUseMemoryManagementFunctions": False,
+    "canGetAndSetFMUstate": True,
+    "canSerializeFMUstate": True,
+    "providesDirectionalDerivative": True,
+}
+# Flags of FMI 3.0 sections 3.3 (ModelExchange) and 4.3 (CoSimulation); both share
+# the first group.
+_FMI3_COMMON: Mapping[str, bool] = {
+    "needsExecutionTool": False,
+    "canBeInstantiatedOnlyOncePerProcess": False,
+    "canGetAndSetFMUState": True,
+    "canSerializeFMUState": True,
+    "providesDirectionalDerivatives": True,
+    "providesAdjointDerivatives": True,
+    "providesPerElementDependencies": False,
+}
+_FMI3_MODEL_EXCHANGE: Mapping[str, bool] = {
+    "needsCompletedIntegratorStep": False,
+    "providesEvaluateDiscreteStates": False,
+}
+_FMI3_CO_SIMULATION: Mapping[str, bool] = {
+    "canHandleVariableCommunicationStepSize": True,
+    "providesIntermediateUpdate": False,
+    "mightReturnEarlyFromDoStep": False,
+    "canReturnEarlyAfterIntermediateUpdate": False,
+    "hasEventMode": False,
+    "providesEvaluateDiscreteStates": False,
 }
 
 # Default experiment of the FMU [s].
@@ -84,10 +128,11 @@ _DEG_PER_RAD = math.degrees(1.0)
 _ANGULAR_UNITS = (
     FmiUnit("rad", rad=1, display_units=(("deg", _DEG_PER_RAD),)),
     FmiUnit("rad/s", rad=1, s=-1, display_units=(("deg/s", _DEG_PER_RAD),)),
+    FmiUnit("rad/s2", rad=1, s=-2, display_units=(("deg/s2", _DEG_PER_RAD),)),
     FmiUnit("rpm", s=-1, factor=1.0 / 60.0),
 )
-# Dimensions of the state and parameter units: m, s, m/s.
-_STATE_DIMENSIONS = ((1, 0), (0, 1), (1, -1))
+# Dimensions of the state, derivative and parameter units: m, s, m/s, m/s2.
+_STATE_DIMENSIONS = ((1, 0), (0, 1), (1, -1), (1, -2))
 
 
 def unit_table(structure: ModelStructure) -> dict[str, FmiUnit]:
@@ -215,12 +260,102 @@ def _to_text(root: ET.Element) -> str:
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
+def _description(params: ModelParameters, kinds: Sequence[str]) -> str:
+    """Return the ``description`` attribute: vessel, structure, method, notes of the kinds."""
+    structure = params.structure
+    method = params.identification.get("method") if params.identification else None
+    description = f"{params.vessel_name}: {structure.description}"
+    if method:
+        description += f", identified by {method}"
+    if "me" in kinds:
+        description += (
+            "; model exchange is event-free (no event indicators, no time events, "
+            "no discrete states)"
+        )
+    return description
+
+
+def _check_kinds(kinds: Sequence[str]) -> None:
+    if not kinds or set(kinds) - set(KINDS) or len(set(kinds)) != len(kinds):
+        raise ValueError(f"kinds must be one or both of {KINDS}, got {tuple(kinds)}")
+
+
+def _flags(values: Mapping[str, bool]) -> dict[str, str]:
+    return {name: "true" if value else "false" for name, value in values.items()}
+
+
+def _root(
+    params: ModelParameters,
+    version: str,
+    token_attribute: str,
+    token: str,
+    kinds: Sequence[str],
+    created: datetime | None,
+    tool: str | None,
+) -> ET.Element:
+    stamp = created if created is not None else generation_time(params)
+    return ET.Element(
+        "fmiModelDescription",
+        {
+            "fmiVersion": version,
+            "modelName": params.vessel_name,
+            token_attribute: token,
+            "description": _description(params, kinds),
+            "generationTool": tool if tool is not None else generation_tool(),
+            "generationDateAndTime": stamp.astimezone(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "variableNamingConvention": "flat",
+        },
+    )
+
+
+def _categories_and_experiment(root: ET.Element, log_categories: Sequence[tuple[str, str]]) -> None:
+    categories = ET.SubElement(root, "LogCategories")
+    for name, text in log_categories:
+        ET.SubElement(categories, "Category", name=name, description=text)
+    ET.SubElement(
+        root,
+        "DefaultExperiment",
+        startTime=_number(DEFAULT_START_TIME_S),
+        stopTime=_number(DEFAULT_STOP_TIME_S),
+        stepSize=_number(DEFAULT_STEP_SIZE_S),
+    )
+
+
+def _real_attributes(var: FmuVariable) -> dict[str, str]:
+    """Return unit, displayUnit, min, max and start (none for calculated variables)."""
+    attributes: dict[str, str] = {}
+    if var.unit is not None:
+        attributes["unit"] = var.unit
+    if var.display_unit is not None:
+        attributes["displayUnit"] = var.display_unit
+    if var.min is not None:
+        attributes["min"] = _number(var.min)
+    if var.max is not None:
+        attributes["max"] = _number(var.max)
+    if var.causality in ("input", "parameter") and var.start is not None:
+        attributes["start"] = _number(var.start)
+    return attributes
+
+
+def _dependencies(
+    params: ModelParameters, variables: Sequence[FmuVariable]
+) -> list[tuple[FmuVariable, FmuVariable, list[FmuVariable]]]:
+    """(state, its derivative, the states and inputs the derivative depends on)."""
+    by_name = {v.name: v for v in variables}
+    derivatives = [v for v in variables if v.derivative_of is not None]
+    return [
+        (by_name[str(d.derivative_of)], d, [by_name[name] for name in names])
+        for d, names in zip(derivatives, derivative_dependencies(params.structure), strict=True)
+    ]
+
+
 def model_description_xml(
     params: ModelParameters,
     variables: Sequence[FmuVariable],
     *,
     model_identifier: str,
     guid: str = GUID_PLACEHOLDER,
+    kinds: Sequence[str] = KINDS,
     source_files: Sequence[str] = (),
     needs_execution_tool: bool = False,
     created: datetime | None = None,
@@ -228,7 +363,7 @@ def model_description_xml(
     capabilities: Mapping[str, bool] | None = None,
     log_categories: Sequence[tuple[str, str]] = LOG_CATEGORIES,
 ) -> str:
-    """Render the FMI 2.0 co-simulation ``modelDescription.xml``.
+    """Render the FMI 2.0 ``modelDescription.xml`` (co-simulation, model exchange or both).
 
     Parameters
     ----------
@@ -240,6 +375,8 @@ def model_description_xml(
         C-safe identifier: the shared-library name.
     guid : str
         The FMU's GUID (see :func:`content_guid`).
+    kinds : sequence of {"cs", "me"}
+        Co-simulation, model exchange, or both (one binary serves both).
     source_files : sequence of str
         C files under ``sources/`` to compile (``<SourceFiles>``); empty for none.
     needs_execution_tool : bool
@@ -250,7 +387,7 @@ def model_description_xml(
         ``generationTool``; default :func:`generation_tool`.
     capabilities : mapping of str to bool, optional
         Overrides of the ``CoSimulation`` flags (default :data:`NATIVE_CAPABILITIES`),
-        e.g. ``{"canSerializeFMUstate": False}`` for a backend without it.
+        e.g. ``{"providesDirectionalDerivative": False}`` for a backend without it.
     log_categories : sequence of (name, description)
         ``LogCategories``; default those of the native C layer.
 
@@ -262,62 +399,39 @@ def model_description_xml(
     Raises
     ------
     ValueError
-        For a unit this module cannot declare, a non-finite start value, or text XML
-        cannot carry (a control character or lone surrogate, e.g. in the vessel name or
-        the identification method).
+        For unknown kinds or capabilities, a unit this module cannot declare, a
+        non-finite start value, or text XML cannot carry (a control character or lone
+        surrogate, e.g. in the vessel name or the identification method).
 
     """
-    structure = params.structure
-    units = units_of(variables, structure)
-    stamp = created if created is not None else generation_time(params)
-    method = params.identification.get("method") if params.identification else None
-    description = f"{params.vessel_name}: {structure.description}"
-    if method:
-        description += f", identified by {method}"
-
-    root = ET.Element(
-        "fmiModelDescription",
-        {
-            "fmiVersion": "2.0",
-            "modelName": params.vessel_name,
-            "guid": guid,
-            "description": description,
-            "generationTool": tool if tool is not None else generation_tool(),
-            "generationDateAndTime": stamp.astimezone(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
-            "variableNamingConvention": "flat",
-            "numberOfEventIndicators": "0",
-        },
-    )
+    _check_kinds(kinds)
     flags = {**NATIVE_CAPABILITIES, **(capabilities or {})}
     unknown = set(flags) - set(NATIVE_CAPABILITIES)
     if unknown:
         raise ValueError(f"unknown CoSimulation capabilities {sorted(unknown)}")
-    attributes = {
+    root = _root(params, "2.0", "guid", guid, kinds, created, tool)
+    root.set("numberOfEventIndicators", "0")
+    common = {
         "modelIdentifier": model_identifier,
         "needsExecutionTool": "true" if needs_execution_tool else "false",
     }
-    attributes.update({name: "true" if value else "false" for name, value in flags.items()})
-    attributes["maxOutputDerivativeOrder"] = "0"
-    cosim = ET.SubElement(root, "CoSimulation", attributes)
-    if source_files:
-        files = ET.SubElement(cosim, "SourceFiles")
-        for name in source_files:
-            ET.SubElement(files, "File", name=name)
-    _unit_definitions(root, units, osp=False)
-    categories = ET.SubElement(root, "LogCategories")
-    for name, text in log_categories:
-        ET.SubElement(categories, "Category", name=name, description=text)
-    ET.SubElement(
-        root,
-        "DefaultExperiment",
-        startTime=_number(DEFAULT_START_TIME_S),
-        stopTime=_number(DEFAULT_STOP_TIME_S),
-        stepSize=_number(DEFAULT_STEP_SIZE_S),
-    )
+    elements = []
+    if "me" in kinds:  # the schema's order: ModelExchange, then CoSimulation
+        elements.append(ET.SubElement(root, "ModelExchange", common | _flags(_FMI2_MODEL_EXCHANGE)))
+    if "cs" in kinds:
+        cosim = common | _flags(flags) | {"maxOutputDerivativeOrder": "0"}
+        elements.append(ET.SubElement(root, "CoSimulation", cosim))
+    for element in elements:
+        if source_files:
+            files = ET.SubElement(element, "SourceFiles")
+            for name in source_files:
+                ET.SubElement(files, "File", name=name)
+    _unit_definitions(root, units_of(variables, params.structure), osp=False)
+    _categories_and_experiment(root, log_categories)
+
     model_variables = ET.SubElement(root, "ModelVariables")
-    index: dict[str, int] = {}
-    for position, var in enumerate(variables, start=1):
-        index[var.name] = position
+    index = {var.name: position for position, var in enumerate(variables, start=1)}
+    for var in variables:
         attributes = {
             "name": var.name,
             "valueReference": str(var.value_reference),
@@ -328,34 +442,168 @@ def model_description_xml(
         if var.causality == "parameter":
             attributes["initial"] = "exact"
         scalar = ET.SubElement(model_variables, "ScalarVariable", attributes)
-        real: dict[str, str] = {}
-        if var.unit is not None:
-            real["unit"] = var.unit
-        if var.display_unit is not None:
-            real["displayUnit"] = var.display_unit
-        if var.min is not None:
-            real["min"] = _number(var.min)
-        if var.max is not None:
-            real["max"] = _number(var.max)
-        if var.causality != "output" and var.start is not None:
-            real["start"] = _number(var.start)
+        real = _real_attributes(var)
+        if var.derivative_of is not None:
+            real["derivative"] = str(index[var.derivative_of])
         ET.SubElement(scalar, "Real", real)
 
-    outputs = [v for v in variables if v.causality == "output"]
+    # FMI 2.0 section 2.2.8: dependencies are 1-based indices into ModelVariables.
+    states = _dependencies(params, variables)
     structure_element = ET.SubElement(root, "ModelStructure")
     outputs_element = ET.SubElement(structure_element, "Outputs")
-    for var in outputs:
-        # A state at the communication point: no direct feed-through from the inputs.
-        ET.SubElement(outputs_element, "Unknown", index=str(index[var.name]), dependencies="")
+    for state, _, _ in states:
+        # A state: it depends on itself only, never directly on an input.
+        state_index = str(index[state.name])
+        ET.SubElement(outputs_element, "Unknown", index=state_index, dependencies=state_index)
+    derivatives_element = ET.SubElement(structure_element, "Derivatives")
+    for _, derivative, knowns in states:
+        dependencies = " ".join(
+            str(index[k.name]) for k in sorted(knowns, key=lambda v: index[v.name])
+        )
+        ET.SubElement(
+            derivatives_element,
+            "Unknown",
+            index=str(index[derivative.name]),
+            dependencies=dependencies,
+        )
     initial_element = ET.SubElement(structure_element, "InitialUnknowns")
-    for var in outputs:
+    for state, _, _ in states:
         # At initialisation the output x equals its parameter x0.
-        source = index.get(f"{var.name}0")
-        attributes = {"index": str(index[var.name])}
-        if source is not None:
-            attributes["dependencies"] = str(source)
-            attributes["dependenciesKind"] = "dependent"
-        ET.SubElement(initial_element, "Unknown", attributes)
+        ET.SubElement(
+            initial_element,
+            "Unknown",
+            index=str(index[state.name]),
+            dependencies=str(index[f"{state.name}0"]),
+            dependenciesKind="dependent",
+        )
+    for _, derivative, _ in states:  # calculated from everything: no dependencies listed
+        ET.SubElement(initial_element, "Unknown", index=str(index[derivative.name]))
+    return _to_text(root)
+
+
+def model_description_fmi3_xml(
+    params: ModelParameters,
+    variables: Sequence[FmuVariable],
+    *,
+    model_identifier: str,
+    instantiation_token: str = GUID_PLACEHOLDER,
+    kinds: Sequence[str] = KINDS,
+    created: datetime | None = None,
+    tool: str | None = None,
+    log_categories: Sequence[tuple[str, str]] = LOG_CATEGORIES,
+) -> str:
+    """Render the FMI 3.0 ``modelDescription.xml`` (co-simulation, model exchange or both).
+
+    The same variables, units and structure as :func:`model_description_xml`, in the
+    FMI 3.0 schema (section 2.4): ``Float64`` variables, ``ModelStructure`` by value
+    reference, ``time`` the independent variable. The sources are listed in
+    ``sources/buildDescription.xml`` (:func:`build_description_xml`), not here.
+
+    Parameters
+    ----------
+    params : ModelParameters
+        Vessel, model variant and provenance.
+    variables : sequence of FmuVariable
+        The FMU's variables in value-reference order (``fmu_variables``).
+    model_identifier : str
+        C-safe identifier: the shared-library name.
+    instantiation_token : str
+        The FMU's instantiation token (see :func:`content_guid`).
+    kinds : sequence of {"cs", "me"}
+        Co-simulation, model exchange, or both.
+    created, tool, log_categories
+        As in :func:`model_description_xml`.
+
+    Returns
+    -------
+    str
+        The XML document.
+
+    Raises
+    ------
+    ValueError
+        As :func:`model_description_xml`.
+
+    """
+    _check_kinds(kinds)
+    root = _root(params, "3.0", "instantiationToken", instantiation_token, kinds, created, tool)
+    identifier = {"modelIdentifier": model_identifier}
+    if "me" in kinds:  # the schema's order: ModelExchange, then CoSimulation
+        flags = _flags({**_FMI3_COMMON, **_FMI3_MODEL_EXCHANGE})
+        ET.SubElement(root, "ModelExchange", identifier | flags)
+    if "cs" in kinds:
+        flags = _flags({**_FMI3_COMMON, **_FMI3_CO_SIMULATION})
+        ET.SubElement(root, "CoSimulation", identifier | flags | {"maxOutputDerivativeOrder": "0"})
+    _unit_definitions(root, units_of(variables, params.structure), osp=False)
+    _categories_and_experiment(root, log_categories)
+
+    model_variables = ET.SubElement(root, "ModelVariables")
+    by_name = {v.name: v for v in variables}
+    for var in variables:
+        attributes = {
+            "name": var.name,
+            "valueReference": str(var.value_reference),
+            "description": var.description,
+            "causality": var.causality,
+            "variability": var.variability,
+        }
+        if var.causality == "parameter":
+            attributes["initial"] = "exact"
+        attributes |= _real_attributes(var)
+        if var.derivative_of is not None:
+            attributes["derivative"] = str(by_name[var.derivative_of].value_reference)
+        ET.SubElement(model_variables, "Float64", attributes)
+
+    # FMI 3.0 section 2.4.8: dependencies are value references.
+    states = _dependencies(params, variables)
+    structure_element = ET.SubElement(root, "ModelStructure")
+    for state, _, _ in states:
+        reference = str(state.value_reference)  # a state: it depends on itself only
+        ET.SubElement(structure_element, "Output", valueReference=reference, dependencies=reference)
+    for _, derivative, knowns in states:
+        references = sorted(k.value_reference for k in knowns)
+        ET.SubElement(
+            structure_element,
+            "ContinuousStateDerivative",
+            valueReference=str(derivative.value_reference),
+            dependencies=" ".join(str(vr) for vr in references),
+        )
+    for state, _, _ in states:
+        ET.SubElement(
+            structure_element,
+            "InitialUnknown",
+            valueReference=str(state.value_reference),
+            dependencies=str(by_name[f"{state.name}0"].value_reference),
+            dependenciesKind="dependent",
+        )
+    for _, derivative, _ in states:
+        ET.SubElement(
+            structure_element, "InitialUnknown", valueReference=str(derivative.value_reference)
+        )
+    return _to_text(root)
+
+
+def build_description_xml(model_identifier: str, source_files: Sequence[str]) -> str:
+    """Render ``sources/buildDescription.xml`` of an FMI 3.0 FMU (section 2.5.1).
+
+    Parameters
+    ----------
+    model_identifier : str
+        The modelIdentifier the sources build.
+    source_files : sequence of str
+        The C files of ``sources/`` to compile, as one C99 source file set.
+
+    Returns
+    -------
+    str
+        The XML document.
+
+    """
+    root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
+    configuration = ET.SubElement(root, "BuildConfiguration", modelIdentifier=model_identifier)
+    file_set = ET.SubElement(configuration, "SourceFileSet", language="C99")
+    for name in source_files:
+        ET.SubElement(file_set, "SourceFile", name=name)
     return _to_text(root)
 
 

@@ -1,90 +1,88 @@
-"""The pythonfmu slave of the ship model: a thin FMI adapter over ``fmu_model``.
+"""The pythonfmu slave of the ship model: a thin FMI adapter over generated equations.
 
 This file is the script of the FMU built by :func:`fmu_model.export_pythonfmu.build_pythonfmu_fmu`.
-The class only holds the values of the FMU variables (:func:`fmu_model.interface.fmu_variables`
-in value-reference order) and the 6-state (u, v, r, x, y, ψ); ``do_step`` advances the
-state with ``n_substeps`` classical RK4 steps of :func:`fmu_model.simulate.rk4_step`, inputs
-held over the communication step, exactly as ``fmu_model.simulate(method="rk4")`` and the
-native C FMU do. The equations, the variable table, the value rule, the modelIdentifier
-and the divergence rule live in ``fmu_model``, which travels inside the FMU.
+The class only holds the values of the FMU variables (the table of
+:func:`fmu_model.interface.fmu_variables`, carried as ``fmu_interface.json``) and the
+6-state (u, v, r, x, y, ψ); ``do_step`` advances the state with ``n_substeps`` classical
+RK4 steps of :func:`fmu_model.integrate.rk4_into` over the generated right-hand side,
+inputs held over the communication step, exactly as ``fmu_model.simulate(method="rk4")``
+and the native C FMU do. The rules (value, step, start, divergence, restored states)
+are those of :mod:`fmu_model.fmi_rules`, with the native FMU's messages.
 
-Resources read at instantiation (next to this script in ``resources/``):
-``params.json`` (the parameter set, :func:`fmu_model.params.load_params`) and
-``fmu_settings.json`` (``{"max_step_s": ...}``, the start value of ``max_step``).
+What the slave imports at run time is the FMU's own ``resources/``: ``fmu_model``'s
+``fmi_rules`` and ``integrate`` (standard library and numpy) and the generated
+``model_equations.py`` (standard library ``math`` only, from
+:func:`fmu_model.codegen.generate_model_py`): the host Python needs **numpy** and nothing
+else of this project's dependencies (no sympy). Resources read at instantiation:
+``fmu_interface.json`` (the variable table, the modelIdentifier, the least start speed)
+and ``model_equations.py``.
 
-Status mapping. pythonfmu turns every Python exception into ``fmi2Fatal`` and a ``False``
-from ``do_step`` into ``fmi2Discard``, so where the native FMU returns ``fmi2Error`` this
-slave logs the error and, if it concerns a step, returns ``fmi2Discard``; nothing here
-raises. A value that :meth:`fmu_model.interface.FmuVariable.problem` rejects (non-finite
-or outside the declared min/max) is stored, reported through the logger with status
-``fmi2Error`` at once, and every following ``fmi2DoStep`` returns ``fmi2Discard`` until a
-valid value is set. A non-positive or non-finite communication step, a step that does not
-advance the time (t + h == t) and a step of more than
-:data:`fmu_model.interface.MAX_SUBSTEPS` internal steps are refused as by the native FMU,
-with its message. A state that diverges in an internal step
-(:func:`fmu_model.interface.state_diverged`) ends the step with ``fmi2Discard`` and the
-native FMU's message; the state stays at the start of the step and, as in the native
-FMU's state "step failed", every further ``fmi2DoStep`` is refused until
-``fmi2SetFMUstate`` restores a state.
+Status mapping. pythonfmu 0.7's wrapper turns every Python exception into ``fmi2Fatal``
+and a ``False`` from ``do_step`` into ``fmi2Discard``; it has no way to return
+``fmi2Error`` from a setter, from ``fmi2ExitInitializationMode`` or from
+``fmi2SetFMUstate``. So where the native FMU returns ``fmi2Error`` and leaves the
+instance unchanged, this slave logs the native message with status ``fmi2Error``, keeps
+the refused call from taking effect on the simulation, and every following
+``fmi2DoStep`` returns ``fmi2Discard`` (with the message again) until the cause is
+corrected; nothing here raises:
 
-Where the native FMU refuses a call that pythonfmu cannot let fail without
-``fmi2Fatal``, the refusal is logged (status ``fmi2Error``, the native message) and
-every following ``fmi2DoStep`` returns ``fmi2Discard`` with that message:
+* a value :meth:`fmu_model.fmi_rules.FmuVariable.problem` rejects (non-finite or
+  outside the declared min/max) is stored but blocks every step until a valid value is
+  set; setting an output, a local or the time, or a fixed parameter after
+  initialisation, is ignored;
+* a start below the model's least start speed (the native FMU stays in initialization
+  mode): the instance is initialised but never steps;
+* ``fmi2SetFMUstate`` with a state :func:`fmu_model.fmi_rules.fmu_state_problem`
+  rejects or that is not a state of this FMU: the instance keeps its values, but steps
+  are refused until a valid state is restored (``fmi2DeSerializeFMUstate`` cannot
+  refuse here; a corrupt serialised state is refused at ``fmi2SetFMUstate``).
 
-* ``fmi2ExitInitializationMode`` below the model's least start speed
-  (:func:`fmu_model.interface.min_start_speed_mps`): the native FMU stays in
-  initialization mode; here the instance is initialised but never steps (the native
-  FMU's message, then ``fmi2Discard`` from every step).
-* ``fmi2SetFMUstate`` with a state that :func:`fmu_model.interface.fmu_state_problem`
-  rejects (a value ``fmi2SetReal`` would refuse), or that is not a state of this FMU:
-  the instance keeps its values and state, as in the native FMU, but steps are refused
-  until a valid state is restored. ``fmi2DeSerializeFMUstate`` cannot refuse here (the
-  native FMU checks there already); a corrupt serialised state is refused at
-  ``fmi2SetFMUstate``. A state saved while a refused ``fmi2SetReal`` value was pending
-  holds that value and is refused too (the native FMU never stores such a value).
-
-The status queries (``fmi2GetStatus``, ``fmi2GetRealStatus``, ...) are answered by
-pythonfmu's compiled wrapper, not here: pythonfmu 0.7 gives ``fmi2Error`` for
-``fmi2GetStatus`` where the native FMU gives ``fmi2Discard``, and ``fmi2Discard`` for the
-other statuses it cannot give, as the native FMU does.
+A step the native FMU refuses (:func:`fmu_model.fmi_rules.step_problem`: not positive
+and finite, not at the FMU's time, not advancing the time, more than
+:data:`~fmu_model.fmi_rules.MAX_SUBSTEPS` internal steps) is ``fmi2Discard`` with the
+native message; a diverging state (:func:`fmu_model.fmi_rules.state_diverged`) ends the
+step with ``fmi2Discard`` and the native message, the state stays at the start of the
+step and, as in the native state "step failed", every further ``fmi2DoStep`` is refused
+until ``fmi2SetFMUstate`` restores a state. The status queries are answered by
+pythonfmu's wrapper: ``fmi2GetStatus`` gives ``fmi2Error`` where the native FMU gives
+``fmi2Discard``.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
 from pythonfmu.enums import Fmi2Status
 
-from fmu_model.integrate import n_substeps
-from fmu_model.interface import (
-    MAX_SUBSTEPS,
-    START_SPEED_FORMAT,
-    SUBSTEP_LIMIT_FORMAT,
-    TIME_STALL_FORMAT,
+from fmu_model.fmi_rules import (
+    FmuVariable,
     divergence_message,
     fmu_state_problem,
-    fmu_variables,
-    min_start_speed_mps,
-    model_identifier,
+    start_speed_problem,
     state_diverged,
+    step_problem,
 )
-from fmu_model.numeric import numeric_model
-from fmu_model.params import load_params
-from fmu_model.simulate import rk4_step
-from fmu_model.structure import STATE_NAMES
+from fmu_model.integrate import n_substeps, rk4_into
 
-PARAMS_RESOURCE = "params.json"
-SETTINGS_RESOURCE = "fmu_settings.json"
+INTERFACE_RESOURCE = "fmu_interface.json"
+EQUATIONS_RESOURCE = "model_equations.py"
+STATE_NAMES = ("u", "v", "r", "x", "y", "psi")
 
-_CAUSALITY = {
+# pythonfmu 0.7 has no causality "independent": the time is registered as a local (the
+# completed modelDescription.xml declares it independent).
+PYTHONFMU_CAUSALITY = {
     "input": Fmi2Causality.input,
     "output": Fmi2Causality.output,
     "parameter": Fmi2Causality.parameter,
+    "local": Fmi2Causality.local,
+    "independent": Fmi2Causality.local,
 }
 _VARIABILITY = {"continuous": Fmi2Variability.continuous, "fixed": Fmi2Variability.fixed}
 # Keys of self._problems that are not variable names: they block steps until cleared.
@@ -94,18 +92,36 @@ _RESTORED_STATE = "(restored FMU state)"
 _UNREADABLE = "unreadable"
 
 
+def load_equations(path: Path) -> ModuleType:
+    """Load the generated equations module of one FMU under a name of its own.
+
+    Two FMUs of different models in one process each keep their own equations.
+    """
+    spec = importlib.util.spec_from_file_location(f"_ship_equations_{id(path)}", path)
+    assert spec is not None and spec.loader is not None  # a .py file always has a loader
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _derivative(state: np.ndarray, context: Any, inputs: Any, out: np.ndarray) -> None:
+    """ṡ of the generated equations into ``out`` (the derivative of ``rk4_into``)."""
+    equations, theta, length = context
+    rudder, n_rps = inputs
+    equations.rhs(out, theta, length, state, rudder, n_rps)
+
+
 class ShipManoeuvringSlave(Fmi2Slave):
     """FMI 2.0 co-simulation slave of one identified ship model (see the module docstring)."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         resources = Path(self.resources)
-        params = load_params(resources / PARAMS_RESOURCE)
-        settings = json.loads((resources / SETTINGS_RESOURCE).read_text(encoding="utf-8"))
-        self._variables = fmu_variables(params, float(settings["max_step_s"]))
-        self._model = numeric_model(params.structure)
-        self._min_start_speed = min_start_speed_mps(params.structure)
-        self.modelName = model_identifier(params.vessel_name)  # names the binary
+        interface = json.loads((resources / INTERFACE_RESOURCE).read_text(encoding="utf-8"))
+        self._variables = tuple(FmuVariable.from_json(v) for v in interface["variables"])
+        self._min_start_speed = float(interface["min_start_speed_mps"])
+        self._equations = load_equations(resources / EQUATIONS_RESOURCE)
+        self.modelName = interface["model_identifier"]  # names the binary
 
         vr = {v.name: v.value_reference for v in self._variables}
         self._vr_rudder = vr["rudder_angle"]
@@ -113,44 +129,67 @@ class ShipManoeuvringSlave(Fmi2Slave):
         self._vr_length = vr["length"]
         self._vr_max_step = vr["max_step"]
         self._vr_initial = [vr[f"{name}0"] for name in STATE_NAMES]
-        self._vr_theta = [vr[name] for name in params.names]
+        self._vr_theta = [vr[name] for name in self._equations.COEFFICIENT_NAMES]
         self._state_index = {vr[name]: i for i, name in enumerate(STATE_NAMES)}
+        self._derivative_index = {
+            v.value_reference: STATE_NAMES.index(v.derivative_of)
+            for v in self._variables
+            if v.derivative_of is not None
+        }
+        self._vr_time = vr["time"]
 
         self._values = [math.nan if v.start is None else float(v.start) for v in self._variables]
         self._state = np.array([self._values[k] for k in self._vr_initial])
         self._problems: dict[str, str] = {}
         self._initialised = False
         self._step_failed = False
-        self._theta = np.array([self._values[k] for k in self._vr_theta])
+        self._time = 0.0
+        self._theta = [self._values[k] for k in self._vr_theta]
+        self._work = np.empty((5, len(STATE_NAMES)))
 
         for variable in self._variables:
             k = variable.value_reference
             self.register_variable(
                 Real(
                     variable.name,
-                    causality=_CAUSALITY[variable.causality],
+                    causality=PYTHONFMU_CAUSALITY[variable.causality],
                     variability=_VARIABILITY[variable.variability],
                     description=variable.description,
                     getter=lambda k=k: self._get(k),
                     setter=lambda value, k=k: self._set(k, value),
-                )
+                ),
+                nested=False,
             )
 
     # -- variable access ------------------------------------------------------------------
 
     def _get(self, k: int) -> float:
-        i = self._state_index.get(k)
-        return float(self._state[i]) if i is not None else self._values[k]
+        if k in self._state_index:
+            return float(self._state[self._state_index[k]])
+        if k in self._derivative_index:
+            dx = [0.0] * len(STATE_NAMES)
+            self._equations.rhs(
+                dx,
+                self._theta,
+                self._values[self._vr_length],
+                self._state,
+                self._values[self._vr_rudder],
+                self._values[self._vr_rpm] / 60.0,
+            )
+            return float(dx[self._derivative_index[k]])
+        if k == self._vr_time:
+            return self._time
+        return self._values[k]
 
     def _set(self, k: int, value: float) -> None:
         variable = self._variables[k]
-        if variable.causality == "output":
-            self.log(f"{variable.name} is an output and cannot be set", Fmi2Status.error)
+        if variable.causality not in ("input", "parameter"):
+            self.log(f"fmi2SetReal: '{variable.name}' (vr {k}) cannot be set", Fmi2Status.error)
             return
         if variable.causality == "parameter" and self._initialised:
             self.log(
-                f"{variable.name} is a fixed parameter and cannot be changed after "
-                "initialisation; value ignored",
+                f"fmi2SetReal: '{variable.name}' (vr {k}) is a fixed parameter; it can only "
+                "be set before ExitInitializationMode",
                 Fmi2Status.error,
             )
             return
@@ -167,13 +206,19 @@ class ShipManoeuvringSlave(Fmi2Slave):
 
     # -- FMI life cycle -------------------------------------------------------------------
 
+    def setup_experiment(
+        self, start_time: float, stop_time: float | None = None, tolerance: float | None = None
+    ) -> None:
+        """Start the time at ``start_time`` [s] (the stop time and tolerance are not used)."""
+        self._time = float(start_time)
+
     def exit_initialization_mode(self) -> None:
         """Fix the parameters and start the state from u0 ... psi0.
 
         A start speed below the model's least (the native FMU's fmi2Error) is logged
         and blocks every step.
         """
-        self._theta = np.array([self._values[k] for k in self._vr_theta])
+        self._theta = [self._values[k] for k in self._vr_theta]
         self._state = np.array([self._values[k] for k in self._vr_initial])
         self._initialised = True
         message = self._start_speed_problem()
@@ -182,12 +227,8 @@ class ShipManoeuvringSlave(Fmi2Slave):
             self.log(message, Fmi2Status.error)
 
     def _start_speed_problem(self) -> str | None:
-        """Return the message refusing the start speed sqrt(u0² + v0²), or None."""
         u0, v0 = (self._values[k] for k in self._vr_initial[:2])
-        speed = math.sqrt(u0 * u0 + v0 * v0)
-        if self._min_start_speed > 0.0 and not speed >= self._min_start_speed:
-            return START_SPEED_FORMAT % (speed, self._min_start_speed)
-        return None
+        return start_speed_problem("fmi2ExitInitializationMode", u0, v0, self._min_start_speed)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         """Advance the state over one communication step; ``False`` means fmi2Discard.
@@ -195,7 +236,7 @@ class ShipManoeuvringSlave(Fmi2Slave):
         Parameters
         ----------
         current_time : float
-            Start of the communication step [s].
+            Start of the communication step [s], the FMU's time.
         step_size : float
             Length of the communication step [s], > 0.
 
@@ -207,7 +248,7 @@ class ShipManoeuvringSlave(Fmi2Slave):
 
         """
         if not self._initialised:
-            self.log("fmi2DoStep called before initialisation", Fmi2Status.error)
+            self.log("fmi2DoStep must not be called in state 'instantiated'", Fmi2Status.error)
             return False
         if self._step_failed:
             self.log("fmi2DoStep must not be called in state 'step failed'", Fmi2Status.error)
@@ -215,36 +256,31 @@ class ShipManoeuvringSlave(Fmi2Slave):
         if self._problems:
             self.log("; ".join(self._problems.values()), Fmi2Status.error)
             return False
-        if not (step_size > 0.0 and math.isfinite(step_size)):
-            self.log(
-                f"fmi2DoStep: communicationStepSize must be positive and finite, got {step_size}",
-                Fmi2Status.error,
-            )
-            return False
-        if not current_time + step_size > current_time:
-            self.log(TIME_STALL_FORMAT % (step_size, current_time), Fmi2Status.error)
-            return False
         max_step = self._values[self._vr_max_step]
-        if step_size > max_step and not step_size / max_step * (1.0 - 1e-12) <= MAX_SUBSTEPS:
-            ratio = step_size / max_step
-            message = SUBSTEP_LIMIT_FORMAT % (step_size, ratio, max_step, MAX_SUBSTEPS)
+        message = step_problem("fmi2DoStep", self._time, current_time, step_size, max_step)
+        if message is not None:
             self.log(message, Fmi2Status.error)
             return False
-        rudder = np.float64(self._values[self._vr_rudder])
-        n_rps = np.float64(self._values[self._vr_rpm]) / 60.0
-        length = self._values[self._vr_length]
+        inputs = (self._values[self._vr_rudder], self._values[self._vr_rpm] / 60.0)
+        context = (self._equations, self._theta, self._values[self._vr_length])
         m = n_substeps(step_size, max_step)
         h = step_size / m
-        state = self._state
+        state = np.array(self._state)
         with np.errstate(all="ignore"):  # divergence is detected below, not warned about
             for i in range(m):
-                state = rk4_step(self._model, self._theta, length, state, rudder, n_rps, h)
+                try:
+                    rk4_into(_derivative, state, h, context, inputs, inputs, inputs, self._work)
+                except (OverflowError, ValueError, ZeroDivisionError):  # math's domain errors
+                    state[:] = math.nan
                 if state_diverged(state):
                     self._step_failed = True
-                    message = divergence_message(current_time + (i + 1) * h, state, current_time)
+                    message = divergence_message(
+                        "fmi2DoStep", current_time + (i + 1) * h, state, current_time
+                    )
                     self.log(message, Fmi2Status.discard)
                     return False
         self._state = state
+        self._time = current_time + step_size
         return True
 
     # -- FMU state (fmi2Get/SetFMUstate, serialisation as JSON by pythonfmu) --------------
@@ -253,6 +289,7 @@ class ShipManoeuvringSlave(Fmi2Slave):
         return {
             "values": list(self._values),
             "state": [float(s) for s in self._state],
+            "time": self._time,
             "initialised": self._initialised,
             "step_failed": self._step_failed,
         }
@@ -273,10 +310,11 @@ class ShipManoeuvringSlave(Fmi2Slave):
             self._problems[_RESTORED_STATE] = restored
             self.log(restored, Fmi2Status.error)
             return
-        values, vector, initialised, step_failed = restored
+        values, vector, time, initialised, step_failed = restored
         self._values = values
         self._state = vector
-        self._theta = np.array([values[k] for k in self._vr_theta])
+        self._time = time
+        self._theta = [values[k] for k in self._vr_theta]
         self._initialised = initialised
         self._step_failed = step_failed
         self._problems = {}
@@ -284,7 +322,9 @@ class ShipManoeuvringSlave(Fmi2Slave):
         if message is not None:
             self._problems[_START_SPEED] = message
 
-    def _read_fmu_state(self, state: Any) -> str | tuple[list[float], np.ndarray, bool, bool]:
+    def _read_fmu_state(
+        self, state: Any
+    ) -> str | tuple[list[float], np.ndarray, float, bool, bool]:
         """Return the parts of a saved state, or the message refusing its values.
 
         Raises KeyError, TypeError, ValueError or OverflowError for a malformed state.
@@ -293,18 +333,29 @@ class ShipManoeuvringSlave(Fmi2Slave):
             raise ValueError(state.get(_UNREADABLE) if isinstance(state, dict) else "no object")
         values = [_number(v) for v in state["values"]]
         vector = np.array([_number(v) for v in state["state"]])
+        time = _number(state["time"])
         initialised, step_failed = state["initialised"], state["step_failed"]
         if len(values) != len(self._variables) or vector.shape != (len(STATE_NAMES),):
             raise ValueError("wrong number of values")
         if not (isinstance(initialised, bool) and isinstance(step_failed, bool)):
             raise TypeError("malformed flags")
+        if not math.isfinite(time):
+            return f"fmi2SetFMUstate: the FMU state is not restored: its time {time} must be finite"
         seen = list(values)  # the outputs are the state vector, as in the native FMU
         for k, i in self._state_index.items():
             seen[k] = vector[i]
-        problem = fmu_state_problem(self._variables, seen, "fmi2SetFMUstate")
+        computed = set(self._derivative_index) | {self._vr_time}  # not stored: always valid
+        checked = [
+            (v, x)
+            for v, x in zip(self._variables, seen, strict=True)
+            if v.value_reference not in computed
+        ]
+        problem = fmu_state_problem(
+            [v for v, _ in checked], [x for _, x in checked], "fmi2SetFMUstate"
+        )
         if problem is not None:
             return problem
-        return values, vector, initialised, step_failed
+        return values, vector, time, initialised, step_failed
 
     @staticmethod
     def _fmu_state_from_bytes(state: bytes) -> dict[str, Any]:

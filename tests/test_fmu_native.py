@@ -42,7 +42,8 @@ from fmu_model import ModelParameters, get_model, model_names, save_params, simu
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_native import (
     C_DIR,
-    LAYER_SOURCE,
+    COMMON_SOURCE,
+    LAYER_SOURCES,
     build_native_fmu,
     fmi_headers_dir,
     osp_sidecar_path,
@@ -71,6 +72,7 @@ VR_OUTPUTS = list(range(2, 8))  # u, v, r, x, y, psi
 VR_MAX_STEP, VR_U0 = 9, 10
 VR_COEFFICIENTS = 16
 MAX_STEP_S = 0.05
+LAYER_SOURCE = LAYER_SOURCES["2"]
 
 # A stable ship, L = 100 m: at u = 5 m/s and n = 2 rev/s the surge balance
 # a1 u^2 + a9 n^2 = 0 holds (a9 = 0.01 * 25 / 4); sway/yaw are a stable linear pair
@@ -252,14 +254,30 @@ def test_model_description_declares_capabilities_units_and_structure(
 
     outputs = [u.variable.name for u in md.outputs]
     assert outputs == ["u", "v", "r", "x", "y", "psi"]
-    assert all(u.dependencies == [] for u in md.outputs)
-    initial = {u.variable.name: [d.name for d in u.dependencies] for u in md.initialUnknowns}
-    assert initial == {name: [f"{name}0"] for name in outputs}
+    # An output is a state: it depends on itself, never directly on an input.
+    assert all([d.name for d in u.dependencies] == [u.variable.name] for u in md.outputs)
+    derivatives = {u.variable.name: {d.name for d in u.dependencies} for u in md.derivatives}
+    assert derivatives == {
+        "der(u)": {"u", "v", "r", "rudder_angle", "propeller_rpm"},  # a1 ... a9
+        "der(v)": {"u", "v", "r", "rudder_angle"},  # b1 ... b4
+        "der(r)": {"v", "r", "rudder_angle"},  # c1 ... c3
+        "der(x)": {"u", "v", "psi"},
+        "der(y)": {"u", "v", "psi"},
+        "der(psi)": {"r"},
+    }
+    assert [v.derivative.name for v in md.modelVariables if v.derivative] == outputs
+    initial = {u.variable.name: u.dependencies for u in md.initialUnknowns}
+    assert {k: [d.name for d in initial[k]] for k in outputs} == {n: [f"{n}0"] for n in outputs}
+    assert all(initial[f"der({n})"] is None for n in outputs)  # depends on everything
     assert md.buildConfigurations[0].sourceFileSets[0].sourceFiles == [LAYER_SOURCE]
+    me = md.modelExchange
+    assert me.modelIdentifier == cs.modelIdentifier
+    assert me.providesDirectionalDerivative and cs.providesDirectionalDerivative
+    assert "event-free" in md.description
 
 
 def test_log_categories_match_the_c_layer() -> None:
-    source = (C_DIR / LAYER_SOURCE).read_text()
+    source = (C_DIR / COMMON_SOURCE).read_text()
     table = re.search(r"LOG_CATEGORY_NAMES\[N_LOG_CATEGORIES\] = \{(.*?)\};", source, re.S)
     assert table is not None
     assert re.findall(r'"(\w+)"', table.group(1)) == [name for name, _ in LOG_CATEGORIES]
@@ -271,14 +289,16 @@ def test_fmu_carries_its_sources_and_guid(fmu_path: Path, unzipped: Path) -> Non
     assert names == [
         "binaries/linux64/Test_Ship.so",
         "modelDescription.xml",
-        "sources/fmi2_cosimulation.c",
+        "sources/fmi2_functions.c",
         "sources/model_config.h",
         "sources/model_equations.h",
+        "sources/ship_common.c",
         "sources/ship_fmu.h",
     ]
     guid = read_model_description(unzipped).guid
     assert f'#define MODEL_GUID "{guid}"' in (unzipped / "sources/model_config.h").read_text()
-    assert (unzipped / "sources" / LAYER_SOURCE).read_text() == (C_DIR / LAYER_SOURCE).read_text()
+    for name in (LAYER_SOURCE, COMMON_SOURCE):
+        assert (unzipped / "sources" / name).read_text() == (C_DIR / name).read_text()
 
 
 def test_guid_follows_the_content(params: ModelParameters) -> None:
@@ -338,8 +358,8 @@ def test_model_config_carries_the_divergence_rule_of_the_interface(
     config = render_native_fmu(params).sources["model_config.h"]
     assert f"#define DIVERGENCE_MAX_SPEED {MAX_SPEED_MPS!r}\n" in config
     assert f"#define DIVERGENCE_MAX_YAW_RATE {MAX_YAW_RATE_RADPS!r}\n" in config
-    assert '#define DIVERGENCE_FORMAT "fmi2DoStep: the state diverged at t = %.9g s' in config
-    layer = (C_DIR / LAYER_SOURCE).read_text()
+    assert '#define DIVERGENCE_FORMAT "the state diverged at t = %.9g s' in config
+    layer = (C_DIR / COMMON_SOURCE).read_text()
     assert "DIVERGENCE_MAX_SPEED" in layer and "#define DIVERGENCE" not in layer  # one copy
 
 
@@ -356,7 +376,7 @@ def test_model_config_carries_the_step_and_start_rules_of_the_interface(
         covariance=None,
     )
     assert "#define MIN_START_SPEED 0.001\n" in render_native_fmu(prime).sources["model_config.h"]
-    layer = (C_DIR / LAYER_SOURCE).read_text()
+    layer = (C_DIR / COMMON_SOURCE).read_text()
     for macro in ("MAX_SUBSTEPS", "MIN_START_SPEED", "TIME_STALL_FORMAT", "STATE_RANGE_FORMAT"):
         assert macro in layer and f"#define {macro}" not in layer  # one copy, generated
     assert "10000000" not in layer  # the old limit of 1e7 internal steps (7-9 s) is gone
@@ -771,12 +791,15 @@ def test_diverging_state_discards_the_step(unzipped: Path, params: ModelParamete
 
 UNSUPPORTED = {
     "fmi2CancelStep": lambda f: f.fmi2CancelStep(f.component),
-    "fmi2GetDirectionalDerivative": lambda f: f.fmi2GetDirectionalDerivative(
-        f.component, None, 0, None, 0, None, None
-    ),
     "fmi2SetRealInputDerivatives": lambda f: f.fmi2SetRealInputDerivatives(
         f.component, None, 0, None, None
     ),
+    "fmi2GetRealOutputDerivatives": lambda f: f.fmi2GetRealOutputDerivatives(
+        f.component, None, 0, None, None
+    ),
+}
+# Model-exchange functions called on a co-simulation instance: not in its state machine.
+NOT_IN_CO_SIMULATION = {
     "fmi2SetTime": lambda f: model_exchange(f, "fmi2SetTime", c_double(0.0)),
     "fmi2EnterEventMode": lambda f: model_exchange(f, "fmi2EnterEventMode"),
 }
@@ -795,10 +818,20 @@ def test_unsupported_functions_are_errors_with_a_message(unzipped: Path, functio
     logger = LogRecorder()
     with slave(unzipped, logger=logger) as fmu:
         assert status(UNSUPPORTED[function], fmu) == FMI_ERROR
-        assert logger.last()[2].startswith(function)
+        assert logger.last()[2].startswith(f"{function} is not supported: ")
 
 
-def test_instantiate_refuses_wrong_guid_and_model_exchange(unzipped: Path) -> None:
+@pytest.mark.parametrize("function", NOT_IN_CO_SIMULATION)
+def test_model_exchange_calls_on_a_co_simulation_instance_are_errors(
+    unzipped: Path, function: str
+) -> None:
+    logger = LogRecorder()
+    with slave(unzipped, logger=logger) as fmu:
+        assert status(NOT_IN_CO_SIMULATION[function], fmu) == FMI_ERROR
+        assert logger.last()[2] == f"{function} must not be called in state 'step complete'"
+
+
+def test_instantiate_refuses_a_wrong_guid_and_an_unknown_type(unzipped: Path) -> None:
     md = read_model_description(unzipped)
     logger = LogRecorder()
     fmu = FMU2Slave(
@@ -809,9 +842,9 @@ def test_instantiate_refuses_wrong_guid_and_model_exchange(unzipped: Path) -> No
     with pytest.raises(Exception, match="Failed to instantiate"):
         fmu.instantiate(callbacks=logger.callbacks)
     assert "does not match" in logger.last()[2]
-    component = fmu.fmi2Instantiate(b"me", 0, md.guid.encode(), b"", byref(logger.callbacks), 0, 0)
+    component = fmu.fmi2Instantiate(b"x", 7, md.guid.encode(), b"", byref(logger.callbacks), 0, 0)
     assert component is None
-    assert "co-simulation" in logger.last()[2]
+    assert "unknown fmuType 7" in logger.last()[2]
     fmu.freeLibrary()
 
 

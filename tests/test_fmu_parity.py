@@ -52,7 +52,9 @@ from tests.test_shape import COEFFICIENTS as PRIME_RUDDER_COEFFICIENTS
 FMI_OK, FMI_DISCARD, FMI_ERROR = 0, 2, 3
 BACKENDS = {"native": build_native_fmu, "pythonfmu": build_pythonfmu_fmu}
 # The message of DIVERGENCE_FORMAT, numbers matched loosely.
-DIVERGENCE_PATTERN = re.escape(DIVERGENCE_FORMAT).replace("%\\.9g", "%g").replace("%g", r"\S+")
+DIVERGENCE_PATTERN = (
+    re.escape("fmi2DoStep: " + DIVERGENCE_FORMAT).replace("%\\.9g", "%g").replace("%g", r"\S+")
+)
 
 
 @pytest.fixture(scope="module")
@@ -338,7 +340,10 @@ def test_both_backends_refuse_a_start_below_the_least_speed(
     case: str, prime_unzipped: dict[str, Path]
 ) -> None:
     u0, v0 = REFUSED_STARTS[case]
-    expected = START_SPEED_FORMAT % (math.hypot(u0, v0), MIN_START_SPEED_MPS)
+    expected = "fmi2ExitInitializationMode: " + START_SPEED_FORMAT % (
+        math.hypot(u0, v0),
+        MIN_START_SPEED_MPS,
+    )
     with instantiated(prime_unzipped["native"], {"u0": u0, "v0": v0}) as (fmu, log):
         assert status(fmu.exitInitializationMode) == FMI_ERROR
         assert _problems(log) == [expected]
@@ -378,13 +383,26 @@ REFUSED_STEPS: dict[str, tuple[float, float, str]] = {
     "one internal step more than the limit": (
         0.0,
         (MAX_SUBSTEPS + 1) * MAX_STEP_S,
-        SUBSTEP_LIMIT_FORMAT
+        "fmi2DoStep: "
+        + SUBSTEP_LIMIT_FORMAT
         % ((MAX_SUBSTEPS + 1) * MAX_STEP_S, MAX_SUBSTEPS + 1, MAX_STEP_S, MAX_SUBSTEPS),
     ),
-    "a day in one step": (0.0, 86400.0, SUBSTEP_LIMIT_FORMAT % (86400, 1.728e6, 0.05, 1e6)),
-    "1e9 s": (0.0, 1e9, SUBSTEP_LIMIT_FORMAT % (1e9, 2e10, MAX_STEP_S, MAX_SUBSTEPS)),
-    "start time 1e300": (1e300, 0.1, TIME_STALL_FORMAT % (0.1, 1e300)),
-    "start time 1e17, step 1 s": (1e17, 1.0, TIME_STALL_FORMAT % (1.0, 1e17)),
+    "a day in one step": (
+        0.0,
+        86400.0,
+        "fmi2DoStep: " + SUBSTEP_LIMIT_FORMAT % (86400, 1.728e6, 0.05, 1e6),
+    ),
+    "1e9 s": (
+        0.0,
+        1e9,
+        "fmi2DoStep: " + SUBSTEP_LIMIT_FORMAT % (1e9, 2e10, MAX_STEP_S, MAX_SUBSTEPS),
+    ),
+    "start time 1e300": (1e300, 0.1, "fmi2DoStep: " + TIME_STALL_FORMAT % (0.1, 1e300)),
+    "start time 1e17, step 1 s": (
+        1e17,
+        1.0,
+        "fmi2DoStep: " + TIME_STALL_FORMAT % (1.0, 1e17),
+    ),
 }
 
 

@@ -166,8 +166,13 @@ def test_model_description_declares_the_shared_interface(fmu_path: Path) -> None
     assert units["rpm"].baseUnit.s == -1 and units["rpm"].baseUnit.factor == 1.0 / 60.0
     assert units["1/(m.s)"].baseUnit.m == -1 and units["1/(m.s)"].baseUnit.s == -1
     outputs = {u.variable.name for u in md.outputs}
-    assert outputs == {u.variable.name for u in md.initialUnknowns} == set("uvrxy") | {"psi"}
+    assert outputs == set("uvrxy") | {"psi"}
+    derivatives = {f"der({name})" for name in outputs}
+    assert {u.variable.name for u in md.derivatives} == derivatives
+    assert {u.variable.name for u in md.initialUnknowns} == outputs | derivatives
+    assert md.modelExchange is None  # pythonfmu: co-simulation only
     cs = md.coSimulation
+    assert not cs.providesDirectionalDerivative
     assert cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
     assert cs.canHandleVariableCommunicationStepSize
 
@@ -213,7 +218,7 @@ def test_fixed_parameter_change_after_initialisation_is_ignored(instance: Instan
     )
     assert_close(got, want)
     assert instance.messages[0][0] == FMI_ERROR
-    assert "c3 is a fixed parameter" in instance.messages[0][1]
+    assert f"'c3' (vr {VR['c3']}) is a fixed parameter" in instance.messages[0][1]
 
 
 def test_nan_input_gives_an_error_and_no_step(instance: Instance) -> None:
@@ -252,7 +257,7 @@ def test_a_non_positive_step_is_refused(instance: Instance, step_s: float) -> No
     assert failure.value.status == FMI_DISCARD
     assert instance.messages[-1] == (
         FMI_ERROR,
-        f"fmi2DoStep: communicationStepSize must be positive and finite, got {step_s}",
+        f"fmi2DoStep: communicationStepSize must be positive and finite, got {step_s:g}",
     )
     np.testing.assert_array_equal(instance.outputs(), [5.0, 0, 0, 0, 0, 0])
 
@@ -308,14 +313,41 @@ def test_state_restore_and_deserialisation_continue_identically(
         b.close()
 
 
-def test_shipped_sources_run_in_a_fresh_python(fmu_path: Path, tmp_path: Path) -> None:
+# This project's run-time dependencies other than numpy: a host without them must do.
+NOT_ON_THE_HOST = (
+    "sympy",
+    "scipy",
+    "numba",
+    "statsmodels",
+    "filterpy",
+    "matplotlib",
+    "dask",
+    "pyproj",
+    "pynmea2",
+    "tqdm",
+)
+
+
+def test_shipped_sources_run_in_a_fresh_python_with_numpy_only(
+    fmu_path: Path, tmp_path: Path
+) -> None:
+    """The FMU's Python needs numpy only: every other dependency is made unimportable."""
     script = f"""
-import json, sys
+import importlib.abc, json, sys
+
+class NotOnTheHost(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in {NOT_ON_THE_HOST!r}:
+            raise ModuleNotFoundError(f"No module named {{name!r}} (not on this host)")
+        return None
+
+sys.meta_path.insert(0, NotOnTheHost())
 from fmpy import extract, simulate_fmu
 directory = extract({str(fmu_path)!r}, {str(tmp_path / "unzipped")!r})
 result = simulate_fmu(directory, stop_time=20.0, output_interval=0.5,
                       start_values={{"rudder_angle": 0.3, "propeller_rpm": 110.0}})
 print(json.dumps({{"module": sys.modules["fmu_model"].__file__,
+                   "blocked": sorted(set({NOT_ON_THE_HOST!r}) & set(sys.modules)),
                    "last": [float(result[k][-1]) for k in ("u", "v", "r", "x", "y", "psi")]}}))
 """
     done = subprocess.run(
@@ -323,6 +355,7 @@ print(json.dumps({{"module": sys.modules["fmu_model"].__file__,
     )
     report = json.loads(done.stdout.strip().splitlines()[-1])
     assert Path(report["module"]).is_relative_to(tmp_path / "unzipped" / "resources")
+    assert report["blocked"] == []
     t = np.arange(41) * 0.5
     want = simulate(
         PARAMS,
@@ -352,9 +385,12 @@ def test_build_writes_atomically_and_rejects_a_bad_max_step(tmp_path: Path) -> N
     assert list(target.parent.iterdir()) == [target]
     with zipfile.ZipFile(target) as archive:
         names = set(archive.namelist())
-        params = json.loads(archive.read("resources/params.json"))
-    assert {"modelDescription.xml", "resources/fmu_model/simulate.py"} <= names
-    assert params["coefficients"] == COEFFICIENTS
+        interface = json.loads(archive.read("resources/fmu_interface.json"))
+    runtime = {f"resources/fmu_model/{n}" for n in ("__init__.py", "fmi_rules.py", "integrate.py")}
+    assert {"modelDescription.xml", "resources/model_equations.py"} | runtime <= names
+    assert {n for n in names if n.startswith("resources/fmu_model/")} == runtime
+    starts = {v["name"]: v["start"] for v in interface["variables"]}
+    assert {name: starts[name] for name in COEFFICIENTS} == COEFFICIENTS
 
 
 def test_a_model_family_runs_in_the_pythonfmu_backend_as_in_python(tmp_path: Path) -> None:
