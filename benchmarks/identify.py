@@ -1,30 +1,31 @@
-"""Throughput of smoothing and of the EKF, and peak memory of a 1-million-sample log.
+"""Throughput of smoothing and of the EKF; end-to-end identification at 1 and 10 Hz.
 
     python benchmarks/identify.py [--rates-hz 10,1] [--samples 1000000]
-        [--large-rates-hz 1,10] [--no-large]
+        [--large-rates-hz 1,10] [--no-large] [--method ekf|output-error] [--timeout-s S]
 
 The data are KVLCC2 full-scale trial logs (MMG reference ship, ``scenarios.synthesize``):
-turning circle 35°, zig-zag 10/10 and 20/20, about 32,000 samples at 10 Hz. The
-identified structure is the seed model ``shi2009`` (16 coefficients; the filter state
-is the 6 motion states plus the coefficients, 22 in all). Reported per logging rate:
+turning circle 35°, zig-zag 10/10 and 20/20, about 3,200 samples at 1 Hz and 32,000 at
+10 Hz. Reported, in one run so that the figures are side by side:
 
-* smoothing (``identifier.smoothing.smooth_track``: x, y and heading, noise levels
-  estimated) in samples per second;
-* the augmented-state EKF (``identifier.ekf.ekf_identify``) on the prepared segments,
-  in measurement updates per second, for the paper's variant (smoothed u, v, r
+* per logging rate, smoothing (``identifier.smoothing.smooth_track``: x, y and heading,
+  noise levels estimated) in samples per second and the augmented-state EKF
+  (``identifier.ekf.ekf_identify``) in measurement updates per second, on the seed
+  model ``shi2009`` (22-state filter), for the paper's variant (smoothed u, v, r
   measured, one Euler step per sample) and for the default (the logged x, y, ψ
   measured, Euler substeps of at most 0.1 s, so 10 per update at 1 Hz); target
   ≥ 20,000 updates/s. The one-off numba compilation (first call in a process) is
   excluded and reported separately;
+* ``identifier.identify.identify`` of the three logs with the default model
+  (``prime-rudder``, shape search included) at 1 and at 10 Hz, end to end in a fresh
+  process (numba compilation included), and the 10 Hz / 1 Hz ratio;
+* ``identify`` of one log of ``--samples`` samples at each of ``--large-rates-hz``, in a
+  fresh process: seconds and peak resident memory (VmHWM, reset to the current RSS once
+  the log is built) above the RSS before the identification. The long log is the three
+  manoeuvres repeated end to end, each copy turned and moved to continue from the
+  previous copy's last pose.
 
-and the peak resident memory of ``identifier.identify.identify`` on one log of
-``--samples`` samples (the log in memory, not read from CSV), measured in a fresh
-subprocess: its peak RSS (VmHWM, reset to the current RSS once the log is built)
-against the RSS before the identification.
-The long log is the three manoeuvres repeated end to end, each copy turned and moved
-to continue from the previous copy's last pose. A probe of a tenth of the samples
-runs first; the full log runs only when the probe, scaled linearly, fits in 60 % of
-the available memory (the figure is printed either way).
+``--method`` picks the procedure of the end-to-end runs (default: the ``FitSettings``
+default); a run not finished after ``--timeout-s`` is stopped and reported as such.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import argparse
 import gc
 import json
 import math
+import os
 import resource
 import subprocess
 import sys
@@ -44,7 +46,7 @@ import numpy as np
 from fmu_model import get_model
 from identifier.ekf import EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import equation_error_fit
-from identifier.identify import identify
+from identifier.identify import FitSettings, identify
 from identifier.smoothing import smooth_track
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from trials.logs import ManeuverLog
@@ -194,86 +196,79 @@ def _max_rss_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 1024.0
 
 
-def _available_mib() -> float:
-    """MemAvailable of /proc/meminfo [MiB]; infinity where there is none."""
-    try:
-        with open("/proc/meminfo") as file:
-            for line in file:
-                if line.startswith("MemAvailable:"):
-                    return float(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return math.inf
-
-
-def large_identification(rate_hz: float, n_samples: int) -> dict[str, float]:
-    """Identify one ``n_samples`` log in this process; RSS before, peak during, seconds.
+def large_identification(
+    rate_hz: float, n_samples: int, method: str | None
+) -> dict[str, float | str]:
+    """Identify one ``n_samples`` log (0: the three logs) here; RSS before, peak, seconds.
 
     The log is built first and everything else freed; then the peak RSS is reset to the
     current RSS (``/proc/self/clear_refs``), so that the peak is that of ``identify``.
     Where that is not possible, the peak is the process's (``ru_maxrss``).
     """
-    log = long_log(reference_logs(rate_hz), n_samples)
+    logs = reference_logs(rate_hz)
+    if n_samples > 0:
+        logs = [long_log(logs, n_samples)]
+    settings = FitSettings() if method is None else FitSettings(method=method)
     gc.collect()
     before = _status_mib("VmRSS") if _reset_peak_rss() else None
     start = time.perf_counter()
-    result = identify([log])
+    result = identify(logs, settings)
     seconds = time.perf_counter() - start
     peak = _status_mib("VmHWM") if before is not None else None
+    shape = result.params.identification.get("shape", {})
     return {
-        "samples": log.n_samples,
-        "hours": float(log.time_s[-1] - log.time_s[0]) / 3600.0,
+        "samples": sum(log.n_samples for log in logs),
+        "hours": sum(float(log.time_s[-1] - log.time_s[0]) for log in logs) / 3600.0,
         "rss_before_mib": before if before is not None else math.nan,
         "rss_peak_mib": peak if peak is not None else _max_rss_mib(),
         "seconds": seconds,
         "not_identifiable": len(result.not_identifiable),
+        "method": settings.method,
+        "shape_rows": shape.get("rows", 0),
+        "regression_interval_s": result.equation_error.sample_interval_s,
     }
 
 
-def _child(rate_hz: float, n_samples: int) -> dict[str, float]:
-    """Run :func:`large_identification` in a fresh interpreter (its own peak RSS)."""
+def _child(
+    rate_hz: float, n_samples: int, method: str | None, timeout_s: float
+) -> dict[str, float | str] | None:
+    """Run :func:`large_identification` in a fresh interpreter; None when it timed out."""
     command = [sys.executable, __file__, "--child", "--rate-hz", str(rate_hz)]
-    child = subprocess.run([*command, "--samples", str(n_samples)], capture_output=True, text=True)
+    command += ["--samples", str(n_samples)] + ([] if method is None else ["--method", method])
+    try:
+        child = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        return None
     if child.returncode != 0:
         lines = child.stderr.strip().splitlines() or ["no output"]
         raise RuntimeError(f"identification of {n_samples} samples failed: {lines[-1]}")
     return json.loads(child.stdout.strip().splitlines()[-1])
 
 
-def _describe(run: dict[str, float]) -> str:
-    above = run["rss_peak_mib"] - run["rss_before_mib"]
+def _describe(run: dict[str, float | str]) -> str:
+    before, peak = float(run["rss_before_mib"]), float(run["rss_peak_mib"])
     return (
-        f"{run['seconds']:.0f} s, peak RSS {run['rss_peak_mib']:,.0f} MiB "
-        f"({above:,.0f} MiB above the {run['rss_before_mib']:,.0f} MiB before identify)"
+        f"{float(run['seconds']):.1f} s, peak RSS {peak - before:,.0f} MiB above the "
+        f"{before:,.0f} MiB before identify (method {run['method']}; shape search on "
+        f"{int(run['shape_rows']):,} rows, regression at {float(run['regression_interval_s']):g} s)"
     )
 
 
-def memory(rate_hz: float, n_samples: int, probe_fraction: float = 0.1) -> None:
-    """Print the peak RSS of identifying one ``n_samples`` log at ``rate_hz``.
-
-    A probe of ``probe_fraction · n_samples`` runs first; the full log runs only when
-    the probe's memory growth, scaled linearly, fits in 60 % of the available memory
-    (the machine may be shared); otherwise the extrapolation is printed.
-    """
-    probe = _child(rate_hz, max(1000, round(probe_fraction * n_samples)))
-    base = probe["rss_before_mib"] if math.isfinite(probe["rss_before_mib"]) else 0.0
-    per_sample = (probe["rss_peak_mib"] - base) / probe["samples"]
-    estimate = base + per_sample * n_samples
-    print(
-        f"  {rate_hz:g} Hz, {probe['samples']:,.0f} samples ({probe['hours']:.1f} h): "
-        f"{_describe(probe)}; {1024.0 * per_sample:.1f} KiB/sample"
-    )
-    available = _available_mib()
-    if estimate > 0.6 * available:
-        print(
-            f"  {rate_hz:g} Hz, {n_samples:,} samples: NOT RUN, extrapolated peak RSS "
-            f"{estimate:,.0f} MiB > 60 % of the {available:,.0f} MiB available"
-        )
-        return
-    run = _child(rate_hz, n_samples)
-    print(
-        f"  {rate_hz:g} Hz, {run['samples']:,.0f} samples ({run['hours']:.1f} h): {_describe(run)}"
-    )
+def end_to_end(
+    rates_hz: Sequence[float], n_samples: int, method: str | None, timeout_s: float
+) -> None:
+    """Print end-to-end identification of ``n_samples`` (0: the three logs) per rate."""
+    seconds = {}
+    for rate_hz in rates_hz:
+        run = _child(rate_hz, n_samples, method, timeout_s)
+        if run is None:
+            print(f"  {rate_hz:g} Hz: NOT FINISHED after {timeout_s:g} s")
+            continue
+        seconds[rate_hz] = float(run["seconds"])
+        samples, hours = int(run["samples"]), float(run["hours"])
+        print(f"  {rate_hz:g} Hz, {samples:,} samples ({hours:.1f} h): {_describe(run)}")
+    if 1.0 in seconds and 10.0 in seconds:
+        print(f"  10 Hz / 1 Hz time: {seconds[10.0] / seconds[1.0]:.2f}")
 
 
 def throughput(rate_hz: float) -> float | None:
@@ -314,12 +309,18 @@ def main() -> int:
     parser.add_argument(
         "--large-rates-hz", default="1,10", help="logging rates of the long-log runs [Hz]"
     )
-    parser.add_argument("--no-large", action="store_true", help="skip the long-log memory runs")
+    parser.add_argument("--no-large", action="store_true", help="skip the long-log runs")
+    parser.add_argument(
+        "--method", choices=("ekf", "output-error"), help="procedure (default: FitSettings')"
+    )
+    parser.add_argument(
+        "--timeout-s", type=float, default=900.0, help="stop an end-to-end run after this"
+    )
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--rate-hz", type=float, default=10.0, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        print(json.dumps(large_identification(args.rate_hz, args.samples)))
+        print(json.dumps(large_identification(args.rate_hz, args.samples, args.method)))
         return 0
 
     compile_s = None
@@ -328,10 +329,15 @@ def main() -> int:
         compile_s = compiled if compile_s is None else compile_s
     if compile_s is not None:
         print(f"one-off numba compile of the EKF (first call in a process): {compile_s:.1f} s")
+    print("identify() of the three KVLCC2 logs, default model, fresh process (compile included)")
+    end_to_end((1.0, 10.0), 0, args.method, args.timeout_s)
     if not args.no_large:
-        print(f"identify() on one long log (memory probe first, then {args.samples:,} samples)")
-        for rate_hz in map(float, args.large_rates_hz.split(",")):
-            memory(rate_hz, args.samples)
+        print(f"identify() of one {args.samples:,}-sample log, default model, fresh process")
+        rates = tuple(map(float, args.large_rates_hz.split(",")))
+        end_to_end(rates, args.samples, args.method, args.timeout_s)
+    if hasattr(os, "getloadavg"):
+        load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
+        print(f"load average {load} on {os.cpu_count()} CPUs")
     return 0
 
 

@@ -102,6 +102,8 @@ class EkfSettings:
         substeps no longer than this. ``math.inf`` gives one step per interval, the
         paper's discretisation, eq. (4), whose O(T) bias at T = 1 s and yaw time
         constants of 10–20 s reaches several per cent on the coefficients.
+    max_history_rows : int
+        Most rows of the histories kept in ``EkfResult`` (see there).
 
     """
 
@@ -110,15 +112,23 @@ class EkfSettings:
     divergence_factor: float = 1e6
     measurements: str = "track"
     max_substep_s: float = 0.1
+    max_history_rows: int = 10_000
 
 
 @dataclass(frozen=True)
 class EkfResult:
     """Output of :func:`ekf_identify`.
 
-    ``theta_history`` and ``std_history`` hold θ and its standard deviations after each
-    update, all segments concatenated (shape (M, p)); ``segment_ends`` are the indices in
-    those arrays where each segment ends. ``filtered`` are the filtered motion states.
+    The histories are kept at every ``history_stride``-th sample of each segment
+    (samples 0, s, 2s, … of it), the stride the smallest that keeps them within
+    ``EkfSettings.max_history_rows`` rows in all: every sample for logs of up to that
+    many samples, and bounded memory however long the logs are. ``theta_history`` and
+    ``std_history`` hold θ and its standard deviations after those updates, all segments
+    concatenated (shape (M, p)); ``segment_ends`` are the indices in those arrays where
+    each segment ends. ``filtered`` are the filtered motion states (u, v, r, x, y, ψ) at
+    the same samples, one (M_i, 6) array per segment. ``track_rms`` is, per segment and
+    over every sample, the RMS of the filtered minus the logged position [m] and heading
+    (wrapped) [rad].
     """
 
     theta: np.ndarray
@@ -127,6 +137,8 @@ class EkfResult:
     std_history: np.ndarray
     segment_ends: tuple[int, ...]
     filtered: tuple[np.ndarray, ...]
+    history_stride: int
+    track_rms: tuple[tuple[float, float], ...]
 
 
 def ekf_identify(
@@ -184,10 +196,13 @@ def ekf_identify(
         [np.asarray(settings.state_process_std, dtype=float) ** 2, np.zeros(3)]
     )
     n_total = sum(seg.time_s.size for seg in segments)
-    theta_hist = np.empty((n_total, p))
-    std_hist = np.empty((n_total, p))
+    stride = max(1, -(-n_total // max(settings.max_history_rows, 1)))
+    rows = [-(-seg.time_s.size // stride) for seg in segments]
+    theta_hist = np.empty((sum(rows), p))
+    std_hist = np.empty((sum(rows), p))
     ends: list[int] = []
     filtered: list[np.ndarray] = []
+    track_rms: list[tuple[float, float]] = []
     row = 0
     for seg in segments:
         n = seg.time_s.size
@@ -197,22 +212,25 @@ def ekf_identify(
         P[:3, :3] = np.diag(seg.velocity_std[0] ** 2)
         P[3:6, 3:6] = np.diag(seg.track_std**2)
         P[6:, 6:] = P_theta
-        if settings.measurements == "track":
-            offset, y, r_var = 3, seg.track, np.broadcast_to(seg.track_std**2, (n, 3))
+        if settings.measurements == "track":  # one row of R for every sample
+            offset, y, r_var = 3, seg.track, (seg.track_std**2)[None, :]
         else:
             offset, y, r_var = 0, seg.velocities, seg.velocity_std**2
-        states = np.empty((n, 6))
+        states = np.empty((rows[len(filtered)], 6))
+        square_sums = np.zeros(2)
+        track = np.ascontiguousarray(seg.track, dtype=float)
         try:
             status, sample = _ekf_pass(
                 phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length_m,
                 settings.max_substep_s, offset,
                 np.ascontiguousarray(seg.time_s, dtype=float),
-                np.ascontiguousarray(y, dtype=float),
+                track if offset == 3 else np.ascontiguousarray(y, dtype=float),
                 np.ascontiguousarray(r_var, dtype=float),
                 np.ascontiguousarray(seg.rudder_rad, dtype=float),
                 np.ascontiguousarray(seg.n_rps, dtype=float),
-                x, P, q_state, q_theta, variance_limit,
-                states, theta_hist[row : row + n], std_hist[row : row + n],
+                x, P, q_state, q_theta, variance_limit, stride, track,
+                states, theta_hist[row : row + states.shape[0]],
+                std_hist[row : row + states.shape[0]], square_sums,
             )  # fmt: skip
         except ZeroDivisionError:  # numba's scalar division, e.g. by a speed of exactly 0
             raise IdentificationError(
@@ -232,9 +250,10 @@ def ekf_identify(
                 log=seg.name,
                 sample=n - 1,
             ) from None
-        row += n
+        row += states.shape[0]
         ends.append(row)
         filtered.append(states)
+        track_rms.append((float(np.sqrt(square_sums[0] / n)), float(np.sqrt(square_sums[1] / n))))
         if progress is not None:
             progress(n)
     return EkfResult(
@@ -244,6 +263,8 @@ def ekf_identify(
         std_history=std_hist,
         segment_ends=tuple(ends),
         filtered=tuple(filtered),
+        history_stride=stride,
+        track_rms=tuple(track_rms),
     )
 
 
@@ -261,12 +282,16 @@ _STATUS_MESSAGES = {
 @numba.njit(cache=False)  # first-class function arguments defeat the on-disk cache
 def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length, max_substep, offset,
-    t, y, r_var, rudder, n_rps, x, P, q_state, q_theta, variance_limit,
-    states, theta_hist, std_hist,
+    t, y, r_var, rudder, n_rps, x, P, q_state, q_theta, variance_limit, stride, track,
+    states, theta_hist, std_hist, square_sums,
 ):  # fmt: skip
     """One segment of the EKF, eq. (4)-(5), in place on x and P; returns (status, sample).
 
-    x = (u, v, r, x, y, ψ, θ); the measurement is states offset … offset+2.
+    x = (u, v, r, x, y, ψ, θ); the measurement is states offset … offset+2, with the
+    variances of row k of ``r_var`` (its only row when it has one). The motion states
+    and θ with its standard deviations after the updates at samples 0, stride, … go to
+    ``states``, ``theta_hist`` and ``std_hist``; ``square_sums`` accumulates the squared
+    filtered-minus-logged position [m²] and wrapped heading [rad²] over every sample.
     """
     p = q_theta.size
     m = 6 + p
@@ -285,6 +310,8 @@ def _ekf_pass(
     for i in range(p):
         theta_hist[0, i] = x[6 + i]
         std_hist[0, i] = np.sqrt(P[6 + i, 6 + i])
+    _add_track_residual(x, track, 0, square_sums)
+    last_row = r_var.shape[0] - 1
     for k in range(t.size - 1):
         T = t[k + 1] - t[k]
         substeps = max(1, int(np.ceil(T / max_substep * (1.0 - 1e-12))))
@@ -351,9 +378,10 @@ def _ekf_pass(
         for i in range(p):
             P[6 + i, 6 + i] += q_theta[i]
         # Update: S = H P⁻ Hᵀ + R = L Lᵀ (Cholesky, 3 × 3).
-        s00 = P[o, o] + r_var[k + 1, 0]
-        s11 = P[o + 1, o + 1] + r_var[k + 1, 1]
-        s22 = P[o + 2, o + 2] + r_var[k + 1, 2]
+        rk = min(k + 1, last_row)
+        s00 = P[o, o] + r_var[rk, 0]
+        s11 = P[o + 1, o + 1] + r_var[rk, 1]
+        s22 = P[o + 2, o + 2] + r_var[rk, 2]
         if not s00 > 0.0:
             return _NOT_PD, k + 1
         l00 = np.sqrt(s00)
@@ -400,8 +428,22 @@ def _ekf_pass(
         for i in range(p):
             if P[6 + i, 6 + i] > variance_limit[i]:
                 return _EXPLODED, k + 1
-            theta_hist[k + 1, i] = x[6 + i]
-            std_hist[k + 1, i] = np.sqrt(P[6 + i, 6 + i])
-        for c in range(6):
-            states[k + 1, c] = x[c]
+        _add_track_residual(x, track, k + 1, square_sums)
+        if (k + 1) % stride == 0:
+            r = (k + 1) // stride
+            for i in range(p):
+                theta_hist[r, i] = x[6 + i]
+                std_hist[r, i] = np.sqrt(P[6 + i, 6 + i])
+            for c in range(6):
+                states[r, c] = x[c]
     return _OK, 0
+
+
+@numba.njit(cache=True)
+def _add_track_residual(x, track, k, square_sums):  # fmt: skip
+    """Add the squared filtered-minus-logged position and wrapped heading at sample k."""
+    dx = x[3] - track[k, 0]
+    dy = x[4] - track[k, 1]
+    dpsi = (x[5] - track[k, 2] + np.pi) % (2.0 * np.pi) - np.pi
+    square_sums[0] += dx * dx + dy * dy
+    square_sums[1] += dpsi * dpsi

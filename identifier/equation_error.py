@@ -12,20 +12,44 @@ j ∈ {u, v, r}, is an ordinary linear regression per equation. Each equation is
 ridge term so that an unexcited regressor (e.g. rudder terms in a straight run) gets a
 zero estimate with a huge standard deviation instead of a singular matrix. The
 covariance is σ²_e (XᵀX + λI)⁻¹ with σ_e the residual standard deviation.
+
+Rate-aware. The regression is written on the smoothed data decimated to a sampling
+interval of about :data:`REGRESSION_INTERVAL_L_OVER_U` × L/U, the time the ship takes to
+sail 1/40 of its length (every m-th sample, m = ⌊that / median interval⌋, at least 1;
+U the segment's median smoothed speed): the RTS smoother is the anti-aliasing filter
+(its smoothed states carry nothing faster than the manoeuvre), a ship's manoeuvring
+dynamics scale with L/U (Froude similarity: time constants of 0.25–2.5 L/U, the rudder
+put over in about 0.3 L/U), and the central difference over 2/40 L/U keeps the
+smoother's velocity noise out of the accelerations. That is 1 s for KVLCC2 at full
+scale (L/U = 40 s), where 0.1 s at 10 Hz would give ten times the noise, and 0.15 s for
+its 7 m model (L/U = 6 s), where 1 s would smear a rudder step of 1.3 s. The EKF still
+measures every sample.
+
+Bounded memory. The fit needs only the normal equations: ΦΦᵀ, Φ aᵀ and a aᵀ are summed
+over chunks of :data:`CHUNK_ROWS` rows (:class:`NormalEquations`), so a log of any length
+costs no more than one chunk of regressors.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+import math
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from fmu_model import ModelStructure, numeric_model
 from identifier.ekf import EkfSegment
 
 # Ridge weight relative to the number of samples, in unit-RMS column scaling.
 _RIDGE = 1e-9
+
+#: Sampling interval the regression is decimated to, in units of L/U [-] (module docstring).
+REGRESSION_INTERVAL_L_OVER_U = 1.0 / 40.0
+
+#: Rows of regressors held at once when summing the normal equations.
+CHUNK_ROWS = 50_000
 
 
 @dataclass(frozen=True)
@@ -44,6 +68,12 @@ class EquationErrorFit:
         RMS of every regressor over the data (p,); 0 means not excited at all.
     contribution : numpy.ndarray
         RMS(θ_i φ_i) / RMS(fitted acceleration of its equation) (p,).
+    variance_inflation : numpy.ndarray
+        Uncentred variance inflation factor of every regressor (p,).
+    rows : int
+        Regression rows (decimated samples) the fit used.
+    sample_interval_s : float
+        Their median sampling interval [s] after decimation (0 when not known).
 
     """
 
@@ -53,43 +83,160 @@ class EquationErrorFit:
     regressor_rms: np.ndarray
     contribution: np.ndarray
     variance_inflation: np.ndarray
+    rows: int = 0
+    sample_interval_s: float = 0.0
 
 
-def regression_samples(segments: Sequence[EkfSegment]) -> tuple[np.ndarray, np.ndarray]:
-    """Return the samples (u, v, r, δ, n) (5, M) and their central-difference accelerations (3, M).
+def decimation(segment: EkfSegment, length_m: float) -> int:
+    """Return m, the step of the decimation to about 1/40 L/U (≥ 1; module docstring)."""
+    interval = float(np.median(np.diff(segment.time_s)))
+    speed = float(np.median(np.hypot(segment.velocities[:, 0], segment.velocities[:, 1])))
+    target_s = REGRESSION_INTERVAL_L_OVER_U * length_m / speed if speed > 0.0 else interval
+    return max(1, math.floor(target_s / interval * (1.0 + 1e-9)))
 
-    SI units: m/s, m/s, rad/s, rad, rev/s; accelerations m/s², m/s², rad/s². The first and
-    last sample of every segment have no central difference and are left out.
+
+def regression_rows(segments: Sequence[EkfSegment], length_m: float) -> int:
+    """Return the number of rows of the decimated regression of ``segments``."""
+    return sum(
+        max(len(range(0, seg.time_s.size, decimation(seg, length_m))) - 2, 0) for seg in segments
+    )
+
+
+def regression_chunks(
+    segments: Sequence[EkfSegment],
+    length_m: float,
+    chunk_rows: int | None = None,
+    row_step: int = 1,
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Yield the decimated samples (u, v, r, δ, n) (5, m) and their accelerations (3, m).
+
+    Each segment is decimated by :func:`decimation` (ship length ``length_m`` [m]); the
+    accelerations are central differences over the decimated samples. SI units: m/s, m/s,
+    rad/s, rad, rev/s; accelerations m/s², m/s², rad/s². The first and last decimated sample
+    of every segment have no central difference and are left out. At most ``chunk_rows``
+    rows (default :data:`CHUNK_ROWS`) a chunk; a chunk never spans two segments. With
+    ``row_step`` > 1 only every ``row_step``-th row of each chunk is kept (a subset spread
+    evenly over the data).
     """
-    samples, accs = [], []
+    per_chunk = CHUNK_ROWS if chunk_rows is None else chunk_rows
     for seg in segments:
-        s = seg.velocities
-        samples.append(np.vstack([s[1:-1].T, seg.rudder_rad[1:-1], seg.n_rps[1:-1]]))
-        span = (seg.time_s[2:] - seg.time_s[:-2])[:, None]
-        accs.append(((s[2:] - s[:-2]) / span).T)
-    return np.concatenate(samples, axis=1), np.concatenate(accs, axis=1)
+        m = decimation(seg, length_m)
+        t = seg.time_s[::m]
+        for start in range(1, t.size - 1, per_chunk):
+            stop = min(start + per_chunk, t.size - 1)  # rows start … stop − 1
+            rows = slice(start * m, stop * m, m)
+            s = seg.velocities[rows].T
+            ahead = seg.velocities[(start + 1) * m : (stop + 1) * m : m].T
+            behind = seg.velocities[(start - 1) * m : (stop - 1) * m : m].T
+            span = t[start + 1 : stop + 1] - t[start - 1 : stop - 1]
+            yield (
+                np.vstack([s, seg.rudder_rad[rows], seg.n_rps[rows]])[:, ::row_step],
+                ((ahead - behind) / span)[:, ::row_step],
+            )
 
 
-def regression_data(
-    structure: ModelStructure, segments: Sequence[EkfSegment], length_m: float
+def regression_samples(
+    segments: Sequence[EkfSegment], length_m: float, max_rows: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Return the regressors Φ (p, M) and the central-difference accelerations (3, M)."""
-    (u, v, r, rudder_rad, n_rps), acc = regression_samples(segments)
-    return numeric_model(structure).regressors(u, v, r, rudder_rad, n_rps, length_m), acc
+    """Return the decimated samples (5, M) and accelerations (3, M) of :func:`regression_chunks`.
+
+    With ``max_rows``, every k-th row only, k the least that keeps at most about that
+    many rows (a chunk's first row is always kept).
+    """
+    step = 1 if max_rows is None else max(1, -(-regression_rows(segments, length_m) // max_rows))
+    chunks = list(regression_chunks(segments, length_m, row_step=step))
+    return (
+        np.concatenate([c[0] for c in chunks], axis=1),
+        np.concatenate([c[1] for c in chunks], axis=1),
+    )
+
+
+def regression_interval_s(segments: Sequence[EkfSegment], length_m: float) -> float:
+    """Return the median sampling interval of the decimated regression [s]."""
+    return float(
+        np.median(
+            [np.median(np.diff(seg.time_s[:: decimation(seg, length_m)])) for seg in segments]
+        )
+    )
+
+
+class NormalEquations:
+    """Running sums of the regression of every equation (bounded memory).
+
+    ``add(phi, acc)`` adds rows: regressors φ (p, m) and accelerations (3, m); the sums
+    ΦΦᵀ (p, p), Φ aᵀ (p, 3) and Σ a² (3,) are all :meth:`solve` needs.
+    """
+
+    def __init__(self, n_coefficients: int) -> None:
+        self.rows = 0
+        self.gram = np.zeros((n_coefficients, n_coefficients))
+        self.cross = np.zeros((n_coefficients, 3))
+        self.acc_squares = np.zeros(3)
+
+    def add(self, phi: np.ndarray, acc: np.ndarray) -> None:
+        """Add the rows of φ (p, m) and of the accelerations (3, m)."""
+        self.rows += phi.shape[1]
+        self.gram += phi @ phi.T
+        self.cross += phi @ acc.T
+        self.acc_squares += np.einsum("jm,jm->j", acc, acc)
+
+    def solve(self, equation_index: Sequence[int]) -> EquationErrorFit:
+        """Solve acc_j ≈ Σ_{i in equation j} θ_i φ_i for every equation j (module docstring).
+
+        With X = Φ_jᵀ D⁻¹ (columns scaled to unit RMS by D), A = XᵀX + λ m I::
+
+            β = A⁻¹ Xᵀ a_j,   θ_j = D⁻¹ β,
+            ‖a_j − X β‖² = aᵀa − 2 βᵀ Xᵀ a + βᵀ XᵀX β,   σ² = that / (m − p_j),
+            Cov θ_j = σ² D⁻¹ A⁻¹ D⁻¹,   VIF = diag((A / m)⁻¹).
+        """
+        m = self.rows
+        p = self.gram.shape[0]
+        theta = np.zeros(p)
+        cov = np.zeros((p, p))
+        residual_std = np.zeros(3)
+        rms = np.sqrt(np.maximum(np.diag(self.gram), 0.0) / max(m, 1))
+        eq_index = np.asarray(equation_index)
+        fitted_squares = np.zeros(3)
+        vif = np.ones(p)
+        for j in range(3):
+            cols = np.flatnonzero(eq_index == j)
+            scale = np.where(rms[cols] > 0.0, rms[cols], 1.0)
+            xtx = self.gram[np.ix_(cols, cols)] / np.outer(scale, scale)
+            xta = self.cross[cols, j] / scale
+            A = xtx + _RIDGE * m * np.eye(cols.size)
+            beta = np.linalg.solve(A, xta)
+            fit_squares = float(beta @ xtx @ beta)
+            residual = max(float(self.acc_squares[j] - 2.0 * beta @ xta + fit_squares), 0.0)
+            dof = max(m - cols.size, 1)
+            sigma2 = residual / dof
+            theta[cols] = beta / scale
+            cov[np.ix_(cols, cols)] = sigma2 * np.linalg.inv(A) / np.outer(scale, scale)
+            residual_std[j] = np.sqrt(sigma2)
+            vif[cols] = np.diag(np.linalg.inv(A / m))
+            fitted_squares[j] = fit_squares
+        signal = np.sqrt(fitted_squares / max(m, 1))
+        term_rms = np.abs(theta) * rms
+        contribution = term_rms / np.where(signal[eq_index] > 0.0, signal[eq_index], 1.0)
+        return EquationErrorFit(theta, cov, residual_std, rms, contribution, vif, rows=m)
 
 
 def equation_error_fit(
     structure: ModelStructure, segments: Sequence[EkfSegment], length_m: float
 ) -> EquationErrorFit:
     """Fit θ by equation-error least squares on the smoothed segments (module docstring)."""
-    phi, acc = regression_data(structure, segments, length_m)
-    return fit_regression(phi, acc, structure.equation_index)
+    model = numeric_model(structure)
+    sums = NormalEquations(model.n_coefficients)
+    with threadpool_limits(limits=1, user_api="blas"):  # p ≤ 28 columns: threads only cost
+        for (u, v, r, rudder_rad, n_rps), acc in regression_chunks(segments, length_m):
+            sums.add(model.regressors(u, v, r, rudder_rad, n_rps, length_m), acc)
+        fit = sums.solve(structure.equation_index)
+    return replace(fit, sample_interval_s=regression_interval_s(segments, length_m))
 
 
 def fit_regression(
     phi: np.ndarray, acc: np.ndarray, equation_index: Sequence[int]
 ) -> EquationErrorFit:
-    """Solve acc_j ≈ Σ_{i in equation j} θ_i φ_i for every equation j (module docstring).
+    """Solve acc_j ≈ Σ_{i in equation j} θ_i φ_i for regressors in memory.
 
     Parameters
     ----------
@@ -101,30 +248,6 @@ def fit_regression(
         For each coefficient the equation it enters (0 surge, 1 sway, 2 yaw).
 
     """
-    p, m = phi.shape
-    theta = np.zeros(p)
-    cov = np.zeros((p, p))
-    residual_std = np.zeros(3)
-    rms = np.sqrt(np.mean(phi**2, axis=1))
-    eq_index = np.asarray(equation_index)
-    fitted = np.zeros_like(acc)
-    vif = np.ones(p)
-    for j in range(3):
-        cols = np.flatnonzero(eq_index == j)
-        scale = np.where(rms[cols] > 0.0, rms[cols], 1.0)
-        X = (phi[cols] / scale[:, None]).T  # (M, p_j), unit-RMS columns
-        A = X.T @ X + _RIDGE * m * np.eye(cols.size)
-        beta = np.linalg.solve(A, X.T @ acc[j])
-        residual = acc[j] - X @ beta
-        dof = max(m - cols.size, 1)
-        sigma2 = float(residual @ residual) / dof
-        theta[cols] = beta / scale
-        cov[np.ix_(cols, cols)] = sigma2 * np.linalg.inv(A) / np.outer(scale, scale)
-        residual_std[j] = np.sqrt(sigma2)
-        # Uncentred VIF in unit-RMS scaling: diag((XᵀX/M)⁻¹).
-        vif[cols] = np.diag(np.linalg.inv(A / m))
-        fitted[j] = X @ beta
-    signal = np.sqrt(np.mean(fitted**2, axis=1))
-    term_rms = np.sqrt(np.mean((theta[:, None] * phi) ** 2, axis=1))
-    contribution = term_rms / np.where(signal[eq_index] > 0.0, signal[eq_index], 1.0)
-    return EquationErrorFit(theta, cov, residual_std, rms, contribution, vif)
+    sums = NormalEquations(phi.shape[0])
+    sums.add(phi, acc)
+    return sums.solve(equation_index)

@@ -77,7 +77,14 @@ def velocity_figure(result: IdentificationResult) -> Figure:
                 lw=0,
             )
             ax.plot(track.time_s, value * scale, color="C0", lw=1, label="smoothed ±2σ")
-            ax.plot(track.time_s, states[:, j] * scale, "--", color="C1", lw=1, label="EKF")
+            ax.plot(
+                track.time_s[:: result.ekf.history_stride],
+                states[:, j] * scale,
+                "--",
+                color="C1",
+                lw=1,
+                label="EKF",
+            )
             ax.set_ylabel(labels[j])
         axes[0, i].legend(fontsize=8)
         axes[-1, i].set_xlabel("time [s]")
@@ -92,7 +99,7 @@ def convergence_figure(result: IdentificationResult) -> Figure:
     rows = math.ceil(len(names) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(14, 2.4 * rows), squeeze=False)
     history, std = result.ekf.theta_history, result.ekf.std_history
-    steps = np.arange(history.shape[0])
+    steps = np.arange(history.shape[0]) * result.ekf.history_stride
     for i, name in enumerate(names):
         ax = axes[i // cols, i % cols]
         ax.fill_between(
@@ -105,7 +112,7 @@ def convergence_figure(result: IdentificationResult) -> Figure:
         )
         ax.plot(steps, history[:, i], color="C0", lw=1)
         for end in result.ekf.segment_ends[:-1]:
-            ax.axvline(end, color="0.5", lw=0.6, ls=":")
+            ax.axvline(end * result.ekf.history_stride, color="0.5", lw=0.6, ls=":")
         ident = next(c.identifiable for c in result.coefficients if c.name == name)
         ax.set_title(f"{name}" + ("" if ident else " (not identifiable)"), fontsize=9)
         ax.tick_params(labelsize=7)

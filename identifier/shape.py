@@ -15,6 +15,15 @@ the best grid point with a bounded Powell search (``scipy.optimize.minimize``). 
 of a held-out manoeuvre is used. The slipstream share k is searched as κ = k (n₀L/U₀)²,
 the (nL)² part of the rudder inflow relative to U₀² at the nominal approach, so that one
 grid fits every ship.
+
+Rate-aware. J is evaluated on the regression of ``identifier.equation_error``, decimated
+to about L/U/40 (1 Hz for KVLCC2 at full scale; the smoother being the anti-aliasing
+filter), and on at most :data:`SHAPE_MAX_ROWS` of its rows, spread evenly over the data:
+a day-long log has hundreds of thousands of rows, and the several thousand shapes tried
+need only J's minimum, which that many rows fix (the coefficients of the chosen shape
+are then fitted on every row). The regressions are tiny (p ≤ 28 columns), so BLAS runs
+on one thread here: its threads cost more than they give, a hundredfold on a busy
+machine.
 """
 
 from __future__ import annotations
@@ -27,12 +36,16 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
+from threadpoolctl import threadpool_limits
 
 from fmu_model import ModelStructure
 from fmu_model.numeric import family_regressors
 from fmu_model.variants import ModelFamily, ShapeConstant
 from identifier.ekf import EkfSegment
-from identifier.equation_error import fit_regression, regression_samples
+from identifier.equation_error import fit_regression, regression_interval_s, regression_samples
+
+#: Most regression rows J is evaluated on (module docstring).
+SHAPE_MAX_ROWS = 10_000
 
 
 @dataclass(frozen=True)
@@ -51,6 +64,10 @@ class ShapeSelection:
         J at the family's default shape, for comparison.
     evaluations : int
         Number of shapes tried.
+    rows : int
+        Regression rows J was evaluated on.
+    sample_interval_s : float
+        Their sampling interval after decimation (median) [s].
 
     """
 
@@ -59,6 +76,8 @@ class ShapeSelection:
     residual: float
     default_residual: float
     evaluations: int
+    rows: int
+    sample_interval_s: float
 
     def as_dict(self) -> dict[str, Any]:
         """Return the record of params.json ``identification.shape`` (structure by name)."""
@@ -68,6 +87,8 @@ class ShapeSelection:
             "residual": self.residual,
             "default_residual": self.default_residual,
             "evaluations": self.evaluations,
+            "rows": self.rows,
+            "sample_interval_s": self.sample_interval_s,
         }
 
 
@@ -102,8 +123,21 @@ def select_shape(
     """
     fixed = dict(fixed or {})
     family.check(fixed)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _select_shape(family, segments, length_m, nominal_speed_mps, nominal_n_rps, fixed)
+
+
+def _select_shape(
+    family: ModelFamily,
+    segments: Sequence[EkfSegment],
+    length_m: float,
+    nominal_speed_mps: float,
+    nominal_n_rps: float,
+    fixed: dict[str, float],
+) -> ShapeSelection:
+    """:func:`select_shape` after the check of ``fixed``."""
     phi_fn = family_regressors(family)
-    samples, acc = regression_samples(segments)
+    samples, acc = regression_samples(segments, length_m, max_rows=SHAPE_MAX_ROWS)
     equation_index = family.structure(family.default_shape).equation_index
     signal = np.sum(acc**2, axis=1)
     signal = np.where(signal > 0.0, signal, 1.0)
@@ -156,4 +190,6 @@ def select_shape(
         residual=residual(list(shape.values())),
         default_residual=residual([c.default for c in family.shape]),
         evaluations=evaluations,
+        rows=acc.shape[1],
+        sample_interval_s=regression_interval_s(segments, length_m),
     )

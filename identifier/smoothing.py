@@ -41,6 +41,7 @@ import itertools
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -65,6 +66,9 @@ DEFAULT_TAU_S = 20.0
 
 #: Inflation κ of the two-point initial covariance (see :func:`smooth_axis`).
 _PRIOR_INFLATION = 10.0
+
+#: Samples in a window of the acceleration-level fit (see :func:`estimate_noise`).
+_ACCEL_FIT_SAMPLES = 31
 
 #: Clip level of the noise estimator, in robust standard deviations.
 _CLIP_SIGMAS = 4.0
@@ -163,43 +167,24 @@ class SmoothedTrack:
     """Smoothed track and derived ship velocities, Shi et al. (2009), eq. (9).
 
     Earth frame x North, y East; heading ψ clockwise from North; body u forward,
-    v to starboard, r positive turning to starboard. All arrays have shape (N,)
-    and are read-only. Standard deviations are first-order propagations of the
-    smoother covariances, the three axes taken as independent.
+    v to starboard, r positive turning to starboard. Standard deviations are
+    first-order propagations of the smoother covariances, the three axes taken as
+    independent (see :func:`smooth_track`).
+
+    Only the smoothed states of the three axes and the variances of their positions
+    and rates are stored (15 numbers a sample); every other array is derived from them
+    when asked for (shape (N,), read-only), so that a long log costs no more memory
+    than that.
 
     Attributes
     ----------
     time_s : ndarray
         Sample times [s].
-    x_m, y_m : ndarray
-        Smoothed North and East positions [m].
-    heading_rad : ndarray
-        Smoothed heading ψ, continuous (unwrapped) [rad].
-    x_dot_mps, y_dot_mps : ndarray
-        Velocity over ground, North and East components [m/s].
-    speed_mps : ndarray
-        Speed over ground U = √(ẋ² + ẏ²) [m/s].
-    course_rad : ndarray
-        Course over ground χ = atan2(ẏ, ẋ), in (−π, π] [rad].
-    drift_rad : ndarray
-        Drift angle β = χ − ψ wrapped to (−π, π] [rad].
-    u_mps, v_mps : ndarray
-        Surge u = U cos β and sway v = U sin β velocities [m/s].
-    r_radps : ndarray
-        Yaw rate r = ψ̇ [rad/s].
-    u_dot_mps2, v_dot_mps2 : ndarray
-        Body-axis derivatives u̇ = ẍ cos ψ + ÿ sin ψ + r v and
-        v̇ = −ẍ sin ψ + ÿ cos ψ − r u [m/s²].
-    r_dot_radps2 : ndarray
-        Yaw acceleration ṙ = ψ̈ [rad/s²].
-    x_std_m, y_std_m, heading_std_rad : ndarray
-        Standard deviations of the smoothed positions [m] and heading [rad].
-    x_dot_std_mps, y_dot_std_mps, speed_std_mps, u_std_mps, v_std_mps : ndarray
-        Standard deviations of ẋ, ẏ, U, u, v [m/s].
-    course_std_rad, drift_std_rad : ndarray
-        Standard deviations of χ and β [rad] (meaningless where U ≈ 0).
-    r_std_radps : ndarray
-        Standard deviation of r [rad/s].
+    states : ndarray, shape (3, N, 3)
+        Smoothed [position, rate, acceleration] of x [m], y [m] and the continuous
+        heading ψ [rad], in that order of axes.
+    variances : ndarray, shape (3, N, 2)
+        Smoothed variances of [position, rate] of the same axes.
     position_noise_m : float
         Position measurement noise standard deviation used [m].
     heading_noise_rad : float
@@ -210,45 +195,185 @@ class SmoothedTrack:
         Singer angular acceleration standard deviation used on ψ [rad/s²].
     tau_s : float
         Singer time constant used [s].
-    x_axis, y_axis, heading_axis : AxisSmoothing
-        The per-axis filter and smoother results (innovations, full covariances).
+
+    Derived (properties): ``x_m, y_m`` [m], ``heading_rad`` [rad], ``x_dot_mps,
+    y_dot_mps``, ``speed_mps`` U = √(ẋ² + ẏ²), ``u_mps`` = U cos β, ``v_mps`` = U sin β
+    [m/s], ``course_rad`` χ = atan2(ẏ, ẋ) and ``drift_rad`` β = χ − ψ, in (−π, π]
+    [rad], ``r_radps`` = ψ̇ [rad/s], ``u_dot_mps2`` = ẍ cos ψ + ÿ sin ψ + r v and
+    ``v_dot_mps2`` = −ẍ sin ψ + ÿ cos ψ − r u [m/s²], ``r_dot_radps2`` = ψ̈ [rad/s²];
+    the standard deviations ``x_std_m, y_std_m, heading_std_rad, x_dot_std_mps,
+    y_dot_std_mps, speed_std_mps, u_std_mps, v_std_mps, course_std_rad, drift_std_rad,
+    r_std_radps`` (χ and β meaningless where U ≈ 0).
 
     """
 
     time_s: FloatArray
-    x_m: FloatArray
-    y_m: FloatArray
-    heading_rad: FloatArray
-    x_dot_mps: FloatArray
-    y_dot_mps: FloatArray
-    speed_mps: FloatArray
-    course_rad: FloatArray
-    drift_rad: FloatArray
-    u_mps: FloatArray
-    v_mps: FloatArray
-    r_radps: FloatArray
-    u_dot_mps2: FloatArray
-    v_dot_mps2: FloatArray
-    r_dot_radps2: FloatArray
-    x_std_m: FloatArray
-    y_std_m: FloatArray
-    heading_std_rad: FloatArray
-    x_dot_std_mps: FloatArray
-    y_dot_std_mps: FloatArray
-    speed_std_mps: FloatArray
-    course_std_rad: FloatArray
-    drift_std_rad: FloatArray
-    u_std_mps: FloatArray
-    v_std_mps: FloatArray
-    r_std_radps: FloatArray
+    states: FloatArray
+    variances: FloatArray
     position_noise_m: float
     heading_noise_rad: float
     position_accel_std_mps2: float
     heading_accel_std_radps2: float
     tau_s: float
-    x_axis: AxisSmoothing
-    y_axis: AxisSmoothing
-    heading_axis: AxisSmoothing
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples N."""
+        return int(self.time_s.size)
+
+    # Smoothed states of the axes.
+    @property
+    def x_m(self) -> FloatArray:
+        """Smoothed North position [m]."""
+        return self.states[0, :, 0]
+
+    @property
+    def y_m(self) -> FloatArray:
+        """Smoothed East position [m]."""
+        return self.states[1, :, 0]
+
+    @property
+    def heading_rad(self) -> FloatArray:
+        """Smoothed heading ψ, continuous [rad]."""
+        return self.states[2, :, 0]
+
+    @property
+    def x_dot_mps(self) -> FloatArray:
+        """North velocity over ground ẋ [m/s]."""
+        return self.states[0, :, 1]
+
+    @property
+    def y_dot_mps(self) -> FloatArray:
+        """East velocity over ground ẏ [m/s]."""
+        return self.states[1, :, 1]
+
+    @property
+    def r_radps(self) -> FloatArray:
+        """Yaw rate r = ψ̇ [rad/s]."""
+        return self.states[2, :, 1]
+
+    @property
+    def r_dot_radps2(self) -> FloatArray:
+        """Yaw acceleration ṙ = ψ̈ [rad/s²]."""
+        return self.states[2, :, 2]
+
+    # Shi et al. (2009), eq. (9), as u = ẋ cos ψ + ẏ sin ψ, v = −ẋ sin ψ + ẏ cos ψ.
+    @property
+    def speed_mps(self) -> FloatArray:
+        """Speed over ground U = √(ẋ² + ẏ²) [m/s]."""
+        return _readonly(np.hypot(self.x_dot_mps, self.y_dot_mps))
+
+    @property
+    def course_rad(self) -> FloatArray:
+        """Course over ground χ = atan2(ẏ, ẋ) in (−π, π] [rad]."""
+        return _readonly(wrap_angle(np.arctan2(self.y_dot_mps, self.x_dot_mps)))
+
+    @property
+    def drift_rad(self) -> FloatArray:
+        """Drift angle β = χ − ψ in (−π, π] [rad]."""
+        return _readonly(wrap_angle(self.course_rad - self.heading_rad))
+
+    @property
+    def u_mps(self) -> FloatArray:
+        """Surge velocity u = U cos β [m/s]."""
+        psi = self.heading_rad
+        return _readonly(self.x_dot_mps * np.cos(psi) + self.y_dot_mps * np.sin(psi))
+
+    @property
+    def v_mps(self) -> FloatArray:
+        """Sway velocity v = U sin β [m/s], positive to starboard."""
+        psi = self.heading_rad
+        return _readonly(-self.x_dot_mps * np.sin(psi) + self.y_dot_mps * np.cos(psi))
+
+    @property
+    def u_dot_mps2(self) -> FloatArray:
+        """Body-axis u̇ = ẍ cos ψ + ÿ sin ψ + r v [m/s²]."""
+        psi = self.heading_rad
+        xdd, ydd = self.states[0, :, 2], self.states[1, :, 2]
+        return _readonly(xdd * np.cos(psi) + ydd * np.sin(psi) + self.r_radps * self.v_mps)
+
+    @property
+    def v_dot_mps2(self) -> FloatArray:
+        """Body-axis v̇ = −ẍ sin ψ + ÿ cos ψ − r u [m/s²]."""
+        psi = self.heading_rad
+        xdd, ydd = self.states[0, :, 2], self.states[1, :, 2]
+        return _readonly(-xdd * np.sin(psi) + ydd * np.cos(psi) - self.r_radps * self.u_mps)
+
+    # First-order propagation of the smoother variances (see smooth_track).
+    @property
+    def x_std_m(self) -> FloatArray:
+        """Standard deviation of the smoothed x [m]."""
+        return _readonly(np.sqrt(self.variances[0, :, 0]))
+
+    @property
+    def y_std_m(self) -> FloatArray:
+        """Standard deviation of the smoothed y [m]."""
+        return _readonly(np.sqrt(self.variances[1, :, 0]))
+
+    @property
+    def heading_std_rad(self) -> FloatArray:
+        """Standard deviation of the smoothed ψ [rad]."""
+        return _readonly(np.sqrt(self.variances[2, :, 0]))
+
+    @property
+    def x_dot_std_mps(self) -> FloatArray:
+        """Standard deviation of ẋ [m/s]."""
+        return _readonly(np.sqrt(self.variances[0, :, 1]))
+
+    @property
+    def y_dot_std_mps(self) -> FloatArray:
+        """Standard deviation of ẏ [m/s]."""
+        return _readonly(np.sqrt(self.variances[1, :, 1]))
+
+    @property
+    def r_std_radps(self) -> FloatArray:
+        """Standard deviation of r [rad/s]."""
+        return _readonly(np.sqrt(self.variances[2, :, 1]))
+
+    @property
+    def u_std_mps(self) -> FloatArray:
+        """Standard deviation of u: √(cos²ψ Var ẋ + sin²ψ Var ẏ + v² Var ψ) [m/s]."""
+        c2, s2 = np.cos(self.heading_rad) ** 2, np.sin(self.heading_rad) ** 2
+        var_xd, var_yd = self.variances[0, :, 1], self.variances[1, :, 1]
+        var = c2 * var_xd + s2 * var_yd + self.v_mps**2 * self.variances[2, :, 0]
+        return _readonly(np.sqrt(var))
+
+    @property
+    def v_std_mps(self) -> FloatArray:
+        """Standard deviation of v: √(sin²ψ Var ẋ + cos²ψ Var ẏ + u² Var ψ) [m/s]."""
+        c2, s2 = np.cos(self.heading_rad) ** 2, np.sin(self.heading_rad) ** 2
+        var_xd, var_yd = self.variances[0, :, 1], self.variances[1, :, 1]
+        var = s2 * var_xd + c2 * var_yd + self.u_mps**2 * self.variances[2, :, 0]
+        return _readonly(np.sqrt(var))
+
+    @property
+    def speed_std_mps(self) -> FloatArray:
+        """Standard deviation of U: √((ẋ² Var ẋ + ẏ² Var ẏ) / U²) [m/s]."""
+        xd, yd = self.x_dot_mps, self.y_dot_mps
+        var_xd, var_yd = self.variances[0, :, 1], self.variances[1, :, 1]
+        speed2 = xd**2 + yd**2
+        moving = speed2 > 0.0
+        weighted = (xd**2 * var_xd + yd**2 * var_yd) / np.where(moving, speed2, 1.0)
+        var = np.where(moving, weighted, var_xd + var_yd)
+        return _readonly(np.sqrt(var))
+
+    @property
+    def course_std_rad(self) -> FloatArray:
+        """Standard deviation of χ: √((ẏ² Var ẋ + ẋ² Var ẏ) / U⁴) [rad] (inf where U = 0)."""
+        return _readonly(np.sqrt(self._course_var()))
+
+    @property
+    def drift_std_rad(self) -> FloatArray:
+        """Standard deviation of β: √(Var χ + Var ψ) [rad]."""
+        return _readonly(np.sqrt(self._course_var() + self.variances[2, :, 0]))
+
+    def _course_var(self) -> FloatArray:
+        xd, yd = self.x_dot_mps, self.y_dot_mps
+        var_xd, var_yd = self.variances[0, :, 1], self.variances[1, :, 1]
+        speed2 = xd**2 + yd**2
+        moving = speed2 > 0.0
+        safe = np.where(moving, speed2, 1.0)
+        return np.where(moving, (yd**2 * var_xd + xd**2 * var_yd) / safe**2, np.inf)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -375,106 +500,215 @@ def constant_acceleration_model(
 #: Symmetric 3x3 stored as (P00, P01, P02, P11, P12, P22): gather indices to the full matrix.
 _SYM_TO_FULL = [0, 1, 2, 1, 3, 4, 2, 4, 5]
 
+#: Index of entry (i, j) of a symmetric 3x3 in the six-entry storage.
+_SYM_INDEX = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
 
-def _forward(
-    dt_s: FloatArray, z: FloatArray, R: float, q: float, x0: FloatArray, P0: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Kalman filter of eq. (7) for Φ, Q of eq. (6) and H = [1 0 0], unrolled.
+#: Samples per block of the checkpointed RTS pass (see :func:`_rts_kernel`).
+RTS_BLOCK_SAMPLES = 4096
+
+
+@numba.njit(cache=True)
+def _predict(T: float, q: float, x: FloatArray, P: FloatArray) -> None:
+    """Prediction of eq. (7) for Φ, Q of eq. (6), in place on x (3,) and the six-entry P.
 
     The products are written out for the structure of Φ(T) (upper triangular, with
-    h = T²/2) and of H, on the six distinct entries of the symmetric P, which makes a
-    step about three times faster than general 3x3 numpy products. With B = Φ P::
+    h = T²/2) on the six distinct entries of the symmetric P. With B = Φ P::
 
         B₀ = P₀ + T P₁ + h P₂,   B₁ = P₁ + T P₂          (rows)
         (Φ P Φᵀ)₀₀ = B₀₀ + T B₀₁ + h B₀₂,   (Φ P Φᵀ)₀₁ = B₀₁ + T B₀₂,   (Φ P Φᵀ)₀₂ = B₀₂,
         (Φ P Φᵀ)₁₁ = B₁₁ + T B₁₂,           (Φ P Φᵀ)₁₂ = B₁₂,           (Φ P Φᵀ)₂₂ = P₂₂,
 
-    and the update P(k|k) = P − P Hᵀ H P / S on each entry: Pᵢⱼ − Pᵢ₀ Pⱼ₀ / S (for the
-    first row Pᵢ₀ R / S, the same number without cancellation).
+    plus Q = q [[T⁵/20, T⁴/8, T³/6], [., T³/3, T²/2], [., ., T]].
+    """
+    h = 0.5 * T * T
+    x[0] = x[0] + T * x[1] + h * x[2]  # x(k|k−1) = Φ x(k−1|k−1)
+    x[1] = x[1] + T * x[2]
+    p00, p01, p02, p11, p12, p22 = P[0], P[1], P[2], P[3], P[4], P[5]
+    b00 = p00 + T * p01 + h * p02
+    b01 = p01 + T * p11 + h * p12
+    b02 = p02 + T * p12 + h * p22
+    b11 = p11 + T * p12
+    b12 = p12 + T * p22
+    qT = q * T
+    qT2 = qT * T
+    qT3 = qT2 * T
+    P[0] = b00 + T * b01 + h * b02 + qT3 * T * T / 20.0
+    P[1] = b01 + T * b02 + qT3 * T / 8.0
+    P[2] = b02 + qT3 / 6.0
+    P[3] = b11 + T * b12 + qT3 / 3.0
+    P[4] = b12 + qT2 / 2.0
+    P[5] = p22 + qT
 
-    Returns
-    -------
-    x_pred, P_pred, x_filt, P_filt : ndarray
-        x(k|k−1), P(k|k−1), x(k|k), P(k|k); shapes (N, 3), (N, 3, 3).
-    y, S : ndarray, shape (N,)
-        Innovations and their variances.
 
+@numba.njit(cache=True)
+def _update(z: float, R: float, x: FloatArray, P: FloatArray) -> tuple[float, float]:
+    """Update of eq. (7) with H = [1 0 0], in place; returns the innovation y and its S.
+
+    P(k|k) = P − P Hᵀ H P / S on each entry, Pᵢⱼ − Pᵢ₀ Pⱼ₀ / S (for the first row
+    Pᵢ₀ R / S, the same number without cancellation).
+    """
+    S = P[0] + R  # S = H P Hᵀ + R
+    y = z - x[0]  # y = z − H x
+    k0, k1, k2 = P[0] / S, P[1] / S, P[2] / S  # K = P Hᵀ / S
+    x[0] += k0 * y
+    x[1] += k1 * y
+    x[2] += k2 * y
+    P[3], P[4], P[5] = P[3] - k1 * P[1], P[4] - k1 * P[2], P[5] - k2 * P[2]  # P − K H P
+    P[0], P[1], P[2] = k0 * R, k1 * R, k2 * R
+    return y, S
+
+
+@numba.njit(cache=True)
+def _rts_step(
+    T: float,
+    q: float,
+    xf: FloatArray,
+    Pf: FloatArray,
+    xs: FloatArray,
+    Ps: FloatArray,
+    xp: FloatArray,
+    Pp: FloatArray,
+    work: FloatArray,
+) -> None:
+    """One step of the RTS smoother, eq. (8), in place: (xs, Ps) from k+1|N to k|N.
+
+    With x(k+1|k) = Φ x(k|k), P(k+1|k) = Φ P(k|k) Φᵀ + Q and the gain
+    A = P(k|k) Φᵀ P(k+1|k)⁻¹ (= (P(k+1|k)⁻¹ Φ P(k|k))ᵀ, solved by Cholesky)::
+
+        x(k|N) = x(k|k) + A [x(k+1|N) − x(k+1|k)]
+        P(k|N) = P(k|k) + A [P(k+1|N) − P(k+1|k)] Aᵀ
+
+    ``xp`` (3,), ``Pp`` (6,) and ``work`` (3, 3, 3) are scratch space.
+    """
+    h = 0.5 * T * T
+    p00, p01, p02, p11, p12, p22 = Pf[0], Pf[1], Pf[2], Pf[3], Pf[4], Pf[5]
+    B, A, D = work[0], work[1], work[2]
+    xp[:] = xf
+    Pp[:] = Pf
+    _predict(T, q, xp, Pp)
+    # B = Φ P(k|k), full 3 × 3.
+    B[0, 0] = p00 + T * p01 + h * p02
+    B[0, 1] = p01 + T * p11 + h * p12
+    B[0, 2] = p02 + T * p12 + h * p22
+    B[1, 0], B[1, 1], B[1, 2] = p01 + T * p02, p11 + T * p12, p12 + T * p22
+    B[2, 0], B[2, 1], B[2, 2] = p02, p12, p22
+    # P(k+1|k) = L Lᵀ; Aᵀ = L⁻ᵀ L⁻¹ B column by column.
+    l00 = np.sqrt(Pp[0])
+    l10 = Pp[1] / l00
+    l20 = Pp[2] / l00
+    l11 = np.sqrt(Pp[3] - l10 * l10)
+    l21 = (Pp[4] - l20 * l10) / l11
+    l22 = np.sqrt(Pp[5] - l20 * l20 - l21 * l21)
+    for c in range(3):
+        w0 = B[0, c] / l00
+        w1 = (B[1, c] - l10 * w0) / l11
+        w2 = (B[2, c] - l20 * w0 - l21 * w1) / l22
+        a2 = w2 / l22
+        a1 = (w1 - l21 * a2) / l11
+        A[c, 0] = (w0 - l10 * a1 - l20 * a2) / l00
+        A[c, 1] = a1
+        A[c, 2] = a2
+    d0, d1, d2 = xs[0] - xp[0], xs[1] - xp[1], xs[2] - xp[2]
+    for i in range(3):
+        xs[i] = xf[i] + A[i, 0] * d0 + A[i, 1] * d1 + A[i, 2] * d2
+    for i in range(3):
+        for j in range(3):
+            D[i, j] = Ps[_SYM_INDEX[i, j]] - Pp[_SYM_INDEX[i, j]]
+    for i in range(3):  # B ← A D
+        for j in range(3):
+            B[i, j] = A[i, 0] * D[0, j] + A[i, 1] * D[1, j] + A[i, 2] * D[2, j]
+    for i in range(3):
+        for j in range(i, 3):
+            Ps[_SYM_INDEX[i, j]] = Pf[_SYM_INDEX[i, j]] + (
+                B[i, 0] * A[j, 0] + B[i, 1] * A[j, 1] + B[i, 2] * A[j, 2]
+            )
+
+
+@numba.njit(cache=True)
+def _rts_kernel(
+    dt: FloatArray,
+    z: FloatArray,
+    R: float,
+    q: float,
+    x0: FloatArray,
+    P0: FloatArray,
+    block: int,
+    x_s: FloatArray,
+    var_s: FloatArray,
+    P_s: FloatArray,
+    x_f: FloatArray,
+    P_f: FloatArray,
+    yS: FloatArray,
+) -> None:
+    """Kalman filter, eq. (7), and RTS smoother, eq. (8), in memory of O(N/block + block).
+
+    The forward pass keeps x(k|k), P(k|k) only at the first sample of every block of
+    ``block`` samples (checkpoints). The backward pass, block by block from the end,
+    runs the filter again over the block from its checkpoint (the same arithmetic, so
+    the same numbers), keeps that block's filtered states and runs the RTS recursion
+    through it. Outputs: ``x_s`` (N, 3) x(k|N) and ``var_s`` (N, 2) the smoothed
+    variances of position and rate; ``P_s`` (N, 6) P(k|N), ``x_f`` (N, 3) x(k|k),
+    ``P_f`` (N, 6) P(k|k) and ``yS`` (N, 2) innovations and their variances only when
+    they have N rows (zero rows: not kept). Covariances in six-entry storage.
     """
     n = z.size
-    x_pred = np.empty((n, 3))
-    x_filt = np.empty((n, 3))
-    P_pred6 = np.empty((n, 6))
-    P_filt6 = np.empty((n, 6))
-    yS = np.empty((n, 2))
-    dts = [0.0, *dt_s.tolist()]
-    zs = z.tolist()
-    s, v, a = (float(c) for c in x0)  # position, rate, acceleration
-    p00, p01, p02 = float(P0[0, 0]), float(P0[0, 1]), float(P0[0, 2])
-    p11, p12, p22 = float(P0[1, 1]), float(P0[1, 2]), float(P0[2, 2])
+    keep = x_f.shape[0] == n
+    n_blocks = (n + block - 1) // block
+    check_x = np.empty((n_blocks, 3))
+    check_P = np.empty((n_blocks, 6))
+    x = x0.copy()
+    P = P0.copy()
     for k in range(n):
         if k:
-            T = dts[k]
-            h = 0.5 * T * T
-            # x(k|k-1) = Φ x(k-1|k-1)
-            s = s + T * v + h * a
-            v = v + T * a
-            # P(k|k-1) = Φ P Φᵀ + Q,  Q = q [[T⁵/20, T⁴/8, T³/6], [., T³/3, T²/2], [., ., T]]
-            b00 = p00 + T * p01 + h * p02
-            b01 = p01 + T * p11 + h * p12
-            b02 = p02 + T * p12 + h * p22
-            b11 = p11 + T * p12
-            b12 = p12 + T * p22
-            qT = q * T
-            qT2 = qT * T
-            qT3 = qT2 * T
-            p00 = b00 + T * b01 + h * b02 + qT3 * T * T / 20.0
-            p01 = b01 + T * b02 + qT3 * T / 8.0
-            p02 = b02 + qT3 / 6.0
-            p11 = b11 + T * b12 + qT3 / 3.0
-            p12 = b12 + qT2 / 2.0
-            p22 = p22 + qT
-        x_pred[k] = (s, v, a)
-        P_pred6[k] = (p00, p01, p02, p11, p12, p22)
-        S = p00 + R  # S = H P Hᵀ + R
-        y = zs[k] - s  # y = z − H x
-        k0, k1, k2 = p00 / S, p01 / S, p02 / S  # K = P Hᵀ / S
-        s, v, a = s + k0 * y, v + k1 * y, a + k2 * y  # x + K y
-        p11, p12, p22 = p11 - k1 * p01, p12 - k1 * p02, p22 - k2 * p02  # P − K H P
-        p00, p01, p02 = k0 * R, k1 * R, k2 * R
-        x_filt[k] = (s, v, a)
-        P_filt6[k] = (p00, p01, p02, p11, p12, p22)
-        yS[k] = (y, S)
-    P_pred = P_pred6[:, _SYM_TO_FULL].reshape(n, 3, 3)
-    P_filt = P_filt6[:, _SYM_TO_FULL].reshape(n, 3, 3)
-    return x_pred, P_pred, x_filt, P_filt, yS[:, 0].copy(), yS[:, 1].copy()
+            _predict(dt[k - 1], q, x, P)
+        y, S = _update(z[k], R, x, P)
+        if k % block == 0:
+            check_x[k // block] = x
+            check_P[k // block] = P
+        if keep:
+            x_f[k] = x
+            P_f[k] = P
+            yS[k, 0] = y
+            yS[k, 1] = S
+    keep_P = P_s.shape[0] == n
+    bx = np.empty((block, 3))
+    bP = np.empty((block, 6))
+    xp = np.empty(3)
+    Pp = np.empty(6)
+    work = np.empty((3, 3, 3))
+    xs = x.copy()  # x(N−1|N−1) = x(N−1|N), the smoother's start
+    Ps = P.copy()
+    for b in range(n_blocks - 1, -1, -1):
+        start = b * block
+        stop = min(n, start + block)
+        x[:] = check_x[b]
+        P[:] = check_P[b]
+        bx[0] = x
+        bP[0] = P
+        for k in range(start + 1, stop):
+            _predict(dt[k - 1], q, x, P)
+            _update(z[k], R, x, P)
+            bx[k - start] = x
+            bP[k - start] = P
+        for k in range(stop - 1, start - 1, -1):
+            if k < n - 1:
+                _rts_step(dt[k], q, bx[k - start], bP[k - start], xs, Ps, xp, Pp, work)
+            x_s[k] = xs
+            var_s[k, 0] = Ps[0]
+            var_s[k, 1] = Ps[3]
+            if keep_P:
+                P_s[k] = Ps
 
 
-def _backward(
-    F: FloatArray, x_pred: FloatArray, P_pred: FloatArray, x_filt: FloatArray, P_filt: FloatArray
+def _default_prior(
+    t_s: FloatArray, z: FloatArray, R: float, accel_std: float
 ) -> tuple[FloatArray, FloatArray]:
-    """Fixed-interval RTS smoother, eq. (8), with everything but the recursion batched.
-
-    With A(k) = P(k|k) Φ_{k+1}ᵀ P(k+1|k)⁻¹ (``F[k]`` is Φ_{k+1}, from k to k+1)::
-
-        x(k|N) = c(k) + A(k) x(k+1|N),          c(k) = x(k|k) − A(k) x(k+1|k)
-        P(k|N) = B(k) + A(k) P(k+1|N) A(k)ᵀ,    B(k) = P(k|k) − A(k) P(k+1|k) A(k)ᵀ
-
-    A, c and B depend on the forward pass only and are computed for all k at once.
-    """
-    n = x_filt.shape[0]
-    # A(k)ᵀ = P(k+1|k)⁻¹ Φ P(k|k), P(k+1|k) being symmetric.
-    A = np.linalg.solve(P_pred[1:], F @ P_filt[:-1]).transpose(0, 2, 1)
-    At = A.transpose(0, 2, 1)
-    c = x_filt[:-1] - np.einsum("kij,kj->ki", A, x_pred[1:])
-    B = P_filt[:-1] - A @ P_pred[1:] @ At
-    x_s = np.empty((n, 3))
-    P_s = np.empty((n, 3, 3))
-    x_s[-1] = x_filt[-1]  # x(N|N) = x(N)
-    P_s[-1] = P_filt[-1]
-    for k in range(n - 2, -1, -1):
-        x_s[k] = c[k] + A[k] @ x_s[k + 1]
-        P_s[k] = B[k] + A[k] @ P_s[k + 1] @ At[k]
-    return x_s, P_s
+    """Return the two-point prior x(0|−1), P(0|−1) of :func:`smooth_axis` (six-entry P)."""
+    dt0 = t_s[1] - t_s[0]
+    k2 = _PRIOR_INFLATION**2
+    x = np.array([z[0], (z[1] - z[0]) / dt0, 0.0])
+    P = np.array([k2 * R, 0.0, 0.0, 2.0 * k2 * R / dt0**2, 0.0, accel_std**2])
+    return x, P
 
 
 def smooth_axis(
@@ -506,8 +740,9 @@ def smooth_axis(
         x(k|N)   = x(k|k) + A(k) [x(k+1|N) − x(k+1|k)]
         P(k|N)   = P(k|k) + A(k) [P(k+1|N) − P(k+1|k)] A(k)ᵀ
 
-    The gains A(k) do not depend on the backward recursion and are computed for all k
-    at once; only the two recursions themselves loop over time.
+    Both passes are compiled (numba); the backward pass works block by block from
+    checkpoints of the forward pass (:func:`_rts_kernel`), so that only the results
+    grow with N.
 
     Initialisation. The paper starts at the second sample with the two-point estimate
     X(2) = [Z(2), (Z(2) − Z(1))/T, 0] and P(2) = [[σ², σ²/T, 0], [σ²/T, 2σ²/T², 0],
@@ -559,35 +794,37 @@ def smooth_axis(
     accel_std = _check_positive(accel_std, "accel_std")
     tau_s = _check_positive(tau_s, "tau_s")
     dt = np.diff(t)
-    F, _ = constant_acceleration_model(dt, accel_std, tau_s)
-
-    if x0 is None:
-        x = np.array([zs[0], (zs[1] - zs[0]) / dt[0], 0.0])
-    else:
+    x, P = _default_prior(t, zs, R, accel_std)
+    if x0 is not None:
         x = np.array(x0, dtype=float)
         if x.shape != (3,) or not np.all(np.isfinite(x)):
             raise ValueError(f"x0 must be 3 finite numbers, got {x0!r}")
-    if P0 is None:
-        k2 = _PRIOR_INFLATION**2
-        P = np.diag([k2 * R, 2.0 * k2 * R / dt[0] ** 2, accel_std**2])
-    else:
-        P = np.array(P0, dtype=float)
-        if P.shape != (3, 3) or not np.all(np.isfinite(P)) or not np.allclose(P, P.T):
+    if P0 is not None:
+        P_full = np.array(P0, dtype=float)
+        if (
+            P_full.shape != (3, 3)
+            or not np.all(np.isfinite(P_full))
+            or not np.allclose(P_full, P_full.T)
+        ):
             raise ValueError(f"P0 must be a finite symmetric 3x3 matrix, got {P0!r}")
+        P = P_full[np.triu_indices(3)]
 
-    x_pred, P_pred, x_filt, P_filt, y_all, S_all = _forward(
-        dt, zs, R, 2.0 * accel_std**2 / tau_s, x, P
-    )
-    x_s, P_s = _backward(F, x_pred, P_pred, x_filt, P_filt)
-
+    n = t.size
+    x_s, x_filt, yS = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 2))
+    P_s6, P_f6 = np.empty((n, 6)), np.empty((n, 6))
+    _rts_kernel(
+        dt, zs, R, 2.0 * accel_std**2 / tau_s, x, P, RTS_BLOCK_SAMPLES,
+        x_s, np.empty((n, 2)), P_s6, x_filt, P_f6, yS,
+    )  # fmt: skip
+    y_all, S_all = yS[:, 0].copy(), yS[:, 1].copy()
     S1, y1 = S_all[1:], y_all[1:]
     log_likelihood = -0.5 * float(np.sum(np.log(2.0 * np.pi * S1) + y1 * y1 / S1))
     return AxisSmoothing(
         time_s=_readonly(t),
         x_filtered=_readonly(x_filt),
-        P_filtered=_readonly(P_filt),
+        P_filtered=_readonly(P_f6[:, _SYM_TO_FULL].reshape(n, 3, 3)),
         x_smoothed=_readonly(x_s),
-        P_smoothed=_readonly(P_s),
+        P_smoothed=_readonly(P_s6[:, _SYM_TO_FULL].reshape(n, 3, 3)),
         innovation=_readonly(y_all),
         innovation_var=_readonly(S_all),
         log_likelihood=log_likelihood,
@@ -667,7 +904,9 @@ def estimate_noise(
     noise).
 
     Acceleration level (default process noise). A quadratic is fitted in the same way
-    over a longer window of about ``accel_window_s``; its second derivative â_i has noise
+    over a longer window of about ``accel_window_s`` (on every m-th sample, m chosen so
+    that the window has about 31 samples: 1 at 1 Hz, 10 at 10 Hz); its second
+    derivative â_i has noise
     variance σ² ‖g_i‖², g_i its weights. The Singer σ_m is the RMS acceleration of the
     signal: σ_m² = mean(â_i²) − σ² mean(‖g_i‖²), floored at σ² mean(‖g_i‖²) (an
     acceleration level below the fit's own noise cannot be resolved, and q must stay
@@ -725,9 +964,12 @@ def estimate_noise(
     floor = 1e-9 * (1.0 + float(np.max(np.abs(zs))))  # keeps R > 0 on noise-free data
     meas_std = max(math.sqrt(float(np.mean(kept**2)) / truncation), floor)
 
-    # Acceleration level from a longer local quadratic.
-    dt_med = float(np.median(np.diff(t)))
-    wa = min(max(5, round(accel_window_s / dt_med) + 1), n)
+    # Acceleration level from a longer local quadratic, on every step-th sample so that
+    # a window has about _ACCEL_FIT_SAMPLES of them at any rate (the acceleration of a
+    # manoeuvre is resolved by them; the cost stays O(N)).
+    step = max(1, round((_accel_window(t, accel_window_s) - 1) / (_ACCEL_FIT_SAMPLES - 1)))
+    t, zs = t[::step], zs[::step]
+    wa = _accel_window(t, accel_window_s)
     start_a, g = _local_polynomial_weights(t, wa, 2, 2)  # â = g_i · z
     windows_a = np.lib.stride_tricks.sliding_window_view(zs, wa)[start_a]
     accel = np.einsum("ij,ij->i", g, windows_a)
@@ -740,28 +982,50 @@ def estimate_noise(
 
 
 NOISE_CHUNK_SAMPLES = 20_000
-"""Noise is estimated in chunks of this many samples and pooled (bounded memory)."""
+"""Noise is estimated in chunks of at most this many samples and pooled (bounded memory)."""
+
+NOISE_MAX_SAMPLES = 200_000
+"""A longer series is estimated on chunks of this many samples in all, spread evenly."""
 
 
-def _pooled_noise(t_s: FloatArray, z: FloatArray) -> NoiseEstimate:
+def _accel_window(t_s: FloatArray, accel_window_s: float) -> int:
+    """Return the samples of the acceleration-fit window of about ``accel_window_s`` [s] (≥ 5)."""
+    dt_med = float(np.median(np.diff(t_s)))
+    return min(max(5, round(accel_window_s / dt_med) + 1), t_s.size)
+
+
+def _pooled_noise(t_s: FloatArray, z: FloatArray, accel_window_s: float = 30.0) -> NoiseEstimate:
     """Run :func:`estimate_noise` on chunks of a long series and pool the variances.
 
-    ``estimate_noise`` needs memory proportional to samples × window; chunking keeps a
-    million-sample log within a few hundred MB. Variances are averaged weighted by the
-    chunk lengths (a trailing chunk shorter than half a chunk joins the previous one).
+    ``estimate_noise`` needs memory proportional to samples × window; chunks of
+    :data:`NOISE_CHUNK_SAMPLES` samples keep that within about 20 MB. Variances are
+    averaged weighted by the chunk lengths (a trailing chunk shorter than half a chunk
+    joins the previous one). Two noise levels are all that is estimated, so a series
+    longer than :data:`NOISE_MAX_SAMPLES` is estimated on that many samples, in chunks
+    spread evenly over it (the estimate's relative standard error is then about
+    1/√(2 · 200,000) = 0.2 %).
     """
     n = t_s.size
-    if n <= NOISE_CHUNK_SAMPLES:
-        return estimate_noise(t_s, z)
-    edges = [*range(0, n, NOISE_CHUNK_SAMPLES), n]
-    if n - edges[-2] < NOISE_CHUNK_SAMPLES // 2:
-        del edges[-2]
+    chunk = NOISE_CHUNK_SAMPLES
+    if n <= chunk:
+        return estimate_noise(t_s, z, accel_window_s=accel_window_s)
+    if n > NOISE_MAX_SAMPLES:
+        count = max(NOISE_MAX_SAMPLES // chunk, 1)
+        starts = np.linspace(0, n - chunk, count).astype(int).tolist()
+        spans = [(start, start + chunk) for start in starts]
+    else:
+        edges = [*range(0, n, chunk), n]
+        if n - edges[-2] < chunk // 2:
+            del edges[-2]
+        spans = list(itertools.pairwise(edges))
     meas_var = accel_var = 0.0
-    for start, stop in itertools.pairwise(edges):
-        part = estimate_noise(t_s[start:stop], z[start:stop])
+    used = 0
+    for start, stop in spans:
+        part = estimate_noise(t_s[start:stop], z[start:stop], accel_window_s=accel_window_s)
         meas_var += part.meas_std**2 * (stop - start)
         accel_var += part.accel_std**2 * (stop - start)
-    return NoiseEstimate(meas_std=math.sqrt(meas_var / n), accel_std=math.sqrt(accel_var / n))
+        used += stop - start
+    return NoiseEstimate(meas_std=math.sqrt(meas_var / used), accel_std=math.sqrt(accel_var / used))
 
 
 def smooth_track(
@@ -820,8 +1084,8 @@ def smooth_track(
     Returns
     -------
     SmoothedTrack
-        Smoothed states, derived velocities, their standard deviations, the noise levels
-        used and the per-axis results.
+        Smoothed states and their variances (derived velocities and standard
+        deviations as properties), and the noise levels used.
 
     Raises
     ------
@@ -857,71 +1121,31 @@ def smooth_track(
     heading_accel_std_radps2 = _check_positive(heading_accel_std_radps2, "heading_accel_std_radps2")
     tau_s = _check_positive(tau_s, "tau_s")
 
-    ax = smooth_axis(t, xm, position_noise_m, position_accel_std_mps2, tau_s)
-    ay = smooth_axis(t, ym, position_noise_m, position_accel_std_mps2, tau_s)
-    ah = smooth_axis(t, psi_meas, heading_noise_rad, heading_accel_std_radps2, tau_s)
-
-    x, xd, xdd = ax.x_smoothed.T
-    y, yd, ydd = ay.x_smoothed.T
-    psi, r, rd = ah.x_smoothed.T
-    var_x, var_xd = ax.P_smoothed[:, 0, 0], ax.P_smoothed[:, 1, 1]
-    var_y, var_yd = ay.P_smoothed[:, 0, 0], ay.P_smoothed[:, 1, 1]
-    var_psi, var_r = ah.P_smoothed[:, 0, 0], ah.P_smoothed[:, 1, 1]
-
-    # Shi et al. (2009), eq. (9).
-    speed = np.hypot(xd, yd)
-    course = wrap_angle(np.arctan2(yd, xd))
-    drift = wrap_angle(course - psi)
-    c, s = np.cos(psi), np.sin(psi)
-    u = xd * c + yd * s  # = U cos β
-    v = -xd * s + yd * c  # = U sin β
-    u_dot = xdd * c + ydd * s + r * v
-    v_dot = -xdd * s + ydd * c - r * u
-
-    # First-order propagation of the smoother variances.
-    var_u = c**2 * var_xd + s**2 * var_yd + v**2 * var_psi
-    var_v = s**2 * var_xd + c**2 * var_yd + u**2 * var_psi
-    moving = speed > 0.0
-    speed2 = np.where(moving, speed**2, 1.0)
-    var_speed = np.where(moving, (xd**2 * var_xd + yd**2 * var_yd) / speed2, var_xd + var_yd)
-    var_course = np.where(moving, (yd**2 * var_xd + xd**2 * var_yd) / speed2**2, np.inf)
-
-    def ro(a: FloatArray) -> FloatArray:
-        return _readonly(np.ascontiguousarray(a))
-
+    n = t.size
+    states = np.empty((3, n, 3))
+    variances = np.empty((3, n, 2))
+    dt = np.diff(t)
+    none = np.empty((0, 6))
+    for axis, (z, meas_std, accel_std) in enumerate(
+        (
+            (xm, position_noise_m, position_accel_std_mps2),
+            (ym, position_noise_m, position_accel_std_mps2),
+            (psi_meas, heading_noise_rad, heading_accel_std_radps2),
+        )
+    ):
+        R = meas_std**2
+        x0, P0 = _default_prior(t, z, R, accel_std)
+        _rts_kernel(
+            dt, z, R, 2.0 * accel_std**2 / tau_s, x0, P0, RTS_BLOCK_SAMPLES,
+            states[axis], variances[axis], none, none[:, :3], none, none[:, :2],
+        )  # fmt: skip
     return SmoothedTrack(
-        time_s=ro(t.copy()),
-        x_m=ro(x),
-        y_m=ro(y),
-        heading_rad=ro(psi),
-        x_dot_mps=ro(xd),
-        y_dot_mps=ro(yd),
-        speed_mps=ro(speed),
-        course_rad=ro(course),
-        drift_rad=ro(drift),
-        u_mps=ro(u),
-        v_mps=ro(v),
-        r_radps=ro(r),
-        u_dot_mps2=ro(u_dot),
-        v_dot_mps2=ro(v_dot),
-        r_dot_radps2=ro(rd),
-        x_std_m=ro(np.sqrt(var_x)),
-        y_std_m=ro(np.sqrt(var_y)),
-        heading_std_rad=ro(np.sqrt(var_psi)),
-        x_dot_std_mps=ro(np.sqrt(var_xd)),
-        y_dot_std_mps=ro(np.sqrt(var_yd)),
-        speed_std_mps=ro(np.sqrt(var_speed)),
-        course_std_rad=ro(np.sqrt(var_course)),
-        drift_std_rad=ro(np.sqrt(var_course + var_psi)),
-        u_std_mps=ro(np.sqrt(var_u)),
-        v_std_mps=ro(np.sqrt(var_v)),
-        r_std_radps=ro(np.sqrt(var_r)),
+        time_s=_readonly(t),
+        states=_readonly(states),
+        variances=_readonly(variances),
         position_noise_m=position_noise_m,
         heading_noise_rad=heading_noise_rad,
         position_accel_std_mps2=position_accel_std_mps2,
         heading_accel_std_radps2=heading_accel_std_radps2,
         tau_s=tau_s,
-        x_axis=ax,
-        y_axis=ay,
-        heading_axis=ah,
     )

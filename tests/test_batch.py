@@ -96,7 +96,11 @@ def test_batch_runs_isolates_failures_and_resumes(
 
     # First run: two vessels identified with params.json and FMU, one failure recorded.
     summary = run_batch(
-        manifest, out, scheduler=cluster_address, progress=lambda v: seen.append(v.name)
+        manifest,
+        out,
+        scheduler=cluster_address,
+        method="ekf",
+        progress=lambda v: seen.append(v.name),
     )
     assert [(v.name, v.status) for v in summary.vessels] == [
         ("alpha", "ok"),
@@ -137,9 +141,8 @@ def test_batch_runs_isolates_failures_and_resumes(
     # Re-run through the CLI: finished vessels are skipped (files untouched), the
     # failure is retried and reported as one line on stderr, exit status 1.
     before = _mtimes(out)
-    status = main(
-        ["batch", str(manifest), "--out", str(out), "--scheduler", cluster_address, "--quiet"]
-    )
+    argv = ["batch", str(manifest), "--out", str(out), "--scheduler", cluster_address]
+    status = main([*argv, "--quiet", "--method", "ekf"])
     assert status == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: gamma: ") and "column 'rpm'" in err[0]
@@ -152,7 +155,7 @@ def test_batch_runs_isolates_failures_and_resumes(
 
     # An interrupted batch (alpha's completion record missing) resumes alpha only.
     (out / "alpha" / "done.json").unlink()
-    summary = run_batch(manifest, out, scheduler=cluster_address)
+    summary = run_batch(manifest, out, scheduler=cluster_address, method="ekf")
     assert [v.status for v in summary.vessels] == ["ok", "skipped", "failed"]
     assert summary.n_identified == 1
     assert (out / "beta" / "params.json").stat().st_mtime_ns == before["beta/params.json"]
@@ -162,7 +165,7 @@ def test_batch_runs_isolates_failures_and_resumes(
     log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), seed=99)
     write_log(tmp_path / "in" / "beta" / "zigzag-10.csv", log)
     write_log(tmp_path / "in" / "gamma" / "zigzag-10.csv", log)
-    summary = run_batch(manifest, out, scheduler=cluster_address, build_fmu=False)
+    summary = run_batch(manifest, out, scheduler=cluster_address, method="ekf", build_fmu=False)
     assert [v.status for v in summary.vessels] == ["skipped", "ok", "ok"]
     assert summary.ok
     assert not (out / "gamma" / "error.txt").exists()
@@ -181,7 +184,7 @@ def test_default_local_cluster_and_directory_input(tmp_path: Path) -> None:
     (source / "empty").mkdir()
     (source / ".hidden").mkdir()
     out = source / "out"  # inside the input directory: not a vessel
-    summary = run_batch(source, out, n_workers=2, build_fmu=False)
+    summary = run_batch(source, out, n_workers=2, method="ekf", build_fmu=False)
     assert [(v.name, v.status) for v in summary.vessels] == [
         ("empty", "failed"),
         ("one", "failed"),
@@ -291,7 +294,16 @@ def test_killed_batch_leaves_no_worker_process(
     Its child processes (the LocalCluster's workers, the resource tracker) must end with
     it: at once on SIGTERM, within the start-up of a worker process on SIGKILL.
     """
-    argv = ["-m", "identifier", "batch", str(fleet), "--out", str(tmp_path / "out")]
+    argv = [
+        "-m",
+        "identifier",
+        "batch",
+        str(fleet),
+        "--out",
+        str(tmp_path / "out"),
+        "--method",
+        "ekf",
+    ]
     stderr = tmp_path / "stderr.txt"
     with stderr.open("wb") as err:  # a file: the children share it and may outlive the batch
         batch = subprocess.Popen(

@@ -390,8 +390,7 @@ def test_given_noise_levels_are_used_and_reported():
     )
     assert (track.position_noise_m, track.heading_noise_rad) == (0.7, 0.01)
     assert (track.position_accel_std_mps2, track.heading_accel_std_radps2) == (0.2, 0.001)
-    assert track.x_axis.meas_std == 0.7 and track.heading_axis.accel_std == 0.001
-    assert track.tau_s == 15.0 and track.x_axis.tau_s == 15.0
+    assert track.tau_s == 15.0
 
 
 # --------------------------------------------------------------------------- bad input

@@ -1,6 +1,7 @@
 """Running a batch: every vessel that is not up to date is one task on a Dask cluster.
 
-Each vessel to run is one task (:func:`identifier.batch.task.identify_vessel`) on a
+Each vessel to run is one task (:func:`identifier.batch.task.identify_vessel`), the
+vessels with the most log data first, on a
 ``dask.distributed`` ``LocalCluster`` of ``n_workers`` single-threaded worker
 processes, or on the existing scheduler at ``scheduler``; there the workers must see
 the log files at the paths the client resolved (a shared file system). The client
@@ -40,6 +41,7 @@ from identifier.batch.records import (
 )
 from identifier.batch.summary import BatchSummary, VesselResult, write_summary
 from identifier.batch.task import VesselJob, describe_error, identify_vessel, sha256_of
+from identifier.identify import METHODS
 
 __all__ = ["run_batch"]
 
@@ -135,6 +137,7 @@ def run_batch(
     scheduler: str | None = None,
     n_workers: int = 2,
     model: str | None = None,
+    method: str = METHODS[0],
     build_fmu: bool = True,
     progress: Callable[[VesselResult], None] | None = None,
 ) -> BatchSummary:
@@ -156,6 +159,8 @@ def run_batch(
     model : str, optional
         Model structure of the vessels whose manifest entry names none
         (default :data:`fmu_model.DEFAULT_MODEL`).
+    method : str
+        Identification procedure of every vessel (``identifier.identify.METHODS``).
     build_fmu : bool
         Build ``<vessel>.fmu`` as well as ``params.json``.
     progress : callable, optional
@@ -171,13 +176,15 @@ def run_batch(
     ManifestError
         Invalid manifest or directory (nothing is run).
     ValueError
-        Unknown ``model`` or ``n_workers`` below 1.
+        Unknown ``model`` or ``method``, or ``n_workers`` below 1.
 
     """
     start = time.perf_counter()
     default_model = model or DEFAULT_MODEL
     if default_model not in model_names():
         raise ValueError(f"unknown model {default_model!r} (known: {', '.join(model_names())})")
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
     if n_workers < 1:
         raise ValueError(f"n_workers must be at least 1, got {n_workers}")
     out = Path(out_dir)
@@ -202,7 +209,10 @@ def run_batch(
             report(record_failure(directory, spec, vessel_model, describe_error(exc), 0, 0.0))
             continue
         done = up_to_date(
-            directory, spec.name, inputs, settings_record(vessel_model, spec.length_m, build_fmu)
+            directory,
+            spec.name,
+            inputs,
+            settings_record(vessel_model, method, spec.length_m, build_fmu),
         )
         if done is not None:
             report(result_from_done(directory, done))
@@ -210,18 +220,21 @@ def run_batch(
         with contextlib.suppress(FileNotFoundError):
             (directory / "done.json").unlink()
         job = VesselJob(
-            spec.name, tuple(p for p, _ in inputs), spec.length_m, vessel_model, build_fmu
+            spec.name, tuple(p for p, _ in inputs), spec.length_m, vessel_model, method, build_fmu
         )
         pending.append((spec, job))
 
     if pending:
         from distributed import as_completed
 
+        # Longest first (by the bytes of its logs): the last task to start is a short
+        # one, so the workers finish together (LPT scheduling).
+        pending.sort(key=lambda item: -sum(Path(p).stat().st_size for p in item[1].logs))
         with _client(scheduler, n_workers) as client:
-            futures = {
-                client.submit(identify_vessel, job, pure=False): (spec, job)
-                for spec, job in pending
-            }
+            futures = {}
+            for rank, (spec, job) in enumerate(pending):
+                future = client.submit(identify_vessel, job, pure=False, priority=-rank)
+                futures[future] = (spec, job)
             for future in as_completed(futures):
                 spec, job = futures[future]
                 directory = out / spec.name

@@ -16,8 +16,6 @@ import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import numpy as np
-
 from fmu_model import ModelParameters, ParamsFormatError
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_native import build_native_fmu, osp_sidecar_path
@@ -42,6 +40,8 @@ class VesselJob:
         Ship length [m]; from the logs' metadata when None.
     model : str
         Model structure.
+    method : str
+        Identification procedure (``identifier.identify.METHODS``).
     build_fmu : bool
         Build the native FMU as well.
 
@@ -51,6 +51,7 @@ class VesselJob:
     logs: tuple[str, ...]
     length_m: float | None
     model: str
+    method: str
     build_fmu: bool
 
 
@@ -111,15 +112,11 @@ def describe_error(exc: BaseException) -> str:
 
 def _fit_quality(result: IdentificationResult) -> tuple[float, float]:
     """RMS filtered-minus-logged position [m] and heading [deg] over all logs."""
-    position_sq, heading_sq, count = 0.0, 0.0, 0
-    for log, states in zip(result.logs, result.ekf.filtered, strict=True):
-        dx = states[:, 3] - log.x_m
-        dy = states[:, 4] - log.y_m
-        dpsi = np.angle(np.exp(1j * (states[:, 5] - log.heading_rad)))
-        position_sq += float(np.sum(dx**2 + dy**2))
-        heading_sq += float(np.sum(dpsi**2))
-        count += log.n_samples
-    return math.sqrt(position_sq / count), math.degrees(math.sqrt(heading_sq / count))
+    counts = [log.n_samples for log in result.logs]
+    position_sq = sum(n * pos**2 for n, (pos, _) in zip(counts, result.ekf.track_rms, strict=True))
+    heading_sq = sum(n * head**2 for n, (_, head) in zip(counts, result.ekf.track_rms, strict=True))
+    total = sum(counts)
+    return math.sqrt(position_sq / total), math.degrees(math.sqrt(heading_sq / total))
 
 
 def identify_vessel(job: VesselJob) -> VesselOutcome:
@@ -147,7 +144,9 @@ def identify_vessel(job: VesselJob) -> VesselOutcome:
             logs.append(read_log(path))
             inputs.append((path, sha256_of(Path(path))))
         outcome = replace(outcome, n_samples=sum(log.n_samples for log in logs))
-        result = identify(logs, FitSettings(model=job.model), length_m=job.length_m)
+        result = identify(
+            logs, FitSettings(model=job.model, method=job.method), length_m=job.length_m
+        )
         identification = dict(result.params.identification)
         identification["logs"] = [{"path": p, "sha256": h} for p, h in inputs]
         params = replace(result.params, vessel_name=job.name, identification=identification)

@@ -14,6 +14,7 @@ from fmu_model import DEFAULT_MODEL, argtypes, model_names
 from identifier.batch import ManifestError, VesselResult, format_failures, run_batch
 from identifier.batch.task import describe_error
 from identifier.cli.common import error
+from identifier.identify import METHODS
 from trials.errors import one_line
 
 __all__ = ["add_parser", "run"]
@@ -36,6 +37,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     batch.add_argument(
         "--model", choices=model_names(), help=f"default model (default: {DEFAULT_MODEL})"
+    )
+    batch.add_argument(
+        "--method",
+        choices=METHODS,
+        default=METHODS[0],
+        help="identification procedure (default: output-error; ekf: the seed paper)",
     )
     batch.add_argument("--no-fmu", action="store_true", help="write params.json only")
     batch.add_argument("--quiet", action="store_true", help="no per-vessel lines on stdout")
@@ -60,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             n_workers=args.workers,
             model=args.model,
+            method=args.method,
             build_fmu=not args.no_fmu,
             progress=show,
         )

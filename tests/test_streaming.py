@@ -1,0 +1,162 @@
+"""Bounded-memory identification: checkpointed smoother, chunked regression, strided EKF
+histories, decimation; and the same coefficients as the in-memory path on a shared log."""
+
+from __future__ import annotations
+
+import gzip
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fmu_model import ModelParameters, get_model, numeric_model
+from identifier import equation_error, smoothing
+from identifier.ekf import EkfSegment, EkfSettings, ekf_identify
+from identifier.equation_error import (
+    NormalEquations,
+    decimation,
+    equation_error_fit,
+    regression_chunks,
+)
+from identifier.identify import FitSettings, identify
+from identifier.smoothing import smooth_axis, smooth_track
+from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
+from tests.conftest import SEED_COEFFICIENTS
+from trials.logs import ManeuverLog, read_log
+
+DATA = Path(__file__).parent / "data"
+
+
+def _segment(log: ManeuverLog) -> EkfSegment:
+    track = smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
+    return EkfSegment(
+        name="log",
+        time_s=log.time_s,
+        velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
+        velocity_std=np.column_stack([track.u_std_mps, track.v_std_mps, track.r_std_radps]),
+        track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
+        track_std=np.array(
+            [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]
+        ),
+        initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
+        rudder_rad=log.rudder_rad,
+        n_rps=log.n_rps,
+    )
+
+
+def _seed_log(rate_hz: float = 1.0) -> ManeuverLog:
+    params = ModelParameters.from_vector(
+        "shi2009",
+        np.array(list(SEED_COEFFICIENTS.values())),
+        length_m=100.0,
+        vessel_name="testship",
+        nominal_speed_mps=5.0,
+        nominal_n_rps=2.0,
+    )
+    ship = model_ship(params, rudder_rate_radps=math.radians(5.0))
+    return synthesize_log(ship, MANEUVERS["zigzag-20"](), rate_hz=rate_hz, seed=3)
+
+
+def test_checkpointed_smoother_is_the_one_block_smoother_to_the_bit(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    rng = np.random.default_rng(5)
+    t = np.cumsum(rng.uniform(0.5, 1.5, 2000))
+    z = 50.0 * np.sin(t / 80.0) + rng.normal(0.0, 1.0, t.size)
+    whole = smooth_axis(t, z, 1.0, 0.05)
+    monkeypatch.setattr(smoothing, "RTS_BLOCK_SAMPLES", 37)  # 55 blocks, a ragged last one
+    blocks = smooth_axis(t, z, 1.0, 0.05)
+    for name in ("x_filtered", "P_filtered", "x_smoothed", "P_smoothed", "innovation"):
+        np.testing.assert_array_equal(getattr(blocks, name), getattr(whole, name), err_msg=name)
+    # smooth_track's lean path keeps the same smoothed states and variances.
+    track = smooth_track(t, z, 0 * z, 0 * z, position_noise_m=1.0, position_accel_std_mps2=0.05,
+                         heading_noise_rad=0.01, heading_accel_std_radps2=0.01)  # fmt: skip
+    np.testing.assert_array_equal(track.x_m, whole.position)
+    np.testing.assert_array_equal(track.x_dot_mps, whole.rate)
+    np.testing.assert_array_equal(track.x_std_m, whole.std_smoothed[:, 0])
+    np.testing.assert_array_equal(track.x_dot_std_mps, whole.std_smoothed[:, 1])
+
+
+def test_chunked_normal_equations_equal_one_chunk() -> None:
+    segment = _segment(_seed_log())
+    structure = get_model("shi2009")
+    model_fit = equation_error_fit(structure, [segment], 100.0)
+    sums = NormalEquations(structure.n_coefficients)
+    chunks = list(regression_chunks([segment], 100.0, chunk_rows=7))
+    assert len(chunks) > 10
+    for (u, v, r, rudder, n), acc in chunks:
+        sums.add(numeric_model(structure).regressors(u, v, r, rudder, n, 100.0), acc)
+    chunked = sums.solve(structure.equation_index)
+    assert chunked.rows == model_fit.rows == sum(acc.shape[1] for _, acc in chunks)
+    np.testing.assert_allclose(chunked.theta, model_fit.theta, rtol=1e-7)  # summation order
+    np.testing.assert_allclose(chunked.residual_std, model_fit.residual_std, rtol=1e-9)
+    # The residual from the sums is the residual of the rows themselves.
+    (u, v, r, rudder, n), acc = next(iter(regression_chunks([segment], 100.0, chunk_rows=10**9)))
+    phi = numeric_model(structure).regressors(u, v, r, rudder, n, 100.0)
+    eq = np.asarray(structure.equation_index)
+    fitted = np.stack([model_fit.theta[eq == j] @ phi[eq == j] for j in range(3)])
+    dof = acc.shape[1] - np.bincount(eq, minlength=3)
+    direct = np.sqrt(np.sum((acc - fitted) ** 2, axis=1) / dof)
+    np.testing.assert_allclose(model_fit.residual_std, direct, rtol=1e-6)
+
+
+@pytest.mark.parametrize(("rate_hz", "step"), [(1.0, 1), (2.0, 1), (10.0, 5), (0.5, 1)])
+def test_regression_is_decimated_to_about_a_40th_of_l_over_u(rate_hz: float, step: int) -> None:
+    """L = 100 m at 4.2-5 m/s: L/U/40 is 0.50-0.6 s, every 5th sample at 10 Hz."""
+    log = _seed_log(rate_hz)
+    segment = _segment(log)
+    assert decimation(segment, 100.0) == step
+    fit = equation_error_fit(get_model("shi2009"), [segment], 100.0)
+    assert fit.sample_interval_s == pytest.approx(step / rate_hz)
+    assert fit.rows == len(range(0, log.n_samples, step)) - 2
+
+
+def test_ekf_histories_are_strided_and_the_fit_quality_uses_every_sample() -> None:
+    segment = _segment(_seed_log())
+    structure = get_model("shi2009")
+    ls = equation_error_fit(structure, [segment], 100.0)
+    run = {
+        rows: ekf_identify(structure, [segment, segment], ls.theta, ls.covariance * 100.0, 100.0,
+                           EkfSettings(max_history_rows=rows))
+        for rows in (10**9, 100)
+    }  # fmt: skip
+    full, strided = run[10**9], run[100]
+    n = segment.time_s.size
+    assert full.history_stride == 1 and full.theta_history.shape[0] == 2 * n
+    stride = strided.history_stride
+    assert stride == math.ceil(2 * n / 100) and strided.theta_history.shape[0] <= 100
+    np.testing.assert_array_equal(strided.theta, full.theta)
+    np.testing.assert_array_equal(
+        strided.theta_history[: -(-n // stride)], full.theta_history[:n:stride]
+    )
+    np.testing.assert_array_equal(strided.filtered[1], full.filtered[1][::stride])
+    assert strided.segment_ends == (-(-n // stride), 2 * -(-n // stride))
+    states = full.filtered[0]
+    position = np.sqrt(
+        np.mean(
+            (states[:, 3] - segment.track[:, 0]) ** 2 + (states[:, 4] - segment.track[:, 1]) ** 2
+        )
+    )
+    heading = np.sqrt(np.mean(np.angle(np.exp(1j * (states[:, 5] - segment.track[:, 2]))) ** 2))
+    assert strided.track_rms[0] == pytest.approx((position, heading), rel=1e-12)
+    assert 0.3 < position < 2.0  # the logger's 1 m noise
+
+
+def test_same_coefficients_as_the_in_memory_path_within_a_tenth_sigma(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The shared test log: 6000 samples of KVLCC2 manoeuvres at 1 Hz (tests/data)."""
+    path = tmp_path / "kvlcc2_stitched_1hz.csv"
+    path.write_bytes(gzip.decompress((DATA / "kvlcc2_stitched_1hz.csv.gz").read_bytes()))
+    reference = json.loads((DATA / "kvlcc2_stitched_1hz_reference.json").read_text())
+    # Small blocks, chunks and histories: every bounded-memory path is exercised.
+    monkeypatch.setattr(smoothing, "RTS_BLOCK_SAMPLES", 1000)
+    monkeypatch.setattr(equation_error, "CHUNK_ROWS", 1000)
+    result = identify([read_log(path)], FitSettings(model="prime-rudder", method="ekf"))
+    assert list(result.params.names) == reference["names"]
+    std = np.array(reference["std"])
+    deviation = np.abs(result.params.coefficients - np.array(reference["theta"])) / std
+    assert np.max(deviation) <= 0.1, dict(zip(reference["names"], deviation.round(3), strict=True))
+    assert result.ekf.theta_history.shape[0] <= EkfSettings().max_history_rows
