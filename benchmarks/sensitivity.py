@@ -1,7 +1,7 @@
 """Sensitivity to log quality: what trial instrumentation the identification needs (issue 8).
 
-    python benchmarks/sensitivity.py [--model NAME] [--refine] [--quick] [--seeds 10]
-        [--out benchmarks/sensitivity.md] [--dt-s 0.2]
+    python benchmarks/sensitivity.py [--model NAME] [--method ekf|output-error] [--quick]
+        [--seeds 10] [--out benchmarks/sensitivity.md] [--dt-s 0.2]
 
 Data: KVLCC2 full-scale trial logs from the MMG reference ship (``scenarios.synthesize``):
 the 35° starboard turning circle, zig-zag 10/10 and zig-zag 20/20, all three used for
@@ -20,8 +20,8 @@ extremes of each factor (and that row). Every condition is repeated with
 The measurement noise is estimated from the logs, as for a user's own trial.
 
 Each identified model (``identifier.identify.identify`` with ``--model``, default
-``fmu_model.DEFAULT_MODEL``; EKF only unless ``--refine``) sails the standard manoeuvres
-from the reference approach through the driver of ``benchmarks/fidelity.py``
+``fmu_model.DEFAULT_MODEL``; the EKF estimate unless ``--method output-error``) sails the
+standard manoeuvres from the reference approach through the driver of ``benchmarks/fidelity.py``
 (``indices``), and its indices are compared with the reference ship's own run through
 the same driver: advance, transfer and tactical diameter of the 35° turn
 (predicted/true − 1 [%]) and first and second overshoot of both zig-zags
@@ -48,7 +48,7 @@ from fidelity import SEEDS, Indices, index_errors, indices, worst_turning_error
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, model_names
-from identifier.identify import FitSettings, identify
+from identifier.identify import METHODS, FitSettings, identify
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
@@ -280,7 +280,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
-    parser.add_argument("--refine", action="store_true", help="output-error refinement (slow)")
+    parser.add_argument("--method", choices=METHODS, default="ekf", help="identification procedure")
     parser.add_argument("--quick", action="store_true", help="only the extremes of each factor")
     parser.add_argument("--seeds", type=int, default=10, help="noise realisations per row")
     parser.add_argument("--out", default=str(Path(__file__).with_name("sensitivity.md")))
@@ -291,7 +291,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     began = time.perf_counter()
     ship = reference_ship("kvlcc2", "full")
-    settings = FitSettings(model=args.model, refine=args.refine)
+    settings = FitSettings(model=args.model, method=args.method)
     truth = indices(ship.plant, ship, args.dt_s)
     identify(trial_logs(ship, BASELINE, 0), settings)  # warm-up: compile before timing
     rows = sweep(args.quick)
@@ -321,7 +321,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     lines = [
         "# Sensitivity to log quality on KVLCC2 (benchmarks/sensitivity.py)",
         "",
-        f"Model `{args.model}`, {'EKF + output-error refinement' if args.refine else 'EKF'}, "
+        f"Model `{args.model}`, method {args.method}, "
         "trained on the 35° turning circle and the 10/10 and 20/20 zig-zags; "
         f"{args.seeds} noise realisation(s) per row; baseline {BASELINE.position_noise_m:g} m, "
         f"{BASELINE.heading_noise_deg:g}°, {BASELINE.rate_hz:g} Hz; "

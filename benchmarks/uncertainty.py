@@ -62,7 +62,7 @@ def identified_kvlcc2(model: str = DEFAULT_MODEL) -> ModelParameters:
 
     ship = reference_ship("kvlcc2", "full")
     logs = [synthesize_log(ship, MANEUVERS[name](), seed=i) for i, name in enumerate(LOGS)]
-    return identify(logs, FitSettings(model=model, refine=True)).params
+    return identify(logs, FitSettings(model=model)).params
 
 
 def reference_at_step(dt_s: float) -> dict[tuple[str, str], float]:

@@ -20,7 +20,6 @@ command line is ``python -m identifier crossval`` (:mod:`identifier.cli.crossval
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,25 +30,12 @@ import numpy as np
 from fmu_model import ModelParameters
 from fmu_model.replay import replay
 from identifier.identify import FitSettings, identify
-from identifier.output_error import execute_index, execute_state, smooth_log
+from identifier.output_error import execute_state, smooth_log
 from identifier.smoothing import SmoothedTrack
+from trials.conditions import KINDS, maneuver_indices, maneuver_kind, zigzag_angles
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
-from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
 from trials.trajectory import empty_trajectory
-
-KINDS = ("turning", "zigzag")
-_KIND_PATTERNS = (
-    ("turning", re.compile(r"turn", re.IGNORECASE)),
-    ("zigzag", re.compile(r"zig[-_ ]?zag", re.IGNORECASE)),
-)
-_ZIGZAG_ANGLES = re.compile(r"zig[-_ ]?zag[-_ ]?(\d+(?:\.\d+)?)[-_/](\d+(?:\.\d+)?)", re.I)
-# ``identifier convert`` names its outputs <input stem>_<k>.csv (k = 1, 2, ...: the pieces
-# between gaps), so a ``_<digits>`` just before ``.csv`` is a piece number, not an angle.
-_PIECE_SUFFIX = re.compile(r"_\d+(?=\.csv\Z)", re.IGNORECASE)
-_TURNING_METRICS = ("advance_m", "transfer_m", "tactical_diameter_m")
-_ZIGZAG_METRICS = ("first_overshoot_deg", "second_overshoot_deg")
-
 
 # --------------------------------------------------------------------------------------
 # Results
@@ -184,14 +170,14 @@ class CrossValidation:
     """All folds of a cross-validation."""
 
     model: str
-    refine: bool
+    method: str
     folds: tuple[Fold, ...]
 
     def to_json_dict(self) -> dict[str, Any]:
-        """JSON-ready dict: ``{"model", "refine", "folds": [...]}``."""
+        """JSON-ready dict: ``{"model", "method", "folds": [...]}``."""
         return {
             "model": self.model,
-            "refine": self.refine,
+            "method": self.method,
             "folds": [f.to_json_dict() for f in self.folds],
         }
 
@@ -207,57 +193,6 @@ def _json_number(value: float | None) -> float | None:
 
 def _name(log: ManeuverLog, index: int) -> str:
     return log.path or f"log {index + 1}"
-
-
-def maneuver_kind(log: ManeuverLog) -> str | None:
-    """Return ``"turning"`` or ``"zigzag"`` from the log's ``# source:`` or file name.
-
-    The source is looked at first, then the file name; None when neither names one.
-    """
-    for text in (log.metadata.get("source", ""), Path(log.path or "").name):
-        found = [
-            (m.start(), kind) for kind, pattern in _KIND_PATTERNS if (m := pattern.search(text))
-        ]
-        if found:
-            return min(found)[1]
-    return None
-
-
-def zigzag_angles(log: ManeuverLog) -> tuple[float, float]:
-    """Return the zig-zag's first rudder command δ (signed) and check heading Z [rad].
-
-    δ and Z from ``zigzag-δ-Z`` in the source or file name when there, else δ as the
-    largest logged rudder angle (0.1° resolution) and Z as the whole degree of heading
-    change crossed when the rudder first moves back; the sign of δ is that of the first
-    rudder movement. In the file name, a ``_<digits>`` before ``.csv`` is the piece
-    number ``identifier convert`` appends (``zigzag-10_1.csv``), not an angle.
-    """
-    k = execute_index(log)
-    after = log.rudder_rad[k:] - log.rudder_rad[0]
-    moved = np.flatnonzero(np.abs(after) > math.radians(0.5))
-    sign = 1.0 if not moved.size or after[moved[0]] > 0.0 else -1.0
-    name = _PIECE_SUFFIX.sub("", Path(log.path or "").name)
-    for text in (log.metadata.get("source", ""), name):
-        match = _ZIGZAG_ANGLES.search(text)
-        if match:
-            return sign * math.radians(float(match[1])), math.radians(float(match[2]))
-    rudder = sign * math.radians(round(math.degrees(float(np.max(np.abs(after)))), 1))
-    # First reversal: the rudder first moves back between samples j and j + 1, so the
-    # heading crossed Z in (ψ_j, ψ_j+1]: the whole degree in there nearest the middle.
-    # (more than 0.5° back from its largest value so far; jitter is not a reversal).
-    toward = sign * log.rudder_rad[k:]
-    back = np.flatnonzero(np.maximum.accumulate(toward) - toward > math.radians(0.5))
-    if not back.size:
-        raise IdentificationError("no rudder reversal: not a zig-zag", log=log.path)
-    j = int(back[0])
-    while j > 1 and toward[j - 1] < toward[j - 2]:  # back to where it started to move
-        j -= 1
-    j = k + j - 1
-    low, high = (math.degrees(sign * (log.heading_rad[i] - log.heading_rad[k])) for i in (j, j + 1))
-    middle = 0.5 * (low + high)
-    whole = range(math.ceil(low), math.floor(high) + 1)
-    check = min(whole, key=lambda d: abs(d - middle)) if whole else round(middle)
-    return rudder, math.radians(check)
 
 
 # --------------------------------------------------------------------------------------
@@ -317,31 +252,6 @@ def predict_log(
     return k, states
 
 
-def _indices(
-    kind: str, traj: np.ndarray, execute_s: float, angles: tuple[float, float] | None
-) -> dict[str, float | None]:
-    """Return the manoeuvre's indices of one trajectory (None when not covered)."""
-    if kind == "turning":
-        try:
-            m = turning_metrics(traj, execute_s)
-        except MetricsError:
-            return dict.fromkeys(_TURNING_METRICS)
-        return {
-            "advance_m": m.advance_m,
-            "transfer_m": m.transfer_m,
-            "tactical_diameter_m": m.tactical_diameter_m,
-        }
-    assert angles is not None
-    try:
-        z = zigzag_metrics(traj, angles[0], angles[1], execute_s)
-    except MetricsError:
-        return dict.fromkeys(_ZIGZAG_METRICS)
-    return {
-        "first_overshoot_deg": z.first_overshoot_deg,
-        "second_overshoot_deg": z.second_overshoot_deg,
-    }
-
-
 def held_out_errors(
     params: ModelParameters,
     log: ManeuverLog,
@@ -387,7 +297,7 @@ def held_out_errors(
         logged_states = np.column_stack(
             [track.u_mps, track.v_mps, track.r_radps, track.x_m, track.y_m, track.heading_rad]
         )
-        logged = _indices(
+        logged = maneuver_indices(
             kind,
             _trajectory(log.time_s, logged_states, log.rudder_rad, log.n_rps),
             execute_s,
@@ -400,7 +310,7 @@ def held_out_errors(
             traj = _trajectory(
                 log.time_s[k:end], states[:good], log.rudder_rad[k:end], log.n_rps[k:end]
             )
-            predicted = _indices(kind, traj, execute_s, angles)
+            predicted = maneuver_indices(kind, traj, execute_s, angles)
         for key, value in logged.items():
             metrics.append(MetricError(key, value, predicted[key]))
             if value is None:
@@ -467,7 +377,7 @@ def cross_validate(
     train, test : sequence of ManeuverLog
         Training and held-out logs.
     settings : FitSettings, optional
-        Identification settings (``refine=True`` for output-error refinement).
+        Identification settings.
     length_m : float, optional
         Ship length [m]; from the logs when omitted.
 
@@ -520,7 +430,7 @@ def leave_one_out(
 def format_table(cv: CrossValidation) -> str:
     """Markdown table of all held-out predictions, one row per index."""
     lines = [
-        f"model {cv.model}{', output-error refinement' if cv.refine else ''}",
+        f"model {cv.model}, method {cv.method}",
         "",
         "| trained on | held out | pos. RMS [L] | index | logged | predicted | error |",
         "|---|---|---|---|---|---|---|",
@@ -579,4 +489,4 @@ def run_cross_validation(
                 length_m=length_m,
             ),
         )
-    return CrossValidation(model=settings.model, refine=settings.refine, folds=folds)
+    return CrossValidation(model=settings.model, method=settings.method, folds=folds)

@@ -9,8 +9,12 @@ P(0) = α I, the default here starts from the equation-error least-squares fit o
 same smoothed data (``identifier.equation_error``), with its covariance inflated as
 prior; ``initial="zero"`` gives the paper's start. For a model family
 (``prime-rudder``) the shape constants not given in the model name are chosen first
-from the same data (``identifier.shape``); ``refine`` adds the output-error
-refinement (``identifier.output_error``).
+from the same data (``identifier.shape``). By default (``method="output-error"``) the
+estimate is then refined by output error on the whole logs (``identifier.output_error``),
+guarded: the refined estimate is kept only when the guards of
+reference/model_structures.md §6–§7 pass, else the better-replaying start. That is
+the procedure that predicts held-out manoeuvres best (benchmarks/fidelity.md,
+benchmarks/hsva.md); ``method="ekf"`` keeps the EKF estimate, the paper's algorithm.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import datetime as dt
 import hashlib
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +37,7 @@ from identifier.equation_error import EquationErrorFit, equation_error_fit
 from identifier.output_error import RefinementResult, refine_output_error
 from identifier.shape import select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
+from trials.conditions import EXECUTE_RUDDER_RAD, execute_index
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
 
@@ -64,8 +69,13 @@ MAX_SUBSTEP_RANGE_S = (1e-3, math.inf)
 # Above these estimated noise levels the logger is suspect (warning) [m], [rad].
 MAX_POSITION_NOISE_M = 20.0
 MAX_HEADING_NOISE_RAD = math.radians(3.0)
-# Rudder angle that marks the end of the approach (execute) [rad].
-EXECUTE_RUDDER_RAD = math.radians(0.5)
+METHODS = ("output-error", "ekf")
+"""Identification procedures: guarded output-error refinement (default), the paper's EKF."""
+MAX_REFINE_STEPS = 5_000
+"""Largest number of RK4 steps of one replay of all logs the refinement takes on. Each
+of its hundreds of objective evaluations replays every log from execute to the end, in
+steps of 0.05 L/U (2 s for KVLCC2 at full scale: 5,000 steps are 2.8 h of manoeuvres,
+a few minutes of refinement); beyond it the EKF estimate is kept, with a warning."""
 
 
 @dataclass(frozen=True)
@@ -98,11 +108,11 @@ class FitSettings:
     max_variance_inflation : float
         ... and so is one whose regressor is this collinear with the others in the data
         (variance inflation factor, ``EquationErrorFit.variance_inflation``).
-    refine : bool
-        After the EKF, refine by output error on the whole logs
+    method : {"output-error", "ekf"}
+        "output-error": after the EKF, refine by output error on the whole logs
         (``identifier.output_error.refine_output_error``, default settings), starting from
         whichever of the EKF and equation-error estimates replays the logs better, and
-        keeping that start when the guards fire.
+        keeping that start when the guards fire; "ekf": the EKF estimate (the paper).
 
     """
 
@@ -117,7 +127,7 @@ class FitSettings:
     max_substep_s: float = 0.1
     max_relative_std: float = 0.5
     max_variance_inflation: float = 1e4
-    refine: bool = False
+    method: str = "output-error"
 
 
 @dataclass(frozen=True)
@@ -146,7 +156,7 @@ class IdentificationResult:
     coefficients: tuple[CoefficientReport, ...]
     warnings: tuple[str, ...]
     settings: FitSettings
-    refinement: RefinementResult | None = None  # both fits when settings.refine
+    refinement: RefinementResult | None = None  # both fits with method "output-error"
 
     @property
     def not_identifiable(self) -> tuple[str, ...]:
@@ -164,10 +174,11 @@ def _sha256(log: ManeuverLog) -> str | None:
     return hashlib.sha256(Path(log.path).read_bytes()).hexdigest()
 
 
-def _execute_index(log: ManeuverLog) -> int:
-    """First sample where the rudder leaves midship (end of the approach)."""
-    moved = np.flatnonzero(np.abs(log.rudder_rad) > EXECUTE_RUDDER_RAD)
-    return int(moved[0]) if moved.size else log.n_samples
+def _replay_steps(logs: Sequence[ManeuverLog], length_m: float, speed_mps: float) -> int:
+    """RK4 steps of one output-error replay of every log from execute (0.05 L/U each)."""
+    step_s = 0.05 * length_m / max(speed_mps, 1e-3)
+    duration_s = sum(float(log.time_s[-1] - log.time_s[execute_index(log)]) for log in logs)
+    return math.ceil(duration_s / step_s)
 
 
 def _json_safe(settings: dict[str, object]) -> dict[str, object]:
@@ -182,7 +193,7 @@ def _nominal(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]) -> tu
     """Approach speed [m/s] and propeller speed [rev/s]: means over the logs' approaches."""
     speeds, revs = [], []
     for log, track in zip(logs, tracks, strict=True):
-        end = max(_execute_index(log), 3)
+        end = max(execute_index(log), 3)
         speeds.append(float(np.mean(track.u_mps[:end])))
         revs.append(float(np.mean(log.n_rps[:end])))
     return float(np.mean(speeds)), float(np.mean(revs))
@@ -333,6 +344,8 @@ def identify(
         raise IdentificationError("no logs given")
     if settings.initial not in ("equation-error", "zero"):
         raise ValueError(f"unknown initial guess {settings.initial!r}")
+    if settings.method not in METHODS:
+        raise ValueError(f"unknown method {settings.method!r} (known: {', '.join(METHODS)})")
     length = vessel_length(logs, length_m)
     vessel = vessel_name(logs)
     # Every result below is checked (the smoothed track, the equation-error fit, the
@@ -488,13 +501,27 @@ def _identify(
             f"posterior std above {settings.max_relative_std:.0%} of the value): " + ", ".join(weak)
         )
     refinement = None
-    if settings.refine:
+    steps = _replay_steps(logs, length, nominal_speed_mps)
+    if settings.method == "output-error" and steps > MAX_REFINE_STEPS:
+        warnings.append(
+            f"output-error refinement skipped: one replay of these logs takes {steps:,} RK4 "
+            f"steps (at most {MAX_REFINE_STEPS:,}: hundreds of replays would take too long); "
+            "kept the EKF estimate. Fit the manoeuvres alone, or use --method ekf"
+        )
+    elif settings.method == "output-error":
         equation_error = params.with_vector(ls.theta, ls_prior)
         refinement = refine_output_error(
             params, logs, tracks=tracks, alternatives={"equation-error": equation_error}
         )
         params = refinement.params
         warnings.extend(refinement.warnings)
+    estimates = {
+        "ekf": dict(zip(structure.coefficient_names, map(float, ekf.theta), strict=True)),
+        "equation-error": dict(zip(structure.coefficient_names, map(float, ls.theta), strict=True)),
+    }
+    if refinement is not None:
+        estimates["output-error"] = refinement.refined.params.as_dict()
+    params = replace(params, identification={**params.identification, "estimates": estimates})
     return IdentificationResult(
         params=params,
         logs=tuple(logs),

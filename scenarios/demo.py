@@ -73,8 +73,8 @@ class DemoConfig:
         Model structure to identify.
     validation_dt_s : float
         Communication step of the validation runs [s].
-    refine : bool
-        Output-error refinement after the EKF (``identify --refine``; guarded).
+    method : {"output-error", "ekf"}
+        Identification procedure (``identifier.identify.METHODS``).
     uncertainty_samples : int
         Monte-Carlo samples of the identified coefficients for the report's 95 %
         intervals; 0 for none.
@@ -95,7 +95,7 @@ class DemoConfig:
     heading_noise_deg: float = 0.1
     seed: int = 1
     model: str = DEFAULT_MODEL
-    refine: bool = True
+    method: str = "output-error"
     validation_dt_s: float = 0.1
     uncertainty_samples: int = 100
     uncertainty_dt_s: float = 0.5
@@ -194,7 +194,7 @@ def run_demo(
         def advance(n: int) -> None:
             bar.update(n)
 
-        settings = FitSettings(model=config.model, refine=config.refine)
+        settings = FitSettings(model=config.model, method=config.method)
         result = identify(trial_logs, settings, progress=advance)
     finally:
         bar.close()

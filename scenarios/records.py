@@ -105,7 +105,7 @@ class ManeuverRun:
 
 @dataclass(frozen=True)
 class Interval:
-    """95 % interval of one predicted quantity under coefficient uncertainty.
+    """95 % interval of one predicted quantity: coefficient uncertainty and model form.
 
     Attributes
     ----------
@@ -121,6 +121,10 @@ class Interval:
         Coefficient sets drawn.
     n_failed : int
         Samples without a value (diverged or the run did not reach the event).
+    model_form : float
+        Half-width of the model-form term in the bounds (the spread of the fit's
+        alternative estimates, ``scenarios.uncertainty.model_form``) [unit]; 0 when the
+        parameters carry none.
 
     """
 
@@ -130,6 +134,7 @@ class Interval:
     offset: float
     n_samples: int
     n_failed: int
+    model_form: float = 0.0
 
     @property
     def is_finite(self) -> bool:
@@ -149,6 +154,7 @@ class Interval:
             "offset": self.offset,
             "n_samples": self.n_samples,
             "n_failed": self.n_failed,
+            "model_form": self.model_form,
         }
 
 

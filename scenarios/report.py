@@ -34,7 +34,7 @@ location comes from the validation run, the spread from the samples.
      "comparison": [{"maneuver", "quantity", "label", "unit", "reference",
                      "predicted", "error_pct", "difference",
                      "interval": {"lo", "hi", "mean", "offset", "n_samples",
-                                  "n_failed"} | null,
+                                  "n_failed", "model_form"} | null,
                      "in_interval": bool | null}, ...],
      "uncertainty": {"n_samples", "seed", "dt_s", "source", "scope",
                      "n_in_interval", "n_with_interval"} | null,
@@ -78,7 +78,6 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = [
-    "UNCERTAINTY_SCOPE",
     "VALIDATION_FORMAT",
     "VALIDATION_VERSION",
     "comparison_table",
@@ -87,6 +86,7 @@ __all__ = [
     "format_table",
     "render_markdown",
     "uncertainty_figure",
+    "uncertainty_scope",
     "validation_json",
     "write_json",
     "write_report",
@@ -95,11 +95,18 @@ __all__ = [
 VALIDATION_FORMAT = "ship-maneuvering-validation"
 VALIDATION_VERSION = 1
 
-UNCERTAINTY_SCOPE = (
-    "coefficient uncertainty from identification only (the measurement noise of the "
-    "trial logs), not model-structure error"
-)
-"""What the 95 % intervals cover, for the report and ``validation.json``."""
+
+def uncertainty_scope(bands: UncertaintyBands) -> str:
+    """Say what the 95 % intervals cover, for the report and ``validation.json``."""
+    identification = (
+        "coefficient uncertainty from identification (the measurement noise of the trial logs)"
+    )
+    if any(i.model_form > 0.0 for i in bands.intervals.values()):
+        return (
+            f"{identification} and model form: the spread of the predictions of the fit's "
+            "alternative estimates (equation error, EKF, output error), added in quadrature"
+        )
+    return f"{identification} only, not model-structure error"
 
 
 # ----------------------------------------------------------------------------- text
@@ -328,7 +335,7 @@ def _uncertainty_paragraph(bands: UncertaintyBands, rows: Sequence[ComparisonRow
         f"Monte-Carlo samples of the identified coefficients, θ ~ N(θ̂, Σ) with the "
         f"covariance Σ{source} (seed {bands.seed}, step {bands.dt_s:g} s), each moved "
         "by the difference between the predicted value and the Monte-Carlo run at θ̂. "
-        f"They cover the {UNCERTAINTY_SCOPE}: a reference value outside its interval "
+        f"They cover the {uncertainty_scope(bands)}: a reference value outside its interval "
         "is a difference the noise in the trials does not explain. "
         f"Reference inside the interval: {inside} of {judged} quantities.",
     ]
@@ -367,7 +374,7 @@ def _uncertainty_record(validation: Validation) -> dict[str, Any]:
         "seed": bands.seed,
         "dt_s": bands.dt_s,
         "source": bands.source,
-        "scope": UNCERTAINTY_SCOPE,
+        "scope": uncertainty_scope(bands),
         "n_in_interval": inside,
         "n_with_interval": judged,
     }

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -20,6 +20,7 @@ from scenarios.errors import ScenarioError, UncertaintyError
 from scenarios.fmu_checks import check_params_match, check_rudder, open_fmu, read_fmu_info
 from scenarios.records import ComparisonRow, Interval, UncertaintyBands, Validation
 from scenarios.runs import imo_criteria, reference_runs, run_standard_set
+from scenarios.uncertainty.model_form import model_form_half_widths, widen
 from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
 
 if TYPE_CHECKING:
@@ -166,8 +167,10 @@ def with_uncertainty(
     Runs ``scenarios.uncertainty.monte_carlo.monte_carlo_metrics`` on the validation's programs at
     its approach condition (the reference ship's speed, propeller speed and rudder
     rate) and locates each interval at the predicted value
-    (:func:`uncertainty_bands`). The intervals cover the coefficient
-    uncertainty from identification only, not model-structure error.
+    (:func:`uncertainty_bands`). When the parameters carry the fit's alternative
+    estimates (``identification["estimates"]``), each interval is widened by the
+    model-form term, the spread of their predictions
+    (``scenarios.uncertainty.model_form``).
 
     Parameters
     ----------
@@ -226,12 +229,24 @@ def with_uncertainty(
         )
     except UncertaintyError as exc:
         raise ScenarioError(f"{source or 'uncertainty'}: {exc}") from None
-    bands = uncertainty_bands(result, validation.rows, source=source)
+    model_form = model_form_half_widths(
+        params,
+        [run.program for run in validation.predicted],
+        speed_mps=c.speed_mps,
+        n_rps=c.n_rps,
+        rudder_rate_radps=c.rudder_rate_radps,
+        dt_s=dt_s,
+    )
+    bands = uncertainty_bands(result, validation.rows, source=source, model_form=model_form)
     return replace(validation, uncertainty=bands)
 
 
 def uncertainty_bands(
-    result: UncertaintyResult, rows: Sequence[ComparisonRow], *, source: str = ""
+    result: UncertaintyResult,
+    rows: Sequence[ComparisonRow],
+    *,
+    source: str = "",
+    model_form: Mapping[tuple[str, str], float] | None = None,
 ) -> UncertaintyBands:
     """95 % intervals of the rows' predicted values from a Monte-Carlo run.
 
@@ -240,7 +255,8 @@ def uncertainty_bands(
     difference between the validation run and the Monte-Carlo run at the identified
     coefficients, so that the interval sits where the validation put the prediction:
     ``lo = q₀.₀₂₅ + offset``, ``hi = q₀.₉₇₅ + offset``, ``mean = mean + offset``. When
-    either value is missing the offset is 0.
+    either value is missing the offset is 0. A ``model_form`` half-width of the row's
+    (manoeuvre, metric) widens both sides in quadrature (``model_form.widen``).
 
     Parameters
     ----------
@@ -250,6 +266,9 @@ def uncertainty_bands(
         The comparison (``compare_runs``) whose predicted values locate the intervals.
     source : str, optional
         Where the coefficients come from, for the report.
+    model_form : mapping, optional
+        Model-form half-width per (manoeuvre, Monte-Carlo metric), in the metric's
+        unit (``model_form.model_form_half_widths``).
 
     Raises
     ------
@@ -268,13 +287,18 @@ def uncertainty_bands(
         offset = (
             row.predicted - nominal if row.predicted is not None and math.isfinite(nominal) else 0.0
         )
+        lo, hi = scale * s.q025 + offset, scale * s.q975 + offset
+        half_width = scale * (model_form or {}).get((row.maneuver, metric), 0.0)
+        if half_width > 0.0 and math.isfinite(nominal):
+            lo, hi = widen(nominal + offset, lo, hi, half_width)
         intervals[row.maneuver, row.quantity] = Interval(
-            lo=scale * s.q025 + offset,
-            hi=scale * s.q975 + offset,
+            lo=lo,
+            hi=hi,
             mean=scale * s.mean + offset,
             offset=offset,
             n_samples=s.n_samples,
             n_failed=s.n_failed,
+            model_form=half_width,
         )
     return UncertaintyBands(
         intervals=intervals,

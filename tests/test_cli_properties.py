@@ -242,7 +242,8 @@ def warm(log_lines: list[str]) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "trial.csv"
         log.write_text("\n".join(log_lines) + "\n", encoding="utf-8")
-        argv = ["fit", str(log), "--model", "shi2009", "--quiet", "-o", f"{tmp}/params.json"]
+        argv = ["fit", str(log), "--model", "shi2009", "--method", "ekf", "--quiet"]
+        argv += ["-o", f"{tmp}/params.json"]
         assert identifier_cli.main(argv) == 0
 
 
@@ -275,7 +276,18 @@ def _fit(
         log = directory / "trial.csv"
         log.write_text(log_text, encoding="utf-8")
         output = directory / "out" / "params.json"
-        argv = ["fit", str(log), "--model", "shi2009", "--quiet", "-o", str(output), *options]
+        argv = [
+            "fit",
+            str(log),
+            "--model",
+            "shi2009",
+            "--method",
+            "ekf",
+            "--quiet",
+            "-o",
+            str(output),
+        ]
+        argv += options
         status, out, err = _run(identifier_cli.main, argv, capfd)
         _check(status, err, inputs={log}, directory=directory, written=output.is_file)
         if status == 0:

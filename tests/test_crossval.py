@@ -11,17 +11,12 @@ import pytest
 
 from fmu_model import ModelParameters
 from identifier.cli import main
-from identifier.crossval import (
-    Fold,
-    cross_validate,
-    maneuver_kind,
-    select_logs,
-    zigzag_angles,
-)
+from identifier.crossval import Fold, cross_validate, select_logs
 from identifier.identify import FitSettings
 from identifier.ingest import output_paths
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials.conditions import maneuver_kind, zigzag_angles
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log, write_log
 
@@ -63,18 +58,19 @@ def log_files(logs: dict[str, ManeuverLog], tmp_path_factory: pytest.TempPathFac
 def known_answer(logs: dict[str, ManeuverLog]) -> Fold:
     train = [logs[n] for n in ("turning-35", "zigzag-10", "zigzag-20")]
     test = [logs[n] for n in ("turning-35-port", "zigzag-10-port")]
-    return cross_validate(train, test, FitSettings(model="shi2009", refine=True))
+    return cross_validate(train, test, FitSettings(model="shi2009"))
 
 
-def test_logs_are_classified_by_source_then_file_name(
+def test_logs_are_classified_by_their_rudder_not_their_names(
     logs: dict[str, ManeuverLog], log_files: list[Path]
 ) -> None:
     assert maneuver_kind(logs["turning-35-port"]) == "turning"
     assert maneuver_kind(logs["zigzag-20"]) == "zigzag"
-    bare = ManeuverLog(*(getattr(logs["zigzag-10"], k) for k in _ARRAYS), metadata={})
-    assert maneuver_kind(bare) is None
     named = ManeuverLog(*(getattr(logs["zigzag-10"], k) for k in _ARRAYS), path="t/turn1.csv")
-    assert maneuver_kind(named) == "turning"
+    assert maneuver_kind(named) == "zigzag"  # the rudder goes to both sides
+    zz = logs["zigzag-10"]
+    midship = ManeuverLog(*(getattr(zz, k) for k in _ARRAYS[:4]), zz.rudder_rad * 0.0, zz.n_rps)
+    assert maneuver_kind(midship) is None
     files = [read_log(p) for p in log_files]
     assert select_logs(files, ["zigzag"]) == [1, 2]
     assert select_logs(files, [str(log_files[0]), "zigzag"]) == [0, 1, 2]
@@ -119,7 +115,7 @@ def test_cli_crossval_writes_table_and_json(log_files: list[Path], tmp_path: Pat
     table = capsys.readouterr().out
     assert "| tactical_diameter_m |" in table and f"wrote {out}" in table
     doc = json.loads(out.read_text())
-    assert doc["model"] == "shi2009" and doc["refine"] is False
+    assert doc["model"] == "shi2009" and doc["method"] == "output-error"
     (fold,) = doc["folds"]
     assert fold["train"] == [str(p) for p in log_files[1:]]
     (held,) = fold["test"]

@@ -97,7 +97,7 @@ def _fit(
 ) -> tuple[int, str, Path]:
     out = tmp_path / "params.json"
     capsys.readouterr()
-    status = main(["fit", *map(str, logs), "-o", str(out), "--quiet", *options])
+    status = main(["fit", *map(str, logs), "-o", str(out), "--quiet", "--method", "ekf", *options])
     return status, capsys.readouterr().err, out
 
 

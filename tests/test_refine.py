@@ -17,7 +17,6 @@ from identifier.output_error import (
     RefinementResult,
     RefineSettings,
     VirtualTurn,
-    execute_index,
     fit_initial_state,
     newey_west_covariance,
     refine_output_error,
@@ -29,6 +28,7 @@ from identifier.output_error.initial_state import smooth_log
 from identifier.output_error.objective import Objective, prepare_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials.conditions import execute_index
 from trials.logs import ManeuverLog
 
 RUDDER_RATE = math.radians(5.0)
@@ -206,10 +206,13 @@ def test_sanity_guard_flags_a_diverging_turn() -> None:
     assert not any(t.bounded for t in turns) and not any(t.sane for t in turns)
 
 
-def test_identify_with_refine_carries_both_fits(logs: dict[str, ManeuverLog]) -> None:
-    plain = identify(list(logs.values()), FitSettings(model="shi2009"))
+def test_identify_by_default_refines_and_carries_every_estimate(
+    logs: dict[str, ManeuverLog],
+) -> None:
+    plain = identify(list(logs.values()), FitSettings(model="shi2009", method="ekf"))
     assert plain.refinement is None and "refinement" not in plain.params.identification
-    result = identify(list(logs.values()), FitSettings(model="shi2009", refine=True))
+    assert set(plain.params.identification["estimates"]) == {"ekf", "equation-error"}
+    result = identify(list(logs.values()), FitSettings(model="shi2009"))
     r = result.refinement
     assert r is not None
     start = {"ekf": plain.params.to_vector(), "equation-error": plain.equation_error.theta}
@@ -217,7 +220,10 @@ def test_identify_with_refine_carries_both_fits(logs: dict[str, ManeuverLog]) ->
     summary = result.params.identification["refinement"]
     assert summary["kept"] == r.kept
     assert {"method", "cost_before", "cost_after", "initial", "refined"} <= set(summary)
-    assert result.params.identification["settings"]["refine"] is True
+    assert result.params.identification["settings"]["method"] == "output-error"
+    estimates = result.params.identification["estimates"]
+    assert estimates["ekf"] == plain.params.as_dict()
+    assert estimates["output-error"] == r.refined.params.as_dict()
 
 
 @pytest.mark.parametrize("rho", [0.0, 0.9])

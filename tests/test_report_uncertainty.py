@@ -190,6 +190,7 @@ def test_json_markdown_and_figures_with_and_without_bands():
         "offset": 0.0,
         "n_samples": 50,
         "n_failed": 0,
+        "model_form": 0.0,
     }
     assert rows[4]["interval"]["lo"] is None and rows[4]["interval"]["n_failed"] == 50
     u = doc["uncertainty"]

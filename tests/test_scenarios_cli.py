@@ -8,6 +8,7 @@ import math
 import subprocess
 import sys
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,7 @@ from scenarios.runs import reference_runs
 from scenarios.synthesize import maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
-from trials.logs import read_log
+from trials.logs import ManeuverLog, read_log, write_log
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import turning_metrics, zigzag_metrics
 from trials.run import ModelPlant, run_program
@@ -488,3 +489,74 @@ def test_params_of_an_unrelated_structure_are_refused_by_structure(prime_fmu):
     message = str(excinfo.value)
     assert message.startswith("p.json: the parameters (shi2009, vessel 'testship') do not match")
     assert message.endswith(f"their model structure is shi2009 but the FMU's is {PRIME_MODEL}")
+
+
+def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_path, capsys):
+    """A 15/12 port-first zig-zag, 3 deg/s, 10 Hz log of the ship the FMU holds, slowing
+    from 4 m/s in its approach: ``--like`` reads all of it from the log, and the FMU
+    repeats the log's overshoots."""
+    program = zigzag(-math.radians(15.0), math.radians(12.0), max_time_s=1200.0)
+    truth = run_program(
+        ModelPlant(params),
+        replace(program, approach_s=30.0),
+        speed_mps=4.0,
+        n_rps=1.5,
+        rudder_rate_radps=math.radians(3.0),
+        dt_s=0.1,
+    )
+    execute = int(np.argmin(np.abs(truth["time_s"])))
+    log = tmp_path / "measured.csv"
+    write_log(
+        log,
+        ManeuverLog(
+            truth["time_s"] - truth["time_s"][0],
+            truth["x_m"],
+            truth["y_m"],
+            truth["psi_rad"],
+            truth["rudder_rad"],
+            truth["n_rps"],
+            metadata={"vessel": "testship", "length_m": "100.0"},
+        ),
+    )
+    out = tmp_path / "like.json"
+    args = ["zigzag", "--fmu", str(fmu), "--like", str(log), "--json", str(out), "--quiet"]
+    assert main(args) == 0
+    record = json.loads(out.read_text())
+    run = record["run"]
+    speed = math.hypot(truth["u_mps"][execute], truth["v_mps"][execute])
+    assert speed < 3.9  # slowed down in the approach
+    assert run["speed_mps"] == pytest.approx(speed, rel=0.01)  # a parabola through the approach
+    assert run["rpm"] == pytest.approx(90.0)
+    assert run["rudder_rate_deg_s"] == pytest.approx(3.0, rel=0.02)
+    assert record["rudder_deg"] == pytest.approx(-15.0, abs=0.01)
+    assert record["heading_deg"] == pytest.approx(12.0)
+    for key in ("first_overshoot_deg", "second_overshoot_deg"):
+        # Each reversal is quantised to the 0.1 s step, in the log and again in the FMU run.
+        assert record[key] == pytest.approx(record["logged"][key], abs=0.15)
+    printed = capsys.readouterr().out
+    assert f"as logged in {log}" in printed and "difference" in printed
+    # A turning circle is not a zig-zag.
+    turn = tmp_path / "turn.csv"
+    traj = run_program(
+        ModelPlant(params),
+        replace(turning_circle(math.radians(20.0), max_time_s=600.0), approach_s=30.0),
+        speed_mps=5.0,
+        n_rps=2.0,
+        rudder_rate_radps=RUDDER_RATE_RADPS,
+        dt_s=1.0,
+    )
+    write_log(
+        turn,
+        ManeuverLog(
+            traj["time_s"] - traj["time_s"][0],
+            traj["x_m"],
+            traj["y_m"],
+            traj["psi_rad"],
+            traj["rudder_rad"],
+            traj["n_rps"],
+            metadata={"length_m": "100.0"},
+        ),
+    )
+    assert main(["zigzag", "--fmu", str(fmu), "--like", str(turn), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is a turning manoeuvre, not a zigzag" in err

@@ -18,7 +18,7 @@ from fmu_model.atomic import write_atomic
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
 from identifier.crossval import KINDS, format_table, run_cross_validation
-from identifier.identify import FitSettings
+from identifier.identify import METHODS, FitSettings
 from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]
@@ -53,7 +53,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--leave-one-out", action="store_true", help="one fold per log, trained on all others"
     )
     cv.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
-    cv.add_argument("--refine", action="store_true", help="output-error refinement after the EKF")
+    cv.add_argument(
+        "--method",
+        choices=METHODS,
+        default=METHODS[0],
+        help="identification procedure (default: output-error; ekf: the seed paper)",
+    )
     cv.add_argument(
         "--length-m",
         type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
@@ -80,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         logs = [read_log(p) for p in paths]
         cv = run_cross_validation(
             logs,
-            FitSettings(model=args.model, refine=args.refine),
+            FitSettings(model=args.model, method=args.method),
             train=args.train,
             test=args.test,
             leave_one_out_=args.leave_one_out,

@@ -16,6 +16,7 @@ from identifier.identify import (
     ALPHA_RANGE,
     HEADING_NOISE_RANGE_DEG,
     MAX_SUBSTEP_RANGE_S,
+    METHODS,
     PARAM_RANDOM_WALK_RANGE,
     POSITION_NOISE_RANGE_M,
     FitSettings,
@@ -88,7 +89,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     fit.add_argument("--plot", metavar="DIR", help="write track, velocity, convergence PNGs")
     fit.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     fit.add_argument(
-        "--refine", action="store_true", help="output-error refinement after the EKF (guarded)"
+        "--method",
+        choices=METHODS,
+        default=METHODS[0],
+        help="output-error: refine the EKF estimate by output error, guarded (default: "
+        "predicts held-out manoeuvres best); ekf: the EKF estimate (the seed paper)",
     )
     return fit
 
@@ -132,7 +137,7 @@ def _fit(args: argparse.Namespace) -> int:
         heading_noise_rad=(
             None if args.heading_noise_deg is None else math.radians(args.heading_noise_deg)
         ),
-        refine=args.refine,
+        method=args.method,
     )
     total = 2 * sum(log.n_samples for log in logs)
     with tqdm(total=total, unit="sample", disable=args.quiet, file=sys.stderr) as bar:
@@ -151,10 +156,14 @@ def _fit(args: argparse.Namespace) -> int:
         if result.refinement is not None:
             r = result.refinement
             print(
-                f"output error from the {r.initial_method} estimate: kept the {r.kept} one; "
-                f"cost {r.initial.cost:.4g} -> "
+                f"output error from the {r.initial_method} estimate: kept the {r.kept} one "
+                f"({r.reason}); cost {r.initial.cost:.4g} -> "
                 f"{r.refined.cost:.4g}, position RMS {r.initial.position_rms_L:.3f} -> "
                 f"{r.refined.position_rms_L:.3f} L"
             )
+        elif result.settings.method == "ekf":
+            print("kept the EKF estimate (--method ekf)")
+        else:
+            print("kept the EKF estimate: the output-error refinement was skipped (warning above)")
         print(f"wrote {args.output}")
     return 0

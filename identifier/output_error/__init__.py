@@ -24,7 +24,6 @@ from identifier.output_error.guards import (
     virtual_turns,
 )
 from identifier.output_error.initial_state import (
-    execute_index,
     execute_state,
     fit_initial_state,
     smooth_log,
@@ -44,7 +43,6 @@ __all__ = [
     "RefinementResult",
     "VirtualTurn",
     "covers_turn",
-    "execute_index",
     "execute_state",
     "fit_initial_state",
     "newey_west_covariance",

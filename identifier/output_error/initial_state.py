@@ -20,12 +20,8 @@ from fmu_model.replay import replay
 from identifier.output_error.objective import Objective, prepare_log
 from identifier.output_error.records import RefineSettings
 from identifier.smoothing import SmoothedTrack, smooth_track
+from trials.conditions import execute_index
 from trials.logs import ManeuverLog
-
-# Rudder movement that marks the execute point [rad].
-_EXECUTE_RUDDER_RAD = math.radians(0.5)
-# ... and a rudder change between two samples that counts as moving [rad].
-_RUDDER_STEP_RAD = math.radians(0.01)
 
 
 def smooth_log(log: ManeuverLog) -> SmoothedTrack:
@@ -43,45 +39,6 @@ def smooth_log(log: ManeuverLog) -> SmoothedTrack:
 
     """
     return smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
-
-
-def execute_index(log: ManeuverLog) -> int:
-    """Index of the execute sample: the start of the first rudder command.
-
-    From the log's ``# execute_time_s:`` when given (the last sample not after it),
-    else the first sample of the rudder movement that takes it more than 0.5° from
-    its first value; the last sample when it never moves.
-
-    Parameters
-    ----------
-    log : ManeuverLog
-        The log: time [s], rudder angle [rad], metadata.
-
-    Returns
-    -------
-    int
-        The execute sample k, 0 ≤ k < ``log.n_samples``.
-
-    """
-    text = log.metadata.get("execute_time_s")
-    if text is not None:
-        try:
-            t_exec = float(text)
-        except ValueError:
-            t_exec = math.nan
-        if math.isfinite(t_exec) and log.time_s[0] <= t_exec <= log.time_s[-1]:
-            # 1 µs of slack: sample times are often sums of float steps.
-            return int(np.searchsorted(log.time_s, t_exec + 1e-6, side="right")) - 1
-    rudder = log.rudder_rad
-    moved = np.flatnonzero(np.abs(rudder - rudder[0]) > _EXECUTE_RUDDER_RAD)
-    if not moved.size:
-        return log.n_samples - 1
-    # Back to the first sample of that movement (the rudder already moving that way).
-    k = int(moved[0])
-    sign = math.copysign(1.0, rudder[k] - rudder[0])
-    while k > 1 and sign * (rudder[k - 1] - rudder[k - 2]) > _RUDDER_STEP_RAD:
-        k -= 1
-    return k
 
 
 def fit_initial_state(

@@ -33,6 +33,8 @@ from scenarios.runs import (
     run_standard_set,
     simulate,
 )
+from trials.conditions import log_trajectory, logged_condition, maneuver_indices
+from trials.logs import read_log
 from trials.maneuvers import (
     DEFAULT_RUDDER_RATE_DEG_S,
     Program,
@@ -127,6 +129,13 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
         default=0.0,
         metavar="S",
         help="straight run before execute, recorded with negative times [s] (default 0)",
+    )
+    outputs.add_argument(
+        "--like",
+        metavar="LOG.csv",
+        help="sail a logged turning circle or zig-zag again in its own condition (approach "
+        "speed, rpm, rudder amplitude and rate, switch headings; these options are then "
+        "ignored) and print the logged indices beside the predicted ones",
     )
     p = sub.add_parser("turning-circle", parents=[outputs], help="turning circle on an FMU")
     p.add_argument(
@@ -271,13 +280,50 @@ def _run_on_fmu(args: argparse.Namespace, program: Program, condition: Condition
 
 def _measured_run(
     args: argparse.Namespace, info: FmuInfo, program: Program, condition: Condition
-) -> tuple[Program, np.ndarray, dict[str, Any]]:
-    """Run a turning circle or zig-zag after ``--approach-s``; its JSON record of metrics."""
+) -> tuple[Program, Condition, np.ndarray, dict[str, Any]]:
+    """Run a turning circle or zig-zag after ``--approach-s``; its JSON record of metrics.
+
+    With ``--like LOG.csv`` the program and condition are the log's
+    (``trials.conditions.logged_condition``), and the record gains the log's own
+    indices under ``"logged"``.
+    """
+    logged: dict[str, float | None] | None = None
+    if args.like:
+        log = read_log(args.like)
+        like = logged_condition(log, max_time_s=_limit_s(args, info, condition))
+        if like.program.kind != program.kind:
+            raise ScenarioError(
+                f"{args.like}: the log is a {like.program.kind} manoeuvre, not a {program.kind}"
+            )
+        check_rudder(info, like.program.rudder_rad)
+        program = like.program
+        condition = Condition(like.speed_mps, like.n_rps, like.rudder_rate_radps, args.dt_s)
+        angles = (program.rudder_rad, program.heading_rad)
+        logged = maneuver_indices(program.kind, log_trajectory(log), like.execute_time_s, angles)
     program = replace(program, approach_s=args.approach_s)
     trajectory = _run_on_fmu(args, program, condition)
     run = ManeuverRun(program, trajectory, measure(program, trajectory))
     record = {**run.metrics_dict(info.length_m), "run": _run_record(args, info, program, condition)}
-    return program, trajectory, record
+    if logged is not None:
+        record["logged"] = {"log": args.like, **logged}
+    return program, condition, trajectory, record
+
+
+def _logged_lines(record: dict[str, Any]) -> list[str]:
+    """Lines "logged vs predicted" of a ``--like`` run (none without it)."""
+    logged = record.get("logged")
+    if logged is None:
+        return []
+    lines = [f"  as logged in {logged['log']}:"]
+    for key, value in logged.items():
+        if key == "log" or value is None or record.get(key) is None:
+            continue
+        unit = key.rsplit("_", 1)[-1]
+        lines.append(
+            f"  {key:<22} logged {value:9.2f} {unit}  predicted {record[key]:9.2f} {unit}  "
+            f"difference {record[key] - value:+8.2f} {unit}"
+        )
+    return lines
 
 
 def _save_outputs(
@@ -325,7 +371,7 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
         heading_change_rad=math.radians(args.heading_change_deg),
         max_time_s=_limit_s(args, info, condition),
     )
-    program, trajectory, record = _measured_run(args, info, program, condition)
+    program, condition, trajectory, record = _measured_run(args, info, program, condition)
 
     def figure() -> Any:
         from scenarios.plots import trajectory_figure
@@ -346,7 +392,7 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
             lines.append(f"  {label:<18} {record[f'{key}_m']:9.1f} m  {record[f'{key}_L']:7.3f} L")
     lines.append(f"  {'time to 90 deg':<18} {record['time_to_90_s']:9.1f} s")
     lines.append(f"  {'speed loss':<18} {record['speed_loss_pct']:9.1f} %")
-    print("\n".join(lines))
+    print("\n".join(lines + _logged_lines(record)))
     return 0
 
 
@@ -362,7 +408,7 @@ def run_zigzag_command(args: argparse.Namespace) -> int:
         n_reversals=args.reversals,
         max_time_s=_limit_s(args, info, condition),
     )
-    program, trajectory, record = _measured_run(args, info, program, condition)
+    program, condition, trajectory, record = _measured_run(args, info, program, condition)
 
     def figure() -> Any:
         from scenarios.plots import zigzag_figure
@@ -381,7 +427,7 @@ def run_zigzag_command(args: argparse.Namespace) -> int:
     ):
         if key in record:
             lines.append(f"  {label:<18} {record[key]:9.2f} {unit}")
-    print("\n".join(lines))
+    print("\n".join(lines + _logged_lines(record)))
     return 0
 
 

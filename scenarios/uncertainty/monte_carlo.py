@@ -1,6 +1,6 @@
 """Monte Carlo on a dask cluster: every coefficient sample through the manoeuvre programs.
 
-Chunks of coefficient sets are tasks (:func:`_simulate_chunk`); inside a task the
+Chunks of coefficient sets are tasks (:func:`simulate_chunk`); inside a task the
 chunk's ships advance together through ``trials.run.run_batch`` on a batch
 ``ModelPlant``, and each trajectory goes to the ``trials.metrics`` functions. The draw
 is :func:`scenarios.uncertainty.sampling.draw_coefficients`, the records
@@ -53,7 +53,7 @@ _MAX_DEFAULT_CHUNK = 100
 
 
 @dataclass(frozen=True)
-class _Setup:
+class RunSetup:
     """Everything a task needs besides its coefficient chunk (picklable)."""
 
     params: ModelParameters
@@ -94,7 +94,7 @@ def _program_metrics(program: Program, traj: np.ndarray) -> tuple[np.ndarray, in
     return values, STATUS_OK
 
 
-def _simulate_chunk(theta: np.ndarray, setup: _Setup) -> list[tuple[np.ndarray, np.ndarray]]:
+def simulate_chunk(theta: np.ndarray, setup: RunSetup) -> list[tuple[np.ndarray, np.ndarray]]:
     """One task: every program for the coefficient sets ``theta`` (p, K).
 
     Returns per program the (K, n_metrics) values and the (K,) status.
@@ -311,7 +311,7 @@ def monte_carlo_metrics(
             raise UncertaintyError(problem)
 
     samples, jitter = draw_coefficients(params, n_samples, seed)
-    setup = _Setup(
+    setup = RunSetup(
         params=params,
         programs=chosen,
         speed_mps=speed,
@@ -329,7 +329,7 @@ def monte_carlo_metrics(
         columns = np.vstack((params.to_vector(), samples)).T
         bounds = [0, *range(chunk_size + 1, n_samples + 1, chunk_size), n_samples + 1]
         chunks = [np.ascontiguousarray(columns[:, a:b]) for a, b in itertools.pairwise(bounds)]
-        futures = dask_client.map(_simulate_chunk, chunks, setup=setup)
+        futures = dask_client.map(simulate_chunk, chunks, setup=setup)
         parts = dask_client.gather(futures)
 
     results = []

@@ -1,0 +1,225 @@
+"""Cross-predictions on measured data: the four HSVA free-running zig-zags of KVLCC2 (issue 13).
+
+    python benchmarks/hsva.py [--model NAME ...] [--out benchmarks/hsva.md]
+
+Data: ``../shared/data/hsva_kvlcc2`` (model scale, L = 7 m, 20 Hz), read with the
+project's own reader. Folds:
+
+* ``10/10 → 20/10``: trained on both 10°/10° runs, predicts both 20°/10° runs;
+* ``stbd → port``: trained on the two starboard-first runs, predicts the port-first ones;
+* ``leave one out``: trained on three runs, predicts the fourth (four folds).
+
+Every run of every fold, trained on or held out, is sailed again closed-loop by the
+identified model in the run's own condition (``trials.conditions.sail_again``: approach
+speed, rpm, rudder amplitude and rate, the logged switch headings), and its first and
+second overshoot are compared with the run's, measured with the same definitions.
+Two estimates of each fit: ``ekf`` (the seed paper's algorithm, ``--method ekf``) and
+``default`` (what ``identifier fit`` keeps). Errors predicted − measured [deg].
+
+The asymmetry row: the predicted second-overshoot difference port-first − starboard-first
+run of each pair, against the measured one (10/10: 17.83 − 20.54 = −2.71°).
+
+Candidates studied for issue 13 (registered here, not in ``fmu_model``: none won), each
+``prime-rudder`` plus terms with one gain each:
+
+* ``asym-hull``: even yaw-rate terms of the hull, q·r′² in sway and yaw (r²L, r²), a
+  side-dependent yaw damping: the propeller's swirl makes the stern flow asymmetric;
+* ``asym-prop``: a constant propeller side force and yaw moment, n²L and n² (§5 of
+  reference/model_structures.md: too small on its own);
+* ``thrust``: the propeller thrust as one term n²L − κ·u·n with κ = 20 (a typical
+  open-water slope, K_T falling by about a third from bollard to service), instead of
+  free n²L and u·n terms, which constant-rpm zig-zags cannot separate and which
+  extrapolate to a negative bollard thrust.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from fmu_model import ModelParameters
+from fmu_model.structure import L, Term, n, r, u
+from fmu_model.variants import PRIME_RUDDER, parse_family, register_family
+from identifier.identify import FitSettings, identify
+from trials.conditions import sail_again
+from trials.logs import ManeuverLog, read_log
+from trials.run import ModelPlant
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
+RUNS = ("hsva_zz10_stbd", "hsva_zz10_port", "hsva_zz20_10_stbd", "hsva_zz20_10_port")
+PAIRS = {"10/10": ("hsva_zz10_port", "hsva_zz10_stbd"), "20/10": RUNS[3:1:-1]}
+FOLDS: dict[str, tuple[str, ...]] = {
+    "10/10 → 20/10": RUNS[:2],
+    "stbd → port": (RUNS[0], RUNS[2]),
+    **{f"leave out {held}": tuple(r for r in RUNS if r != held) for held in RUNS},
+}
+LENGTH_M = 7.0
+MODELS = ("prime-rudder",)
+INDICES = ("first_overshoot_deg", "second_overshoot_deg")
+
+
+THRUST_KAPPA = 20.0
+
+
+def register_candidates() -> tuple[str, ...]:
+    """Register the candidate families of the module docstring; return their names."""
+    base = PRIME_RUDDER
+    thrust = (
+        Term("X_T", n**2 * L - THRUST_KAPPA * u * n),
+        *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
+    )
+    candidates = {
+        "asym-hull": (base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
+        "asym-prop": (base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
+        "thrust": (thrust, (), ()),
+    }
+    for name, (surge, sway, yaw) in candidates.items():
+        if parse_family(name) is None:
+            register_family(
+                replace(base, name=name, surge=surge, sway=base.sway + sway, yaw=base.yaw + yaw)
+            )
+    return tuple(candidates)
+
+
+@dataclass(frozen=True)
+class RunError:
+    """Overshoots of one run sailed again by one estimate."""
+
+    run: str
+    trained: bool
+    logged: tuple[float | None, ...]
+    predicted: tuple[float | None, ...]
+
+    @property
+    def errors(self) -> tuple[float | None, ...]:
+        """Return predicted − logged [deg] per overshoot; None where either is missing."""
+        return tuple(
+            None if p is None or m is None else p - m
+            for p, m in zip(self.predicted, self.logged, strict=True)
+        )
+
+
+def read_runs(directory: Path = DATA) -> dict[str, ManeuverLog]:
+    """Read the four HSVA runs."""
+    return {run: read_log(directory / f"{run}.csv") for run in RUNS}
+
+
+def sail_all(
+    params: ModelParameters, logs: dict[str, ManeuverLog], train: Sequence[str]
+) -> list[RunError]:
+    """Sail every run again with ``params``; its overshoots against the logged ones."""
+    out = []
+    for run, log in logs.items():
+        sailed = sail_again(ModelPlant(params), log)
+        out.append(
+            RunError(
+                run,
+                run in train,
+                tuple(sailed.logged[k] for k in INDICES),
+                tuple(sailed.predicted[k] for k in INDICES),
+            )
+        )
+    return out
+
+
+def estimates(
+    logs: dict[str, ManeuverLog], model: str, train: Sequence[str]
+) -> dict[str, ModelParameters]:
+    """Identify ``model`` on the ``train`` runs; the EKF's estimate and the default kept one."""
+    result = identify([logs[r] for r in train], FitSettings(model=model), length_m=LENGTH_M)
+    refinement = result.refinement
+    assert refinement is not None
+    ekf = refinement.initial.params.with_vector(result.ekf.theta)
+    return {"ekf": ekf, "default": result.params}
+
+
+def worst(errors: Sequence[RunError], trained: bool) -> float:
+    """Largest |error| [deg] of the runs trained on (or held out); inf when one is missing."""
+    values = [e for r in errors if r.trained == trained for e in r.errors]
+    if not values:
+        return math.nan
+    return (
+        math.inf if any(v is None for v in values) else max(abs(v) for v in values if v is not None)
+    )
+
+
+def asymmetry(
+    errors: Sequence[RunError], pair: tuple[str, str]
+) -> tuple[float | None, float | None]:
+    """(predicted, measured) second-overshoot difference port-first − starboard-first [deg]."""
+    by_run = {r.run: r for r in errors}
+    port, stbd = by_run[pair[0]], by_run[pair[1]]
+
+    def diff(a: float | None, b: float | None) -> float | None:
+        return None if a is None or b is None else a - b
+
+    return diff(port.predicted[1], stbd.predicted[1]), diff(port.logged[1], stbd.logged[1])
+
+
+def _deg(value: float | None) -> str:
+    return "n/a" if value is None or not math.isfinite(value) else f"{value:+.2f}"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the cross-predictions; print and write the tables."""
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    candidates = register_candidates()
+    parser.add_argument(
+        "--model",
+        action="append",
+        dest="models",
+        help=f"model (repeat; default {MODELS[0]}; candidates: {', '.join(candidates)})",
+    )
+    parser.add_argument("--fold", action="append", dest="folds", help="fold name (repeat)")
+    parser.add_argument("--data", type=Path, default=DATA, help="directory of the runs")
+    parser.add_argument("--out", default=str(Path(__file__).with_name("hsva.md")))
+    args = parser.parse_args(argv)
+    logs = read_runs(args.data)
+    lines = [
+        "# Cross-predictions on the HSVA KVLCC2 zig-zags (benchmarks/hsva.py)",
+        "",
+        "Overshoot errors predicted − measured [deg], closed-loop in each run's own condition. "
+        "`T` = trained on, `H` = held out. Asymmetry: predicted (measured) second-overshoot "
+        "difference port-first − starboard-first.",
+        "",
+        "| model | fold | estimate | "
+        + " | ".join(f"{r.removeprefix('hsva_')} OS1 | OS2" for r in RUNS)
+        + " | worst T | worst H | asym 10/10 | asym 20/10 | s |",
+        "|" + "---|" * (3 + 2 * len(RUNS) + 5),
+    ]
+    for model in args.models or MODELS:
+        for fold in args.folds or FOLDS:
+            train = FOLDS[fold]
+            start = time.perf_counter()
+            fits = estimates(logs, model, train)
+            seconds = time.perf_counter() - start
+            for name, params in fits.items():
+                errors = sail_all(params, logs, train)
+                cells = []
+                for run_error in errors:
+                    tag = "T" if run_error.trained else "H"
+                    cells += [f"{_deg(e)} {tag}" for e in run_error.errors]
+                asym = [asymmetry(errors, PAIRS[p]) for p in PAIRS]
+                row = [
+                    model,
+                    fold,
+                    name,
+                    *cells,
+                    _deg(worst(errors, True)),
+                    _deg(worst(errors, False)),
+                    *(f"{_deg(p)} ({_deg(m)})" for p, m in asym),
+                    f"{seconds:.0f}" if name == "ekf" else "",
+                ]
+                lines.append("| " + " | ".join(row) + " |")
+                print(lines[-1], flush=True)
+    text = "\n".join(lines) + "\n"
+    Path(args.out).write_text(text, encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

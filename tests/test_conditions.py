@@ -1,0 +1,187 @@
+"""A logged manoeuvre's condition, read from the log, and the manoeuvre sailed again in it."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from identifier.identify import identify
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from trials.conditions import (
+    SailedAgain,
+    execute_index,
+    log_trajectory,
+    logged_condition,
+    maneuver_indices,
+    maneuver_kind,
+    sail_again,
+    zigzag_angles,
+)
+from trials.errors import IdentificationError
+from trials.logs import ManeuverLog, read_log
+from trials.maneuvers import zigzag
+from trials.run import ModelPlant
+
+HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
+HSVA_RUNS = ("hsva_zz10_stbd", "hsva_zz10_port", "hsva_zz20_10_stbd", "hsva_zz20_10_port")
+
+
+@pytest.fixture(scope="module")
+def truth() -> dict[str, dict[str, object]]:
+    """The HSVA data set's own metrics (computed by its converter, not by this project)."""
+    return json.loads((HSVA / "truth.json").read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module")
+def hsva() -> dict[str, ManeuverLog]:
+    """The four measured zig-zags, read with the project's reader."""
+    return {run: read_log(HSVA / f"{run}.csv") for run in HSVA_RUNS}
+
+
+@pytest.mark.parametrize("run", HSVA_RUNS)
+def test_the_measured_runs_condition_agrees_with_the_data_sets_own_metrics(
+    run: str, hsva: dict[str, ManeuverLog], truth: dict[str, dict[str, object]]
+) -> None:
+    t = truth[run]
+    c = logged_condition(hsva[run])
+    sign = 1.0 if t["first_side"] == "starboard" else -1.0
+    assert c.program.kind == "zigzag"
+    assert math.copysign(1.0, c.program.rudder_rad) == sign
+    assert math.degrees(c.program.heading_rad) == pytest.approx(10.0)  # 10.6-11.3 deg: nominal 10
+    assert math.degrees(abs(c.program.rudder_rad)) == pytest.approx(
+        t["rudder_amplitude_measured_deg"], abs=0.02
+    )
+    assert c.speed_mps == pytest.approx(t["approach_speed_mps"], abs=2e-3)
+    assert c.n_rps * 60.0 == pytest.approx(t["approach_rpm"])
+    assert math.degrees(c.rudder_rate_radps) == pytest.approx(t["rudder_rate_degps"], abs=0.01)
+    # truth.json reads the heading when the rudder is 1 deg off its plateau; the switch
+    # heading is where it started to move, 1 deg / rate (0.07 s) earlier at 2-3 deg/s.
+    at_one_degree = np.abs(t["heading_rel_psi0_at_reversal_executes_deg"])
+    earlier = at_one_degree - np.degrees(c.switch_headings_rad)
+    assert np.all((earlier > 0.05) & (earlier < 0.3))
+    # The legs reverse at the logged headings, alternating sides.
+    first, second = c.program.legs[:2]
+    assert first.rudder_rad * sign > 0.0 and second.rudder_rad * sign < 0.0
+    crossing = first.until.heading_above_rad if sign > 0 else -(first.until.heading_below_rad or 0)
+    assert crossing == pytest.approx(c.switch_headings_rad[0])
+
+
+@pytest.mark.parametrize("run", HSVA_RUNS)
+def test_the_logged_overshoots_are_the_data_sets_own(
+    run: str, hsva: dict[str, ManeuverLog], truth: dict[str, dict[str, object]]
+) -> None:
+    log = hsva[run]
+    c = logged_condition(log)
+    got = maneuver_indices(
+        "zigzag", log_trajectory(log), c.execute_time_s, (c.program.rudder_rad, math.radians(10.0))
+    )
+    t = truth[run]
+    assert got["first_overshoot_deg"] == pytest.approx(t["first_overshoot_deg"], abs=0.03)
+    assert got["second_overshoot_deg"] == pytest.approx(t["second_overshoot_deg"], abs=0.03)
+
+
+@pytest.fixture(scope="module")
+def reference_zigzag() -> ManeuverLog:
+    """A noise-free 10 Hz zig-zag 10/10 of the KVLCC2 reference, port first."""
+    ship = reference_ship("kvlcc2", "full")
+    return synthesize_log(
+        ship,
+        zigzag(-math.radians(10.0), math.radians(10.0)),
+        rate_hz=10.0,
+        position_noise_m=0.0,
+        heading_noise_deg=0.0,
+    )
+
+
+def test_a_synthetic_logs_condition_is_the_one_it_was_sailed_in(
+    reference_zigzag: ManeuverLog,
+) -> None:
+    ship = reference_ship("kvlcc2", "full")
+    c = logged_condition(reference_zigzag)
+    assert c.speed_mps == pytest.approx(ship.speed_mps, rel=1e-4)
+    assert c.n_rps == pytest.approx(ship.n_rps)
+    assert c.rudder_rate_radps == pytest.approx(ship.rudder_rate_radps, rel=0.01)
+    assert math.degrees(c.program.rudder_rad) == pytest.approx(-10.0, abs=1e-6)
+    # The runner reverses at the first step past 10 deg: within one step's heading change.
+    assert np.degrees(c.switch_headings_rad) == pytest.approx(10.0, abs=0.05)
+    assert c.execute_time_s == pytest.approx(60.0)
+
+
+def test_the_ship_that_sailed_a_log_sails_it_again_to_the_same_overshoots(
+    reference_zigzag: ManeuverLog,
+) -> None:
+    ship = reference_ship("kvlcc2", "full")
+    again = sail_again(ship.plant, reference_zigzag)
+    assert not again.diverged
+    for key in ("first_overshoot_deg", "second_overshoot_deg"):
+        assert again.predicted[key] == pytest.approx(again.logged[key], abs=0.05)
+    # ... and a different condition gives different overshoots: the test can fail.
+    assert again.logged["first_overshoot_deg"] > 1.0
+
+
+def test_logs_are_classified_by_their_rudder() -> None:
+    ship = reference_ship("kvlcc2", "full")
+    turn = synthesize_log(ship, MANEUVERS["turning-35"](), position_noise_m=0.0)
+    assert maneuver_kind(turn) == "turning"
+    c = logged_condition(turn)
+    assert c.program.kind == "turning" and c.switch_headings_rad == ()
+    assert math.degrees(c.program.rudder_rad) == pytest.approx(35.0, abs=0.01)
+    with pytest.raises(IdentificationError, match="no rudder reversal"):
+        zigzag_angles(turn)
+    still = ManeuverLog(
+        turn.time_s, turn.x_m, turn.y_m, turn.heading_rad, turn.rudder_rad * 0.0, turn.n_rps
+    )
+    assert maneuver_kind(still) is None
+    assert execute_index(still) == still.n_samples - 1
+    with pytest.raises(IdentificationError, match="never leaves midship"):
+        logged_condition(still)
+
+
+# --------------------------------------------------------------------------------------
+# Measured data in the loop: the default fit on the HSVA 10/10 pair (benchmarks/hsva.py)
+# --------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def fit_on_the_10_10_pair(hsva: dict[str, ManeuverLog]) -> dict[str, SailedAgain]:
+    """The default fit of the two 10/10 runs, every run sailed again in its condition."""
+    result = identify([hsva["hsva_zz10_stbd"], hsva["hsva_zz10_port"]], length_m=7.0)
+    return {run: sail_again(ModelPlant(result.params), log) for run, log in hsva.items()}
+
+
+def test_measured_training_runs_are_reproduced_within_1_degree(
+    fit_on_the_10_10_pair: dict[str, SailedAgain],
+) -> None:
+    for run in ("hsva_zz10_stbd", "hsva_zz10_port"):
+        sailed = fit_on_the_10_10_pair[run]
+        assert not sailed.diverged
+        for key in ("first_overshoot_deg", "second_overshoot_deg"):
+            assert sailed.predicted[key] == pytest.approx(sailed.logged[key], abs=1.0), (run, key)
+
+
+def test_the_measured_port_starboard_difference_is_predicted_with_its_sign(
+    fit_on_the_10_10_pair: dict[str, SailedAgain],
+) -> None:
+    """Second overshoot, port-first run minus starboard-first run: −2.7° measured (10/10)."""
+    stbd, port = (fit_on_the_10_10_pair[r] for r in ("hsva_zz10_stbd", "hsva_zz10_port"))
+    key = "second_overshoot_deg"
+    measured = port.logged[key] - stbd.logged[key]
+    predicted = port.predicted[key] - stbd.predicted[key]
+    assert measured < -2.0
+    assert predicted < 0.0 and predicted == pytest.approx(measured, abs=1.5)
+
+
+def test_held_out_20_10_runs_first_overshoots_within_1_5_degrees(
+    fit_on_the_10_10_pair: dict[str, SailedAgain],
+) -> None:
+    """The issue's bar for the first overshoots; the second ones are 5-6 deg too large
+    (README, Status): guarded here against getting worse only."""
+    for run in ("hsva_zz20_10_stbd", "hsva_zz20_10_port"):
+        sailed = fit_on_the_10_10_pair[run]
+        first, second = "first_overshoot_deg", "second_overshoot_deg"
+        assert sailed.predicted[first] == pytest.approx(sailed.logged[first], abs=1.5), run
+        assert sailed.predicted[second] == pytest.approx(sailed.logged[second], abs=7.0), run
