@@ -16,7 +16,8 @@ covariance is σ²_e (XᵀX + λI)⁻¹ with σ_e the residual standard deviatio
 Rate-aware. The regression is written on the smoothed data decimated to a sampling
 interval of about :data:`REGRESSION_INTERVAL_L_OVER_U` × L/U, the time the ship takes to
 sail 1/40 of its length (every m-th sample, m = ⌊that / median interval⌋, at least 1;
-U the segment's median smoothed speed): the RTS smoother is the anti-aliasing filter
+U the segment's 95th-percentile smoothed speed, about its approach speed: the fastest
+part of the run sets the rate): the RTS smoother is the anti-aliasing filter
 (its smoothed states carry nothing faster than the manoeuvre), a ship's manoeuvring
 dynamics scale with L/U (Froude similarity: time constants of 0.25–2.5 L/U, the rudder
 put over in about 0.3 L/U), and the central difference over 2/40 L/U keeps the
@@ -90,7 +91,7 @@ class EquationErrorFit:
 def decimation(segment: EkfSegment, length_m: float) -> int:
     """Return m, the step of the decimation to about 1/40 L/U (≥ 1; module docstring)."""
     interval = float(np.median(np.diff(segment.time_s)))
-    speed = float(np.median(np.hypot(segment.velocities[:, 0], segment.velocities[:, 1])))
+    speed = float(np.percentile(np.hypot(segment.velocities[:, 0], segment.velocities[:, 1]), 95))
     target_s = REGRESSION_INTERVAL_L_OVER_U * length_m / speed if speed > 0.0 else interval
     return max(1, math.floor(target_s / interval * (1.0 + 1e-9)))
 

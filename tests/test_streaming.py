@@ -102,12 +102,20 @@ def test_chunked_normal_equations_equal_one_chunk() -> None:
     np.testing.assert_allclose(model_fit.residual_std, direct, rtol=1e-6)
 
 
-@pytest.mark.parametrize(("rate_hz", "step"), [(1.0, 1), (2.0, 1), (10.0, 5), (0.5, 1)])
-def test_regression_is_decimated_to_about_a_40th_of_l_over_u(rate_hz: float, step: int) -> None:
-    """L = 100 m at 4.2-5 m/s: L/U/40 is 0.50-0.6 s, every 5th sample at 10 Hz."""
+@pytest.mark.parametrize("rate_hz", [0.5, 1.0, 2.0, 10.0])
+def test_regression_is_decimated_to_about_a_40th_of_l_over_u(rate_hz: float) -> None:
+    """L = 100 m at an approach speed of about 5 m/s: L/U/40 is about 0.5 s."""
     log = _seed_log(rate_hz)
     segment = _segment(log)
-    assert decimation(segment, 100.0) == step
+    speed = np.percentile(np.hypot(segment.velocities[:, 0], segment.velocities[:, 1]), 95)
+    assert speed == pytest.approx(5.0, rel=0.05)
+    step = decimation(segment, 100.0)
+    interval = 1.0 / rate_hz
+    # The largest whole number of samples not above L/U/40, at least one.
+    for length_m in (100.0, 1000.0):
+        expected = max(1, math.floor(length_m / speed / 40.0 / interval + 1e-9))
+        assert decimation(segment, length_m) == expected
+    assert (step == 1) == (rate_hz <= 2.0)
     fit = equation_error_fit(get_model("shi2009"), [segment], 100.0)
     assert fit.sample_interval_s == pytest.approx(step / rate_hz)
     assert fit.rows == len(range(0, log.n_samples, step)) - 2
