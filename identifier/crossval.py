@@ -318,7 +318,7 @@ def held_out_errors(
             elif predicted[key] is None:
                 notes.append(f"{key}: not reached by the prediction")
     else:
-        notes.append("manoeuvre kind unknown (no 'turning'/'zigzag' in source or file name)")
+        notes.append("manoeuvre kind unknown (the rudder never leaves midship)")
     return HeldOut(
         name=name,
         kind=kind,
