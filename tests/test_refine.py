@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import identifier.identify as identify_module
 from fmu_model import ModelParameters, simulate
 from fmu_model.replay import replay
 from fmu_model.variants import SHI2009
@@ -367,3 +368,14 @@ def test_decide_keeps_the_start_when_a_guard_fires(
     )
     assert choice == kept and words in reason
     assert ("kept the EKF estimate" in reason) == (kept == "initial")
+
+
+def test_refinement_of_logs_too_long_to_replay_is_skipped_with_a_warning(
+    logs: dict[str, ManeuverLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(identify_module, "MAX_REFINE_STEPS", 10)
+    result = identify(list(logs.values()), FitSettings(model="shi2009"))
+    assert result.refinement is None
+    assert any(w.startswith("output-error refinement skipped") for w in result.warnings)
+    assert set(result.params.identification["estimates"]) == {"ekf", "equation-error"}
+    np.testing.assert_array_equal(result.params.to_vector(), result.ekf.theta)
