@@ -917,13 +917,12 @@ static ShipStatus ship_derivatives(Instance *inst, const char *function, int adj
    setting, freeing and serialising FMU states: in every state of this FMU. */
 #define FMUSTATE_ALLOWED_IN STATE_ANY
 
-static ShipStatus ship_get_fmu_state(Instance *inst, const char *function, void **fmu_state)
+/* Store the snapshot s in *fmu_state: the state given there (checked to be one of this
+ * FMU's) is overwritten, or a new one is allocated when *fmu_state is NULL. */
+static ShipStatus store_fmu_state(Instance *inst, const char *function, void **fmu_state,
+                                  const Snapshot *s)
 {
     SavedState *saved;
-    if (fmu_state == NULL) {
-        LOG_ERROR(inst, "%s: FMUstate is NULL", function);
-        return SHIP_ERROR;
-    }
     saved = (SavedState *)*fmu_state;
     if (saved != NULL && saved->magic != FMUSTATE_MAGIC) {
         LOG_ERROR(inst, "%s: *FMUstate is not an FMU state of this FMU", function);
@@ -937,9 +936,18 @@ static ShipStatus ship_get_fmu_state(Instance *inst, const char *function, void 
         }
         saved->magic = FMUSTATE_MAGIC;
     }
-    saved->s = inst->s;
+    saved->s = *s;
     *fmu_state = saved;
     return SHIP_OK;
+}
+
+static ShipStatus ship_get_fmu_state(Instance *inst, const char *function, void **fmu_state)
+{
+    if (fmu_state == NULL) {
+        LOG_ERROR(inst, "%s: FMUstate is NULL", function);
+        return SHIP_ERROR;
+    }
+    return store_fmu_state(inst, function, fmu_state, &inst->s);
 }
 
 static ShipStatus ship_set_fmu_state(Instance *inst, const char *function, const void *fmu_state)
@@ -1045,7 +1053,6 @@ static ShipStatus ship_deserialize(Instance *inst, const char *function,
     unsigned int version;
     unsigned int n_variables;
     Snapshot s;
-    SavedState *saved;
     if (fmu_state == NULL || buffer == NULL || size != SERIAL_SIZE) {
         LOG_ERROR(inst, "%s: expected %lu bytes, got %lu", function, (unsigned long)SERIAL_SIZE,
                   (unsigned long)size);
@@ -1082,20 +1089,5 @@ static ShipStatus ship_deserialize(Instance *inst, const char *function,
     if (!snapshot_is_valid(inst, function, &s)) {
         return SHIP_ERROR;
     }
-    saved = (SavedState *)*fmu_state;
-    if (saved != NULL && saved->magic != FMUSTATE_MAGIC) {
-        LOG_ERROR(inst, "%s: *FMUstate is not an FMU state of this FMU", function);
-        return SHIP_ERROR;
-    }
-    if (saved == NULL) {
-        saved = (SavedState *)inst->api.allocate(1, sizeof(SavedState));
-        if (saved == NULL) {
-            LOG_ERROR(inst, "%s: out of memory", function);
-            return SHIP_ERROR;
-        }
-        saved->magic = FMUSTATE_MAGIC;
-    }
-    saved->s = s;
-    *fmu_state = saved;
-    return SHIP_OK;
+    return store_fmu_state(inst, function, fmu_state, &s);
 }
