@@ -350,8 +350,9 @@ def logged_condition(log: ManeuverLog, *, max_time_s: float = 3600.0) -> LoggedC
         return LoggedCondition(program, speed, n_rps, rate, execute_s)
 
     switches = _switch_headings(log, rudder)
-    _, check = zigzag_angles(log)
     mean_switch = float(np.mean(switches))
+    named = _named_angles(log)  # Z as zigzag_angles reads it, from this reading
+    check = named[1] if named is not None else _nominal_check(mean_switch)
     legs = []
     for i in range(max(len(switches) + 1, 5)):
         side = sign if i % 2 == 0 else -sign
