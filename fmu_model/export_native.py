@@ -58,7 +58,14 @@ from fmu_model.fmi_rules import (
     FmuVariable,
     model_identifier,
 )
-from fmu_model.interface import derivative_name, fmu_variables, min_start_speed_mps
+from fmu_model.interface import (
+    ENVIRONMENT_NAMES,
+    GROUND_NAMES,
+    WINDAGE_NAMES,
+    derivative_name,
+    fmu_variables,
+    min_start_speed_mps,
+)
 from fmu_model.model_description import (
     GUID_PLACEHOLDER,
     KINDS,
@@ -172,17 +179,24 @@ def _layout(variables: tuple[FmuVariable, ...], structure: ModelStructure) -> di
         "VR_COEFFICIENTS": block(structure.coefficient_names, "coefficients"),
         "VR_DERIVATIVES": block(tuple(derivative_name(n) for n in STATE_NAMES), "derivatives"),
         "VR_TIME": block(("time",), "time"),
+        "VR_ENVIRONMENT": block(ENVIRONMENT_NAMES, "environment"),
+        "VR_GROUND": block(GROUND_NAMES, "outputs over ground"),
+        "VR_WINDAGE": block(WINDAGE_NAMES, "windage"),
     }
     expected = {
-        "VR_RUDDER_ANGLE": "input",
-        "VR_PROPELLER_RPM": "input",
-        "VR_STATE": "output",
-        "VR_DERIVATIVES": "local",
-        "VR_TIME": "independent",
+        "VR_RUDDER_ANGLE": ("input", 1),
+        "VR_PROPELLER_RPM": ("input", 1),
+        "VR_STATE": ("output", len(STATE_NAMES)),
+        "VR_DERIVATIVES": ("local", len(STATE_NAMES)),
+        "VR_TIME": ("independent", 1),
+        "VR_ENVIRONMENT": ("input", len(ENVIRONMENT_NAMES)),
+        "VR_GROUND": ("output", len(GROUND_NAMES)),
+        "VR_WINDAGE": ("parameter", len(WINDAGE_NAMES)),
     }
-    for key, causality in expected.items():
-        if variables[layout[key]].causality != causality:
-            raise FmuBuildError(f"{key}: variable must have causality {causality!r}")
+    for key, (causality, count) in expected.items():
+        block_variables = variables[layout[key] : layout[key] + count]
+        if any(v.causality != causality for v in block_variables):
+            raise FmuBuildError(f"{key}: variables must have causality {causality!r}")
     return layout
 
 

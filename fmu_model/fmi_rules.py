@@ -60,6 +60,21 @@ MAX_POSITION_M = 1.0e8
 # the heading to 1e-10 rad.
 MAX_HEADING_RAD = 1.0e6
 
+# Bounds of the environment inputs. The current over ground [m/s]: the fastest tidal
+# races (Saltstraumen, Moskstraumen) run at about 10 m/s, so 20 m/s refuses no real
+# current, but a speed in cm/s or a knots-to-m/s mistake squared would be refused.
+MAX_CURRENT_SPEED_MPS = 20.0
+# The true wind [m/s]: the highest gust measured is 113 m/s (Barrow Island, 1996).
+MAX_WIND_SPEED_MPS = 150.0
+# Bound of |current_direction| and |wind_direction| [rad], as of the heading: any angle
+# works, but one beyond it has lost its precision.
+MAX_DIRECTION_RAD = MAX_HEADING_RAD
+# Bounds of the windage parameters: areas in [0, MAX_WINDAGE_AREA_M2] m² (a square
+# kilometre), the lever of the lateral area within +-MAX_LENGTH_M, the effective masses
+# [kg] and yaw inertia [kg m²] at least MIN_WINDAGE_INERTIA, since they divide.
+MAX_WINDAGE_AREA_M2 = 1.0e6
+MIN_WINDAGE_INERTIA = 1.0e-3
+
 # A state beyond these bounds has diverged: no ship moves like this. |u| and |v| [m/s].
 MAX_SPEED_MPS = 1.0e3
 # ... and |r| [rad/s].

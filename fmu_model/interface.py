@@ -12,9 +12,18 @@ follows from a model structure and its parameters:
   checks its variables from;
 * the least start speed of a structure (:func:`min_start_speed_mps`);
 * which states and inputs each state derivative depends on
-  (:func:`derivative_dependencies`, the ``ModelStructure`` of model exchange).
+  (:func:`derivative_dependencies`, the ``ModelStructure`` of model exchange), and which
+  the outputs over ground do (:func:`ground_dependencies`).
 
-Units are SI; the rudder angle has the display unit deg.
+Units are SI; angles have the display unit deg.
+
+The environment (DESIGN.md "FMU interface"): optional inputs ``current_speed`` [m/s],
+``current_direction`` [rad, the direction it sets towards], ``wind_speed`` [m/s],
+``wind_direction`` [rad, the direction it comes from], default 0; the windage parameters
+(``frontal_area`` ... ``yaw_inertia``, :class:`fmu_model.environment.Windage`), default
+the params' ``windage`` or none (zero areas: no wind load); outputs ``sog`` and ``cog``,
+speed and course over ground. With zero current and no windage the FMU computes what it
+computed without them, bit for bit.
 """
 
 from __future__ import annotations
@@ -24,20 +33,26 @@ from functools import cache
 
 import numpy as np
 
+from fmu_model.environment import WINDAGE_FIELDS, Windage
 from fmu_model.errors import FmuBuildError
 from fmu_model.fmi_rules import (
     DEFAULT_MAX_STEP_S,
     DIVERGENCE_FORMAT,
+    MAX_CURRENT_SPEED_MPS,
+    MAX_DIRECTION_RAD,
     MAX_HEADING_RAD,
     MAX_LENGTH_M,
     MAX_POSITION_M,
     MAX_PROPELLER_RPM,
     MAX_SPEED_MPS,
     MAX_SUBSTEPS,
+    MAX_WIND_SPEED_MPS,
+    MAX_WINDAGE_AREA_M2,
     MAX_YAW_RATE_RADPS,
     MIN_LENGTH_M,
     MIN_MAX_STEP_S,
     MIN_START_SPEED_MPS,
+    MIN_WINDAGE_INERTIA,
     RUDDER_LIMIT_RAD,
     START_SPEED_FORMAT,
     STATE_NONFINITE_FORMAT,
@@ -57,17 +72,23 @@ from fmu_model.fmi_rules import (
 from fmu_model.numeric import numeric_model
 from fmu_model.params import ModelParameters, text_problem
 from fmu_model.structure import (
+    ENVIRONMENT_SYMBOLS,
     INPUT_SYMBOLS,
     KINEMATICS,
     STATE_NAMES,
     STATE_SYMBOLS,
     ModelStructure,
+    apparent_wind_terms,
+    current_terms,
+    ground_terms,
     unit_string,
 )
 
 __all__ = [
     "DEFAULT_MAX_STEP_S",
     "DIVERGENCE_FORMAT",
+    "ENVIRONMENT_NAMES",
+    "GROUND_NAMES",
     "INPUT_NAMES",
     "MAX_HEADING_RAD",
     "MAX_LENGTH_M",
@@ -88,12 +109,14 @@ __all__ = [
     "STEP_TIME_TOLERANCE",
     "SUBSTEP_LIMIT_FORMAT",
     "TIME_STALL_FORMAT",
+    "WINDAGE_NAMES",
     "FmuVariable",
     "derivative_dependencies",
     "derivative_name",
     "divergence_message",
     "fmu_state_problem",
     "fmu_variables",
+    "ground_dependencies",
     "min_start_speed_mps",
     "model_identifier",
     "state_diverged",
@@ -103,6 +126,56 @@ __all__ = [
 # The FMU's inputs in the order of the model's INPUT_SYMBOLS (rudder angle [rad],
 # propeller speed [rpm], which enters the equations as rpm / 60 rev/s).
 INPUT_NAMES = ("rudder_angle", "propeller_rpm")
+
+# The environment inputs in the order of ENVIRONMENT_SYMBOLS: (name, unit, description,
+# display unit, min, max); every one starts at 0.
+_ENVIRONMENT = (
+    ("current_speed", "m/s", "speed of the current over ground", None, 0.0,
+     MAX_CURRENT_SPEED_MPS),
+    ("current_direction", "rad", "direction the current sets towards, clockwise from North",
+     "deg", -MAX_DIRECTION_RAD, MAX_DIRECTION_RAD),
+    ("wind_speed", "m/s", "true wind speed over ground", None, 0.0, MAX_WIND_SPEED_MPS),
+    ("wind_direction", "rad", "direction the true wind comes from, clockwise from North",
+     "deg", -MAX_DIRECTION_RAD, MAX_DIRECTION_RAD),
+)  # fmt: skip
+ENVIRONMENT_NAMES = tuple(item[0] for item in _ENVIRONMENT)
+
+# The outputs over ground: (name, unit, description, display unit).
+_GROUND = (
+    ("sog", "m/s", "speed over ground", None),
+    ("cog", "rad", "course over ground, clockwise from North, in [-pi, pi]", "deg"),
+)
+GROUND_NAMES = tuple(item[0] for item in _GROUND)
+
+# The windage parameters in the order of fmu_model.environment.Windage: (name, unit,
+# description, min, max).
+_WINDAGE = (
+    ("frontal_area", "m2", "frontal projected area above the waterline A_F [m2] "
+     "(Blendermann 1994 wind load; 0: none)", 0.0, MAX_WINDAGE_AREA_M2),
+    ("lateral_area", "m2", "lateral projected area above the waterline A_L [m2] "
+     "(0: no wind load)", 0.0, MAX_WINDAGE_AREA_M2),
+    ("length_overall", "m", "length overall L_oa [m], of the wind load", MIN_LENGTH_M,
+     MAX_LENGTH_M),
+    ("lateral_centroid", "m", "centroid of A_L forward of midship s_L [m]", -MAX_LENGTH_M,
+     MAX_LENGTH_M),
+    ("surge_mass", "kg", "mass plus surge added mass m + m_x [kg], divides the wind's "
+     "surge force", MIN_WINDAGE_INERTIA, None),
+    ("sway_mass", "kg", "mass plus sway added mass m + m_y [kg], divides the wind's "
+     "sway force", MIN_WINDAGE_INERTIA, None),
+    ("yaw_inertia", "kg.m2", "yaw inertia plus added inertia I_z + J_z [kg m2], divides "
+     "the wind's yaw moment", MIN_WINDAGE_INERTIA, None),
+)  # fmt: skip
+WINDAGE_NAMES = tuple(item[0] for item in _WINDAGE)
+assert len(WINDAGE_NAMES) == len(WINDAGE_FIELDS)  # the same order as Windage's fields
+
+# The FMU variables a derivative or an output may depend on, by their symbols.
+_KNOWNS = dict(
+    zip(
+        (*STATE_SYMBOLS, *INPUT_SYMBOLS, *ENVIRONMENT_SYMBOLS),
+        (*STATE_NAMES, *INPUT_NAMES, *ENVIRONMENT_NAMES),
+        strict=True,
+    )
+)
 
 # (name, unit, description, unit of the time derivative) of the outputs, which are the
 # continuous states of model exchange, and of the initial state u0 ... psi0.
@@ -160,8 +233,12 @@ def fmu_variables(
     Order: inputs (rudder_angle, propeller_rpm), outputs (u, v, r, x, y, psi: the
     continuous states of model exchange), parameters (length, max_step, u0 ... psi0),
     one fixed parameter per coefficient, the state derivatives der(u) ... der(psi)
-    (locals) and the time (independent). New variables go at the end, so that the value
-    references of a ship's FMU stay what hosts and OSP configurations know.
+    (locals), the time (independent), then the environment: inputs current_speed,
+    current_direction, wind_speed, wind_direction (start 0), outputs sog, cog, and the
+    windage parameters frontal_area ... yaw_inertia (start: ``params.windage``, else
+    zero areas, ``length_overall`` the ship's length and unit inertias: no wind load).
+    New variables go at the end, so that the value references of a ship's FMU stay what
+    hosts and OSP configurations know.
 
     Parameters
     ----------
@@ -300,6 +377,31 @@ def fmu_variables(
     variables.append(
         FmuVariable("time", len(variables), "independent", "continuous", None, "s", "time")
     )
+    for name, unit, text, display, low, high in _ENVIRONMENT:
+        variables.append(
+            FmuVariable(
+                name, len(variables), "input", "continuous", 0.0, unit, text, display, low, high
+            )
+        )
+    for name, unit, text, display in _GROUND:
+        variables.append(
+            FmuVariable(name, len(variables), "output", "continuous", None, unit, text, display)
+        )
+    windage = params.windage if params.windage is not None else Windage.none(params.length_m)
+    for (name, unit, text, least, most), field in zip(_WINDAGE, WINDAGE_FIELDS, strict=True):
+        variables.append(
+            FmuVariable(
+                name,
+                len(variables),
+                "parameter",
+                "fixed",
+                getattr(windage, field),
+                unit,
+                text,
+                min=least,
+                max=most,
+            )
+        )
     for variable in variables:
         problem = None if variable.start is None else variable.problem(variable.start)
         if problem is not None:  # e.g. a nominal rpm or length outside the bounds
@@ -345,10 +447,12 @@ def derivative_dependencies(structure: ModelStructure) -> tuple[tuple[str, ...],
     """Names of the states and inputs each state derivative depends on.
 
     One tuple per state (u, v, r, x, y, ψ) of the FMU variables (states in
-    ``STATE_NAMES`` order, then the inputs) that occur in the right-hand side of its
-    equation: the ``dependencies`` of ``ModelStructure/Derivatives`` (FMI 2.0 section
-    2.2.8) and ``ContinuousStateDerivative`` (FMI 3.0 section 2.4.8), and the sparsity
-    of the Jacobian the directional derivatives come from.
+    ``STATE_NAMES`` order, then the inputs, then the environment inputs) that occur in
+    the right-hand side of its equation, the environment's terms included (the wind on
+    the accelerations, whatever the windage: it is a parameter; the current on x', y'):
+    the ``dependencies`` of ``ModelStructure/Derivatives`` (FMI 2.0 section 2.2.8) and
+    ``ContinuousStateDerivative`` (FMI 3.0 section 2.4.8), and the sparsity of the
+    Jacobian the directional derivatives come from.
 
     Parameters
     ----------
@@ -361,8 +465,20 @@ def derivative_dependencies(structure: ModelStructure) -> tuple[tuple[str, ...],
         Six tuples of variable names.
 
     """
-    knowns = dict(zip((*STATE_SYMBOLS, *INPUT_SYMBOLS), (*STATE_NAMES, *INPUT_NAMES), strict=True))
+    wind = set().union(*(e.free_symbols for e in apparent_wind_terms()))
+    current = set().union(*(e.free_symbols for e in current_terms()))
+    used = [e.free_symbols | wind for e in structure.accelerations()]
+    used += [e.free_symbols | current for e in KINEMATICS[:2]] + [KINEMATICS[2].free_symbols]
     return tuple(
-        tuple(name for symbol, name in knowns.items() if symbol in expr.free_symbols)
-        for expr in (*structure.accelerations(), *KINEMATICS)
+        tuple(name for symbol, name in _KNOWNS.items() if symbol in symbols) for symbols in used
     )
+
+
+def ground_dependencies() -> tuple[str, ...]:
+    """Names of the states and inputs the outputs sog and cog depend on (both the same).
+
+    The velocity over ground: u, v, ψ and the current (a direct feed-through from the
+    inputs current_speed and current_direction).
+    """
+    symbols = set().union(*(e.free_symbols for e in ground_terms()))
+    return tuple(name for symbol, name in _KNOWNS.items() if symbol in symbols)

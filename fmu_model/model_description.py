@@ -10,9 +10,11 @@ speed ``rpm`` = 1/60 s⁻¹.
 
 The outputs u ... ψ are the continuous states of model exchange, the locals
 der(u) ... der(ψ) their derivatives (``derivative`` attribute), with the dependencies
-of :func:`fmu_model.interface.derivative_dependencies` in ``ModelStructure``; an output
-depends on nothing but its own state (no direct feed-through from the inputs). Model
-exchange is event-free: no event indicators, no time events.
+of :func:`fmu_model.interface.derivative_dependencies` in ``ModelStructure``; such an
+output depends on nothing but its own state (no direct feed-through from the inputs).
+The outputs over ground, sog and cog, are calculated from the states u, v, ψ and the
+current inputs (:func:`fmu_model.interface.ground_dependencies`: a direct
+feed-through). Model exchange is event-free: no event indicators, no time events.
 """
 
 from __future__ import annotations
@@ -26,9 +28,14 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from importlib import metadata
 
-from fmu_model.interface import FmuVariable, derivative_dependencies
+from fmu_model.interface import (
+    GROUND_NAMES,
+    FmuVariable,
+    derivative_dependencies,
+    ground_dependencies,
+)
 from fmu_model.params import ModelParameters, text_problem
-from fmu_model.structure import ModelStructure, unit_string
+from fmu_model.structure import STATE_NAMES, ModelStructure, unit_string
 
 # Log categories of the native FMU, in the order of fmu_model/c/fmi2_cosimulation.c.
 LOG_CATEGORIES: tuple[tuple[str, str], ...] = (
@@ -115,6 +122,7 @@ class FmiUnit:
     s: int = 0
     rad: int = 0
     factor: float = 1.0
+    kg: int = 0
     display_units: tuple[tuple[str, float], ...] = ()
 
 
@@ -131,6 +139,8 @@ _ANGULAR_UNITS = (
     FmiUnit("rad/s2", rad=1, s=-2, display_units=(("deg/s2", _DEG_PER_RAD),)),
     FmiUnit("rpm", s=-1, factor=1.0 / 60.0),
 )
+# Units of the windage parameters (fmu_model.environment.Windage).
+_WINDAGE_UNITS = (FmiUnit("m2", m=2), FmiUnit("kg", kg=1), FmiUnit("kg.m2", kg=1, m=2))
 # Dimensions of the state, derivative and parameter units: m, s, m/s, m/s2.
 _STATE_DIMENSIONS = ((1, 0), (0, 1), (1, -1), (1, -2))
 
@@ -141,7 +151,7 @@ def unit_table(structure: ModelStructure) -> dict[str, FmiUnit]:
     The SI units come from the dimension tuples of the states and of the structure's
     coefficients (``ModelStructure.coefficient_units``); the angular ones are fixed.
     """
-    table = {unit.name: unit for unit in _ANGULAR_UNITS}
+    table = {unit.name: unit for unit in (*_ANGULAR_UNITS, *_WINDAGE_UNITS)}
     dimensions = [*_STATE_DIMENSIONS, *structure.coefficient_units().values()]
     for dimension in dimensions:
         if dimension != (0, 0):
@@ -224,7 +234,7 @@ def _number(value: float) -> str:
 
 
 def _base_unit_attributes(unit: FmiUnit, *, all_exponents: bool) -> dict[str, str]:
-    exponents = {"kg": 0, "m": unit.m, "s": unit.s, "A": 0, "K": 0, "mol": 0, "cd": 0}
+    exponents = {"kg": unit.kg, "m": unit.m, "s": unit.s, "A": 0, "K": 0, "mol": 0, "cd": 0}
     exponents["rad"] = unit.rad
     attributes = {
         key: str(value) for key, value in exponents.items() if all_exponents or value != 0
@@ -267,6 +277,16 @@ def _description(params: ModelParameters, kinds: Sequence[str]) -> str:
     description = f"{params.vessel_name}: {structure.description}"
     if method:
         description += f", identified by {method}"
+    if params.windage is None or not params.windage.has_wind_load:
+        description += (
+            "; no windage (areas 0): the wind inputs act only after the windage parameters are set"
+        )
+    else:
+        description += "; windage from params.json"
+    description += (
+        "; wind load of Blendermann (1994), loaded tanker, from the apparent wind; "
+        "current over ground added to the kinematics"
+    )
     if "me" in kinds:
         description += (
             "; model exchange is event-free (no event indicators, no time events, "
@@ -455,6 +475,14 @@ def model_description_xml(
         # A state: it depends on itself only, never directly on an input.
         state_index = str(index[state.name])
         ET.SubElement(outputs_element, "Unknown", index=state_index, dependencies=state_index)
+    for name in GROUND_NAMES:  # states and the current: a direct feed-through
+        ground = sorted(index[known] for known in ground_dependencies())
+        ET.SubElement(
+            outputs_element,
+            "Unknown",
+            index=str(index[name]),
+            dependencies=" ".join(map(str, ground)),
+        )
     derivatives_element = ET.SubElement(structure_element, "Derivatives")
     for _, derivative, knowns in states:
         dependencies = " ".join(
@@ -478,7 +506,20 @@ def model_description_xml(
         )
     for _, derivative, _ in states:  # calculated from everything: no dependencies listed
         ET.SubElement(initial_element, "Unknown", index=str(index[derivative.name]))
+    for name in GROUND_NAMES:  # from the initial state and the current
+        initial = sorted(index[known] for known in _initial_ground_dependencies())
+        ET.SubElement(
+            initial_element,
+            "Unknown",
+            index=str(index[name]),
+            dependencies=" ".join(map(str, initial)),
+        )
     return _to_text(root)
+
+
+def _initial_ground_dependencies() -> list[str]:
+    """Return what sog and cog depend on at initialisation: u0, v0, psi0, the current."""
+    return [name + "0" if name in STATE_NAMES else name for name in ground_dependencies()]
 
 
 def model_description_fmi3_xml(
@@ -560,6 +601,14 @@ def model_description_fmi3_xml(
     for state, _, _ in states:
         reference = str(state.value_reference)  # a state: it depends on itself only
         ET.SubElement(structure_element, "Output", valueReference=reference, dependencies=reference)
+    for name in GROUND_NAMES:  # states and the current: a direct feed-through
+        references = sorted(by_name[known].value_reference for known in ground_dependencies())
+        ET.SubElement(
+            structure_element,
+            "Output",
+            valueReference=str(by_name[name].value_reference),
+            dependencies=" ".join(map(str, references)),
+        )
     for _, derivative, knowns in states:
         references = sorted(k.value_reference for k in knowns)
         ET.SubElement(
@@ -579,6 +628,16 @@ def model_description_fmi3_xml(
     for _, derivative, _ in states:
         ET.SubElement(
             structure_element, "InitialUnknown", valueReference=str(derivative.value_reference)
+        )
+    for name in GROUND_NAMES:
+        references = sorted(
+            by_name[known].value_reference for known in _initial_ground_dependencies()
+        )
+        ET.SubElement(
+            structure_element,
+            "InitialUnknown",
+            valueReference=str(by_name[name].value_reference),
+            dependencies=" ".join(map(str, references)),
         )
     return _to_text(root)
 

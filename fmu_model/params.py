@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from fmu_model.atomic import write_atomic
+from fmu_model.environment import Windage
 from fmu_model.structure import ModelStructure
 from fmu_model.variants import get_model
 
@@ -58,6 +59,9 @@ class ModelParameters:
         Covariance of θ (p, p).
     identification : mapping
         Provenance: method, logs with sha256, settings, creation time.
+    windage : Windage, optional
+        Above-water areas and effective inertias for the wind load
+        (``vessel.windage`` in params.json); ``None``: no wind load.
 
     """
 
@@ -69,6 +73,7 @@ class ModelParameters:
     nominal_n_rps: float = 0.0
     covariance: np.ndarray | None = None
     identification: Mapping[str, Any] = field(default_factory=dict)
+    windage: Windage | None = None
     structure: ModelStructure = field(init=False, repr=False)
     """The model structure named by ``model``."""
 
@@ -83,6 +88,8 @@ class ModelParameters:
             )
         theta.setflags(write=False)
         object.__setattr__(self, "coefficients", theta)
+        if self.windage is not None and not isinstance(self.windage, Windage):
+            raise TypeError(f"windage must be a Windage, got {type(self.windage).__name__}")
         if self.covariance is not None:
             cov = np.array(self.covariance, dtype=float)
             if cov.shape != (theta.size, theta.size):
@@ -132,11 +139,14 @@ class ModelParameters:
     def to_json_dict(self) -> dict[str, Any]:
         """Return the params.json document (DESIGN.md) as a dict."""
         std = self.std
+        vessel: dict[str, Any] = {"name": self.vessel_name, "length_m": self.length_m}
+        if self.windage is not None:
+            vessel["windage"] = self.windage.to_dict()
         return {
             "format": PARAMS_FORMAT,
             "version": PARAMS_VERSION,
             "model": self.model,
-            "vessel": {"name": self.vessel_name, "length_m": self.length_m},
+            "vessel": vessel,
             "nominal": {"speed_mps": self.nominal_speed_mps, "rpm": self.nominal_n_rps * 60.0},
             "coefficients": self.as_dict(),
             "units": self.units(),
@@ -260,7 +270,8 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
         non-finite number (also an integer beyond the floating-point range), a negative
         length, a vessel name that is not a string or has a control character or a lone
         surrogate (:func:`text_problem`), a covariance that is not a symmetric p × p
-        matrix of finite numbers with a non-negative diagonal.
+        matrix of finite numbers with a non-negative diagonal, a ``vessel.windage``
+        (optional) that :meth:`fmu_model.environment.Windage.from_dict` refuses.
 
     """
     if not isinstance(doc, Mapping):
@@ -308,6 +319,12 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
     identification = doc.get("identification") or {}
     if not isinstance(identification, Mapping):
         raise ParamsFormatError(path, "'identification' must be an object")
+    windage = None
+    if vessel.get("windage") is not None:
+        try:
+            windage = Windage.from_dict(vessel["windage"])
+        except ValueError as exc:
+            raise ParamsFormatError(path, f"vessel.{exc}") from None
     return ModelParameters(
         model=model,
         coefficients=theta,
@@ -317,6 +334,7 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
         nominal_n_rps=_finite(nominal.get("rpm", 0.0), "nominal.rpm", path) / 60.0,
         covariance=cov,
         identification=identification,
+        windage=windage,
     )
 
 

@@ -74,6 +74,18 @@ from fmu_model.integrate import n_substeps, rk4_into
 INTERFACE_RESOURCE = "fmu_interface.json"
 EQUATIONS_RESOURCE = "model_equations.py"
 STATE_NAMES = ("u", "v", "r", "x", "y", "psi")
+# Of fmu_model.interface (which the FMU does not carry: it needs sympy).
+ENVIRONMENT_NAMES = ("current_speed", "current_direction", "wind_speed", "wind_direction")
+GROUND_NAMES = ("sog", "cog")
+WINDAGE_NAMES = (
+    "frontal_area",
+    "lateral_area",
+    "length_overall",
+    "lateral_centroid",
+    "surge_mass",
+    "sway_mass",
+    "yaw_inertia",
+)
 
 # pythonfmu 0.7 has no causality "independent": the time is registered as a local (the
 # completed modelDescription.xml declares it independent).
@@ -105,10 +117,14 @@ def load_equations(path: Path) -> ModuleType:
 
 
 def _derivative(state: np.ndarray, context: Any, inputs: Any, out: np.ndarray) -> None:
-    """ṡ of the generated equations into ``out`` (the derivative of ``rk4_into``)."""
-    equations, theta, length = context
-    rudder, n_rps = inputs
+    """ṡ of the generated equations into ``out`` (the derivative of ``rk4_into``).
+
+    The model's right-hand side, then what the environment adds (as the native FMU).
+    """
+    equations, theta, length, windage = context
+    rudder, n_rps, environment = inputs
     equations.rhs(out, theta, length, state, rudder, n_rps)
+    equations.environment_rhs(out, state, environment, windage)
 
 
 class ShipManoeuvringSlave(Fmi2Slave):
@@ -137,6 +153,9 @@ class ShipManoeuvringSlave(Fmi2Slave):
             if v.derivative_of is not None
         }
         self._vr_time = vr["time"]
+        self._vr_environment = [vr[name] for name in ENVIRONMENT_NAMES]
+        self._ground_index = {vr[name]: i for i, name in enumerate(GROUND_NAMES)}
+        self._vr_windage = [vr[name] for name in WINDAGE_NAMES]
 
         self._values = [math.nan if v.start is None else float(v.start) for v in self._variables]
         self._state = np.array([self._values[k] for k in self._vr_initial])
@@ -145,6 +164,7 @@ class ShipManoeuvringSlave(Fmi2Slave):
         self._step_failed = False
         self._time = 0.0
         self._theta = [self._values[k] for k in self._vr_theta]
+        self._windage = [self._values[k] for k in self._vr_windage]
         self._work = np.empty((5, len(STATE_NAMES)))
 
         for variable in self._variables:
@@ -167,19 +187,27 @@ class ShipManoeuvringSlave(Fmi2Slave):
         if k in self._state_index:
             return float(self._state[self._state_index[k]])
         if k in self._derivative_index:
-            dx = [0.0] * len(STATE_NAMES)
-            self._equations.rhs(
-                dx,
-                self._theta,
-                self._values[self._vr_length],
-                self._state,
-                self._values[self._vr_rudder],
-                self._values[self._vr_rpm] / 60.0,
-            )
+            dx = np.zeros(len(STATE_NAMES))
+            _derivative(self._state, self._context(), self._inputs(), dx)
             return float(dx[self._derivative_index[k]])
+        if k in self._ground_index:
+            ground = [0.0] * len(GROUND_NAMES)
+            self._equations.ground(ground, self._state, self._environment())
+            return float(ground[self._ground_index[k]])
         if k == self._vr_time:
             return self._time
         return self._values[k]
+
+    def _environment(self) -> list[float]:
+        return [self._values[k] for k in self._vr_environment]
+
+    def _inputs(self) -> tuple[float, float, list[float]]:
+        """Rudder [rad], propeller speed [rev/s] and environment, as ``_derivative`` takes them."""
+        rpm = self._values[self._vr_rpm]
+        return self._values[self._vr_rudder], rpm / 60.0, self._environment()
+
+    def _context(self) -> tuple[Any, list[float], float, list[float]]:
+        return self._equations, self._theta, self._values[self._vr_length], self._windage
 
     def _set(self, k: int, value: float) -> None:
         variable = self._variables[k]
@@ -219,6 +247,7 @@ class ShipManoeuvringSlave(Fmi2Slave):
         and blocks every step.
         """
         self._theta = [self._values[k] for k in self._vr_theta]
+        self._windage = [self._values[k] for k in self._vr_windage]
         self._state = np.array([self._values[k] for k in self._vr_initial])
         self._initialised = True
         message = self._start_speed_problem()
@@ -261,8 +290,8 @@ class ShipManoeuvringSlave(Fmi2Slave):
         if message is not None:
             self.log(message, Fmi2Status.error)
             return False
-        inputs = (self._values[self._vr_rudder], self._values[self._vr_rpm] / 60.0)
-        context = (self._equations, self._theta, self._values[self._vr_length])
+        inputs = self._inputs()
+        context = self._context()
         m = n_substeps(step_size, max_step)
         h = step_size / m
         state = np.array(self._state)
@@ -315,6 +344,7 @@ class ShipManoeuvringSlave(Fmi2Slave):
         self._state = vector
         self._time = time
         self._theta = [values[k] for k in self._vr_theta]
+        self._windage = [values[k] for k in self._vr_windage]
         self._initialised = initialised
         self._step_failed = step_failed
         self._problems = {}
@@ -344,7 +374,8 @@ class ShipManoeuvringSlave(Fmi2Slave):
         seen = list(values)  # the outputs are the state vector, as in the native FMU
         for k, i in self._state_index.items():
             seen[k] = vector[i]
-        computed = set(self._derivative_index) | {self._vr_time}  # not stored: always valid
+        # Not stored: always valid.
+        computed = set(self._derivative_index) | set(self._ground_index) | {self._vr_time}
         checked = [
             (v, x)
             for v, x in zip(self._variables, seen, strict=True)

@@ -6,6 +6,11 @@ Input convention: rudder angle and propeller speed are given at the sample times
 ``time_s``. RK4 holds each input constant over its step (zero-order hold), exactly as
 an FMU does between communication points. Forward Euler uses the step's averaged
 inputs, s̄(k) = (s(k) + s(k+1)) / 2 (Shi et al. 2009, eq. (4)).
+
+The environment (current and wind, constant or sampled at ``time_s``, held over each
+step in both methods) adds the terms of
+:func:`fmu_model.environment.environment_derivative` to the model's right-hand side,
+as the FMU does; without current and windage nothing is added.
 """
 
 from __future__ import annotations
@@ -15,9 +20,14 @@ from typing import Any
 
 import numpy as np
 
+from fmu_model.environment import Windage, environment_derivative
 from fmu_model.integrate import n_substeps, rk4_into
 from fmu_model.numeric import NumericModel, numeric_model
 from fmu_model.params import ModelParameters
+
+Environment = tuple[Any, Any, Any, Any]
+"""(current speed [m/s], current direction [rad, towards], wind speed [m/s], wind
+direction [rad, from]), each a float or an array over the batch."""
 
 
 def _model_derivative(
@@ -29,6 +39,19 @@ def _model_derivative(
     out[...] = model.rhs(state, rudder_rad, n_rps, theta, length_m)
 
 
+def _environment_model_derivative(
+    state: np.ndarray,
+    context: tuple[NumericModel, np.ndarray, float, Windage | None],
+    inputs: Any,
+    out: np.ndarray,
+) -> None:
+    """Write the model's ṡ plus the environment's terms into out (as the FMU's C does)."""
+    model, theta, length_m, windage = context
+    rudder_rad, n_rps, environment = inputs
+    out[...] = model.rhs(state, rudder_rad, n_rps, theta, length_m)
+    out += environment_derivative(state, *_four(environment), windage)
+
+
 def rk4_step(
     model: NumericModel,
     theta: np.ndarray,
@@ -37,6 +60,9 @@ def rk4_step(
     rudder_rad: Any,
     n_rps: Any,
     step_s: float,
+    *,
+    environment: Environment | None = None,
+    windage: Windage | None = None,
 ) -> np.ndarray:
     """Advance the 6-state by one classical Runge–Kutta step with inputs held constant.
 
@@ -59,6 +85,11 @@ def rk4_step(
         Propeller speed [rev/s], held over the step.
     step_s : float
         Step [s].
+    environment : tuple, optional
+        (current speed [m/s], current direction [rad, towards], wind speed [m/s], wind
+        direction [rad, from]), held over the step; ``None``: calm water, no current.
+    windage : Windage, optional
+        The ship's windage (``None``: no wind load).
 
     Returns
     -------
@@ -67,9 +98,15 @@ def rk4_step(
 
     """
     new = np.array(state, dtype=float)
-    inputs = (rudder_rad, n_rps)
     work = np.empty((5, *new.shape))
-    rk4_into(_model_derivative, new, step_s, (model, theta, length_m), inputs, inputs, inputs, work)
+    if environment is None and windage is None:
+        inputs: tuple[Any, ...] = (rudder_rad, n_rps)
+        context: tuple[Any, ...] = (model, theta, length_m)
+        rk4_into(_model_derivative, new, step_s, context, inputs, inputs, inputs, work)
+        return new
+    inputs = (rudder_rad, n_rps, (0.0, 0.0, 0.0, 0.0) if environment is None else environment)
+    context = (model, theta, length_m, windage)
+    rk4_into(_environment_model_derivative, new, step_s, context, inputs, inputs, inputs, work)
     return new
 
 
@@ -81,9 +118,19 @@ def euler_step(
     rudder_rad: float,
     n_rps: float,
     step_s: float,
+    *,
+    environment: Environment | None = None,
+    windage: Windage | None = None,
 ) -> np.ndarray:
-    """Advance the 6-state by one forward-Euler step (Shi et al. 2009, eq. (4))."""
-    return state + step_s * model.rhs(state, rudder_rad, n_rps, theta, length_m)
+    """Advance the 6-state by one forward-Euler step (Shi et al. 2009, eq. (4)).
+
+    ``environment`` and ``windage`` as in :func:`rk4_step`.
+    """
+    derivative = model.rhs(state, rudder_rad, n_rps, theta, length_m)
+    if environment is not None or windage is not None:
+        environment = (0.0, 0.0, 0.0, 0.0) if environment is None else environment
+        derivative = derivative + environment_derivative(state, *_four(environment), windage)
+    return state + step_s * derivative
 
 
 def simulate(
@@ -95,6 +142,11 @@ def simulate(
     *,
     method: str = "rk4",
     max_step_s: float | None = None,
+    current_speed_mps: Any = 0.0,
+    current_direction_rad: Any = 0.0,
+    wind_speed_mps: Any = 0.0,
+    wind_direction_rad: Any = 0.0,
+    windage: Windage | None = None,
 ) -> np.ndarray:
     """Simulate the model for given rudder and propeller time histories.
 
@@ -114,6 +166,17 @@ def simulate(
         RK4 with zero-order-hold inputs, or forward Euler with step-averaged inputs.
     max_step_s : float, optional
         Largest internal step [s]; each interval is split into ``n_substeps`` equal steps.
+    current_speed_mps : float or array_like
+        Speed of the current over ground [m/s], constant or at the sample times (N,).
+    current_direction_rad : float or array_like
+        Direction the current sets towards, clockwise from North [rad].
+    wind_speed_mps : float or array_like
+        True wind speed over ground [m/s].
+    wind_direction_rad : float or array_like
+        Direction the true wind comes from, clockwise from North [rad].
+    windage : Windage, optional
+        The ship's windage; default ``params.windage`` (``None``: no wind load). The
+        environment is held over each step, as an FMU holds its inputs.
 
     Returns
     -------
@@ -130,6 +193,16 @@ def simulate(
         raise ValueError("time_s must be strictly increasing")
     if method not in ("rk4", "euler"):
         raise ValueError(f"unknown method {method!r} (use 'rk4' or 'euler')")
+    environment = _environment_series(
+        t.size, current_speed_mps, current_direction_rad, wind_speed_mps, wind_direction_rad
+    )
+    if windage is None:
+        windage = params.windage
+    if windage is not None and not windage.has_wind_load:
+        windage = None
+    calm = environment is None or not np.any(environment[0])  # no current
+    if calm and windage is None:
+        environment = None  # nothing to add: the model alone, bit for bit
     model = numeric_model(params.structure)
     theta = params.to_vector()
     states = np.empty((t.size, 6))
@@ -139,13 +212,48 @@ def simulate(
         m = n_substeps(dt, max_step_s)
         h = dt / m
         state = states[k]
+        options: dict[str, Any] = {}
+        if environment is not None:
+            options = {"environment": tuple(environment[:, k]), "windage": windage}
         if method == "rk4":
             for _ in range(m):
-                state = rk4_step(model, theta, params.length_m, state, rudder[k], n[k], h)
+                state = rk4_step(
+                    model, theta, params.length_m, state, rudder[k], n[k], h, **options
+                )
         else:
             mean_rudder = 0.5 * (rudder[k] + rudder[k + 1])
             mean_n = 0.5 * (n[k] + n[k + 1])
             for _ in range(m):
-                state = euler_step(model, theta, params.length_m, state, mean_rudder, mean_n, h)
+                state = euler_step(
+                    model, theta, params.length_m, state, mean_rudder, mean_n, h, **options
+                )
         states[k + 1] = state
     return states
+
+
+def _four(environment: Environment) -> Environment:
+    """Return the four entries of ``environment`` (unpacked: the type checker sees four)."""
+    current_speed, current_direction, wind_speed, wind_direction = environment
+    return current_speed, current_direction, wind_speed, wind_direction
+
+
+def _environment_series(size: int, *series: Any) -> np.ndarray | None:
+    """Return the four environment inputs at the ``size`` sample times, shape (4, size).
+
+    ``None`` when all are the scalar 0 (the default). Raises ValueError for a series
+    of another length, a non-finite value, or a negative speed.
+    """
+    if all(np.ndim(s) == 0 and float(s) == 0.0 for s in series):
+        return None
+    out = np.empty((4, size))
+    names = ("current_speed_mps", "current_direction_rad", "wind_speed_mps", "wind_direction_rad")
+    for i, (name, values) in enumerate(zip(names, series, strict=True)):
+        array = np.asarray(values, dtype=float)
+        if array.ndim != 0 and array.shape != (size,):
+            raise ValueError(f"{name} must be a number or an array like time_s, got {array.shape}")
+        if not np.all(np.isfinite(array)):
+            raise ValueError(f"{name} must be finite")
+        if i in (0, 2) and np.any(array < 0.0):
+            raise ValueError(f"{name} must be >= 0")
+        out[i] = array
+    return out

@@ -20,15 +20,23 @@ regressor as a sympy expression). Everything numeric derives from it:
 Symbols (SI inside): ``u, v`` [m/s], ``r`` [rad/s], ``delta`` rudder angle [rad],
 ``n`` propeller speed [rev/s], ``L`` ship length [m]; kinematics in ``x, y`` [m] (North,
 East) and heading ``psi`` [rad] clockwise from North.
+
+The environment (current and wind, :mod:`fmu_model.environment`) is not part of a
+structure: it adds the same terms to every structure's equations,
+:data:`ENVIRONMENT_TERMS`, in the environment symbols (:data:`ENVIRONMENT_SYMBOLS`) and
+the windage parameters (:data:`WINDAGE_SYMBOLS`); the FMU and ``fmu_model.simulate``
+add them to the right-hand side of the structure, which stays as it is.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cache, cached_property
 
 import sympy as sp
+
+from fmu_model import environment
 
 # Motion state, inputs and the one vessel constant a structure may use.
 u, v, r = sp.symbols("u v r", real=True)
@@ -47,6 +55,78 @@ EQUATIONS = ("surge", "sway", "yaw")
 # conventions; Shi et al. 2009, Fig. 1):  x' = u cos psi - v sin psi,
 # y' = u sin psi + v cos psi,  psi' = r.
 KINEMATICS = (u * sp.cos(psi) - v * sp.sin(psi), u * sp.sin(psi) + v * sp.cos(psi), r)
+
+# The environment: current over ground, speed [m/s] and the direction it sets towards
+# [rad]; true wind over ground, speed [m/s] and the direction it comes from [rad]
+# (both clockwise from North), and the ship's windage (fmu_model.environment.Windage).
+current_speed, current_direction = sp.symbols("current_speed current_direction", real=True)
+wind_speed, wind_direction = sp.symbols("wind_speed wind_direction", real=True)
+ENVIRONMENT_SYMBOLS = (current_speed, current_direction, wind_speed, wind_direction)
+WINDAGE_SYMBOLS = environment.WindageSymbols.make()
+# The apparent wind's "from" vector in the body frame [m/s] (ahead, starboard): the
+# intermediate through which the wind load depends on the state and the environment.
+wind_ahead, wind_starboard = sp.symbols("wind_ahead wind_starboard", real=True)
+# Velocity over ground, North and East [m/s]: the intermediate of the ground outputs.
+ground_north, ground_east = sp.symbols("ground_north ground_east", real=True)
+
+
+@cache
+def current_terms() -> tuple[sp.Expr, sp.Expr]:
+    """Velocity of the current (c_N, c_E) [m/s], added to x' and y' of :data:`KINEMATICS`.
+
+    x' = (u cos ψ − v sin ψ) + c_N, y' = (u sin ψ + v cos ψ) + c_E (Fossen 2021,
+    ch. 10; :func:`fmu_model.environment.ground_velocity_ne`).
+    """
+    return environment.current_velocity_ne(current_speed, current_direction, sp)
+
+
+@cache
+def apparent_wind_terms() -> tuple[sp.Expr, sp.Expr]:
+    """Return (:data:`wind_ahead`, :data:`wind_starboard`) in the state and the environment.
+
+    :func:`fmu_model.environment.apparent_wind_components` of the ship's velocity over
+    ground (through the water plus the current).
+    """
+    c_north, c_east = current_terms()
+    u_ground, v_ground = environment.ground_velocity_body(u, v, psi, c_north, c_east, sp)
+    return environment.apparent_wind_components(
+        wind_speed, wind_direction, psi, u_ground, v_ground, sp
+    )
+
+
+@cache
+def wind_terms() -> tuple[sp.Expr, sp.Expr, sp.Expr]:
+    """Return the wind's accelerations (u', v', r') in the apparent wind and the windage.
+
+    :func:`fmu_model.environment.wind_accelerations` (Blendermann 1994, loaded tanker)
+    of V_r = √(a² + b²), γ = atan2(b, a) with a = :data:`wind_ahead`,
+    b = :data:`wind_starboard`, and :data:`WINDAGE_SYMBOLS`; added to the structure's
+    accelerations. Defined for a² + b² > 0; the terms are O(a² + b²), so they and their
+    derivatives are 0 at a = b = 0, where the generated code takes 0.
+    """
+    speed = sp.sqrt(wind_ahead**2 + wind_starboard**2)
+    angle = sp.atan2(wind_starboard, wind_ahead)
+    du, dv, dr = environment.wind_accelerations(speed, angle, WINDAGE_SYMBOLS, xp=sp)
+    return du, dv, dr
+
+
+def ground_terms() -> tuple[sp.Expr, sp.Expr]:
+    """Return (:data:`ground_north`, :data:`ground_east`): the kinematics with current [m/s]."""
+    c_north, c_east = current_terms()
+    return KINEMATICS[0] + c_north, KINEMATICS[1] + c_east
+
+
+def ground_outputs() -> tuple[sp.Expr, sp.Expr]:
+    """Speed over ground [m/s] and course over ground [rad] of the velocity over ground.
+
+    √(N² + E²) and atan2(E, N) in N = :data:`ground_north`, E = :data:`ground_east`
+    (:func:`fmu_model.environment.speed_over_ground`, ``course_over_ground``).
+    """
+    return (
+        environment.speed_over_ground(ground_north, ground_east, sp),
+        environment.course_over_ground(ground_north, ground_east, sp),
+    )
+
 
 # SI dimensions as exponents of (metre, second). Angles and revolutions are
 # dimensionless; r is rad/s and n is rev/s, both 1/s.

@@ -253,22 +253,30 @@ def test_model_description_declares_capabilities_units_and_structure(
     assert (units["m/s2"].baseUnit.m, units["m/s2"].baseUnit.s) == (1, -2)
 
     outputs = [u.variable.name for u in md.outputs]
-    assert outputs == ["u", "v", "r", "x", "y", "psi"]
-    # An output is a state: it depends on itself, never directly on an input.
-    assert all([d.name for d in u.dependencies] == [u.variable.name] for u in md.outputs)
+    assert outputs == ["u", "v", "r", "x", "y", "psi", "sog", "cog"]
+    states = outputs[:6]
+    # A state output depends on itself, never directly on an input; speed and course
+    # over ground on the states and (directly) on the current.
+    dependencies = {u.variable.name: [d.name for d in u.dependencies] for u in md.outputs}
+    assert all(dependencies[name] == [name] for name in states)
+    over_ground = ["u", "v", "psi", "current_speed", "current_direction"]
+    assert dependencies["sog"] == dependencies["cog"] == over_ground
     derivatives = {u.variable.name: {d.name for d in u.dependencies} for u in md.derivatives}
+    wind = {"u", "v", "psi", "current_speed", "current_direction", "wind_speed", "wind_direction"}
     assert derivatives == {
-        "der(u)": {"u", "v", "r", "rudder_angle", "propeller_rpm"},  # a1 ... a9
-        "der(v)": {"u", "v", "r", "rudder_angle"},  # b1 ... b4
-        "der(r)": {"v", "r", "rudder_angle"},  # c1 ... c3
-        "der(x)": {"u", "v", "psi"},
-        "der(y)": {"u", "v", "psi"},
+        "der(u)": {"u", "v", "r", "rudder_angle", "propeller_rpm"} | wind,  # a1 ... a9
+        "der(v)": {"u", "v", "r", "rudder_angle"} | wind,  # b1 ... b4
+        "der(r)": {"v", "r", "rudder_angle"} | wind,  # c1 ... c3
+        "der(x)": {"u", "v", "psi", "current_speed", "current_direction"},
+        "der(y)": {"u", "v", "psi", "current_speed", "current_direction"},
         "der(psi)": {"r"},
     }
-    assert [v.derivative.name for v in md.modelVariables if v.derivative] == outputs
+    assert [v.derivative.name for v in md.modelVariables if v.derivative] == states
     initial = {u.variable.name: u.dependencies for u in md.initialUnknowns}
-    assert {k: [d.name for d in initial[k]] for k in outputs} == {n: [f"{n}0"] for n in outputs}
-    assert all(initial[f"der({n})"] is None for n in outputs)  # depends on everything
+    assert {k: [d.name for d in initial[k]] for k in states} == {n: [f"{n}0"] for n in states}
+    assert all(initial[f"der({n})"] is None for n in states)  # depends on everything
+    at_start = ["u0", "v0", "psi0", "current_speed", "current_direction"]
+    assert [d.name for d in initial["sog"]] == [d.name for d in initial["cog"]] == at_start
     assert md.buildConfigurations[0].sourceFileSets[0].sourceFiles == [LAYER_SOURCE]
     me = md.modelExchange
     assert me.modelIdentifier == cs.modelIdentifier

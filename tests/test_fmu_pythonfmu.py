@@ -166,8 +166,9 @@ def test_model_description_declares_the_shared_interface(fmu_path: Path) -> None
     assert units["rpm"].baseUnit.s == -1 and units["rpm"].baseUnit.factor == 1.0 / 60.0
     assert units["1/(m.s)"].baseUnit.m == -1 and units["1/(m.s)"].baseUnit.s == -1
     outputs = {u.variable.name for u in md.outputs}
-    assert outputs == set("uvrxy") | {"psi"}
-    derivatives = {f"der({name})" for name in outputs}
+    states = set("uvrxy") | {"psi"}
+    assert outputs == states | {"sog", "cog"}  # and speed and course over ground
+    derivatives = {f"der({name})" for name in states}
     assert {u.variable.name for u in md.derivatives} == derivatives
     assert {u.variable.name for u in md.initialUnknowns} == outputs | derivatives
     assert md.modelExchange is None  # pythonfmu: co-simulation only

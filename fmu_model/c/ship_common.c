@@ -29,13 +29,22 @@
  *   n = 1 if h <= max_step else ceil(h / max_step * (1 - 1e-12)), the rule of
  *   fmu_model.integrate.n_substeps; inputs are held constant over the step; the
  *   propeller speed enters the equations as rpm / 60 [rev/s].
+ * - The environment inputs (current, wind) add their terms to model_rhs through
+ *   model_environment (the wind load with the windage parameters, the current to the
+ *   kinematics); with zero current and zero windage areas they add nothing, so the
+ *   state is bit for bit that of the model alone. The outputs sog and cog (speed and
+ *   course over ground) are calculated from the state and the current when read
+ *   (model_ground); they are not states.
  * - Model exchange is event-free: no event indicators, no time events, no discrete
  *   states; the derivatives der(u) ... der(psi) are model_rhs at the current state and
  *   inputs. max_step is not used.
  * - Directional derivatives (FMI 2.0 section 3.2.2, FMI 3.0 section 2.2.11) are exact,
- *   from model_jacobian: unknowns are state derivatives or outputs (= states), knowns
- *   are states or inputs; d der(x_i) / d x_j = dfdx, d der(x_i) / d input = dfdu (by
- *   rpm: dfdu / 60), d x_i / d x_j = identity, d x_i / d input = 0 (no feed-through).
+ *   from model_jacobian and model_environment_jacobian: unknowns are state derivatives
+ *   or outputs (states, sog, cog), knowns are states or inputs; d der(x_i) / d x_j =
+ *   dfdx, d der(x_i) / d input = dfdu (by rpm: dfdu / 60) or dfde (environment),
+ *   d x_i / d x_j = identity, d x_i / d input = 0 (no feed-through); d (sog, cog) by
+ *   the states and the environment from model_ground_jacobian (0 at rest over
+ *   ground), by rudder and rpm 0.
  * - Errors (status error, message in category logStatusError) leave the instance
  *   unchanged, so a master may correct the call and continue:
  *     a non-finite value or a value outside a declared min/max passed to SetReal (the
@@ -80,6 +89,10 @@ typedef char ship_check_states[(VR_STATE + SHIP_N_STATES <= MODEL_N_VARIABLES) ?
 typedef char ship_check_initial[(VR_INITIAL_STATE + SHIP_N_STATES <= MODEL_N_VARIABLES) ? 1 : -1];
 typedef char ship_check_derivatives[(VR_DERIVATIVES + SHIP_N_STATES <= MODEL_N_VARIABLES) ? 1 : -1];
 typedef char ship_check_time[(VR_TIME < MODEL_N_VARIABLES) ? 1 : -1];
+typedef char
+    ship_check_environment[(VR_ENVIRONMENT + SHIP_N_ENVIRONMENT <= MODEL_N_VARIABLES) ? 1 : -1];
+typedef char ship_check_ground[(VR_GROUND + SHIP_N_GROUND <= MODEL_N_VARIABLES) ? 1 : -1];
+typedef char ship_check_windage[(VR_WINDAGE + SHIP_N_WINDAGE <= MODEL_N_VARIABLES) ? 1 : -1];
 
 #if defined(__GNUC__)
 #define SHIP_PRINTF(fmt_index, first_arg) __attribute__((format(printf, fmt_index, first_arg)))
@@ -298,10 +311,12 @@ static double rudder_of(const Instance *inst) { return inst->s.values[VR_RUDDER_
 /* The propeller speed enters the equations in rev/s. */
 static double n_rps_of(const Instance *inst) { return inst->s.values[VR_PROPELLER_RPM] / 60.0; }
 
+/* The model's right-hand side, then what the environment adds to it. */
 static void rhs(const Instance *inst, const double *x, double *dx)
 {
     model_rhs(&inst->s.values[VR_COEFFICIENTS], inst->s.values[VR_LENGTH], x, rudder_of(inst),
               n_rps_of(inst), dx);
+    model_environment(x, &inst->s.values[VR_ENVIRONMENT], &inst->s.values[VR_WINDAGE], dx);
 }
 
 /* One classical Runge-Kutta step with the inputs held; same operation order as
@@ -547,11 +562,21 @@ static int is_derivative(unsigned vr)
 
 static int is_state(unsigned vr) { return vr >= VR_STATE && vr < VR_STATE + SHIP_N_STATES; }
 
+/* sog or cog: an output over ground, calculated when read. */
+static int is_ground(unsigned vr) { return vr >= VR_GROUND && vr < VR_GROUND + SHIP_N_GROUND; }
+
+static int is_environment(unsigned vr)
+{
+    return vr >= VR_ENVIRONMENT && vr < VR_ENVIRONMENT + SHIP_N_ENVIRONMENT;
+}
+
 static ShipStatus ship_get_real(Instance *inst, const char *function, const unsigned vr[],
                                 size_t nvr, double value[])
 {
     double dx[SHIP_N_STATES];
+    double ground[SHIP_N_GROUND];
     int have_dx = 0;
+    int have_ground = 0;
     size_t i;
     if (nvr > 0 && (vr == NULL || value == NULL)) {
         LOG_ERROR(inst, "%s: vr or value is NULL", function);
@@ -572,6 +597,12 @@ static ShipStatus ship_get_real(Instance *inst, const char *function, const unsi
                 have_dx = 1;
             }
             value[i] = dx[vr[i] - VR_DERIVATIVES];
+        } else if (is_ground(vr[i])) {
+            if (!have_ground) {
+                model_ground(&inst->s.values[VR_STATE], &inst->s.values[VR_ENVIRONMENT], ground);
+                have_ground = 1;
+            }
+            value[i] = ground[vr[i] - VR_GROUND];
         } else {
             value[i] = inst->s.values[vr[i]];
         }
@@ -821,20 +852,43 @@ static ShipStatus ship_get_event_indicators(Instance *inst, const char *function
    4.2.4, FMI 3.0 section 2.2.11): from initialization mode on. */
 #define STATES_DERIVATIVES STATES_GET
 
-/* Partial derivative of the unknown `unknown` (a state derivative or an output = state)
-   by the known `known` (a state or an input), from the Jacobians at the current point. */
-static double partial(const double *dfdx, const double *dfdu, unsigned unknown, unsigned known)
+/* The Jacobians at the current point: of the derivatives by the state (dfdx), by rudder
+   and propeller speed (dfdu) and by the environment (dfde), and of sog and cog by the
+   state (dgdx) and the environment (dgde). */
+typedef struct {
+    double dfdx[SHIP_N_STATES * SHIP_N_STATES];
+    double dfdu[SHIP_N_STATES * SHIP_N_INPUTS];
+    double dfde[SHIP_N_STATES * SHIP_N_ENVIRONMENT];
+    double dgdx[SHIP_N_GROUND * SHIP_N_STATES];
+    double dgde[SHIP_N_GROUND * SHIP_N_ENVIRONMENT];
+} Jacobians;
+
+/* Partial derivative of the unknown `unknown` (a state derivative or an output: a state,
+   sog or cog) by the known `known` (a state or an input). */
+static double partial(const Jacobians *J, unsigned unknown, unsigned known)
 {
     if (is_state(unknown)) {
         return known == unknown ? 1.0 : 0.0; /* outputs are states: no feed-through */
     }
+    if (is_ground(unknown)) {
+        if (is_state(known)) {
+            return J->dgdx[SHIP_N_STATES * (unknown - VR_GROUND) + (known - VR_STATE)];
+        }
+        if (is_environment(known)) {
+            return J->dgde[SHIP_N_ENVIRONMENT * (unknown - VR_GROUND) + (known - VR_ENVIRONMENT)];
+        }
+        return 0.0; /* rudder and propeller act on the accelerations only */
+    }
     if (is_state(known)) {
-        return dfdx[SHIP_N_STATES * (unknown - VR_DERIVATIVES) + (known - VR_STATE)];
+        return J->dfdx[SHIP_N_STATES * (unknown - VR_DERIVATIVES) + (known - VR_STATE)];
+    }
+    if (is_environment(known)) {
+        return J->dfde[SHIP_N_ENVIRONMENT * (unknown - VR_DERIVATIVES) + (known - VR_ENVIRONMENT)];
     }
     if (known == VR_RUDDER_ANGLE) {
-        return dfdu[SHIP_N_INPUTS * (unknown - VR_DERIVATIVES)];
+        return J->dfdu[SHIP_N_INPUTS * (unknown - VR_DERIVATIVES)];
     }
-    return dfdu[SHIP_N_INPUTS * (unknown - VR_DERIVATIVES) + 1] / 60.0; /* by rpm */
+    return J->dfdu[SHIP_N_INPUTS * (unknown - VR_DERIVATIVES) + 1] / 60.0; /* by rpm */
 }
 
 /* Check the value references and the seed of a directional or adjoint derivative. */
@@ -850,7 +904,7 @@ static int check_derivative_call(const Instance *inst, const char *function,
         return 0;
     }
     for (i = 0; i < n_unknowns; i++) {
-        if (!is_state(unknowns[i]) && !is_derivative(unknowns[i])) {
+        if (!is_state(unknowns[i]) && !is_derivative(unknowns[i]) && !is_ground(unknowns[i])) {
             LOG_ERROR(inst, "%s: unknown vr %u is not a state derivative or an output",
                       function, unknowns[i]);
             return 0;
@@ -858,7 +912,7 @@ static int check_derivative_call(const Instance *inst, const char *function,
     }
     for (i = 0; i < n_knowns; i++) {
         if (!is_state(knowns[i]) && knowns[i] != VR_RUDDER_ANGLE &&
-            knowns[i] != VR_PROPELLER_RPM) {
+            knowns[i] != VR_PROPELLER_RPM && !is_environment(knowns[i])) {
             LOG_ERROR(inst, "%s: known vr %u is not a state or an input", function, knowns[i]);
             return 0;
         }
@@ -881,8 +935,9 @@ static ShipStatus ship_derivatives(Instance *inst, const char *function, int adj
                                    const unsigned knowns[], size_t n_knowns,
                                    const double seed[], double sensitivity[])
 {
-    double dfdx[SHIP_N_STATES * SHIP_N_STATES];
-    double dfdu[SHIP_N_STATES * SHIP_N_INPUTS];
+    Jacobians J;
+    const double *x = &inst->s.values[VR_STATE];
+    const double *env = &inst->s.values[VR_ENVIRONMENT];
     const size_t n_seed = adjoint ? n_unknowns : n_knowns;
     const size_t n_out = adjoint ? n_knowns : n_unknowns;
     size_t i;
@@ -891,14 +946,16 @@ static ShipStatus ship_derivatives(Instance *inst, const char *function, int adj
                                n_seed, sensitivity)) {
         return SHIP_ERROR;
     }
-    model_jacobian(&inst->s.values[VR_COEFFICIENTS], inst->s.values[VR_LENGTH],
-                   &inst->s.values[VR_STATE], rudder_of(inst), n_rps_of(inst), dfdx, dfdu);
+    model_jacobian(&inst->s.values[VR_COEFFICIENTS], inst->s.values[VR_LENGTH], x,
+                   rudder_of(inst), n_rps_of(inst), J.dfdx, J.dfdu);
+    model_environment_jacobian(x, env, &inst->s.values[VR_WINDAGE], J.dfdx, J.dfde);
+    model_ground_jacobian(x, env, J.dgdx, J.dgde);
     for (i = 0; i < n_out; i++) {
         sensitivity[i] = 0.0;
     }
     for (i = 0; i < n_unknowns; i++) {
         for (j = 0; j < n_knowns; j++) {
-            const double d = partial(dfdx, dfdu, unknowns[i], knowns[j]);
+            const double d = partial(&J, unknowns[i], knowns[j]);
             if (adjoint) {
                 sensitivity[j] += d * seed[i];
             } else {

@@ -23,6 +23,11 @@
  *                             in the order model_rhs expects them)
  *     VR_DERIVATIVES          first of the 6 locals der(u) ... der(psi) (consecutive)
  *     VR_TIME                 the independent variable time [s]
+ *     VR_ENVIRONMENT          first of the 4 inputs current_speed [m/s], current_direction
+ *                             [rad, towards], wind_speed [m/s], wind_direction [rad, from]
+ *     VR_GROUND               first of the 2 outputs sog [m/s] and cog [rad], calculated
+ *     VR_WINDAGE              first of the 7 windage parameters (frontal_area_m2 ...
+ *                             yaw_inertia_kgm2, the order of fmu_model.environment.Windage)
  *     MODEL_VARIABLES         ShipVariable table, one entry per value reference
  *     DIVERGENCE_MAX_SPEED    bound of |u| and |v| [m/s]; beyond it the state diverged
  *     DIVERGENCE_MAX_YAW_RATE bound of |r| [rad/s]; beyond it the state diverged
@@ -61,7 +66,19 @@
  *     static void model_jacobian(const double *theta, double length, const double *x,
  *                                double rudder, double n_rps, double *dfdx, double *dfdu)
  *     its exact partial derivatives, row-major: dfdx 6 x 6 (by x), dfdu 6 x 2 (by rudder
- *     [rad] and n_rps [rev/s]).
+ *     [rad] and n_rps [rev/s]), and the environment's part of the model:
+ *     static void model_environment(const double *x, const double *env,
+ *                                   const double *windage, double *dx)
+ *     adds the wind's accelerations and the current's velocity to dx;
+ *     static void model_environment_jacobian(const double *x, const double *env,
+ *                                            const double *windage, double *dfdx,
+ *                                            double *dfde)
+ *     adds their partial derivatives by x to dfdx and writes those by env to dfde (6 x 4);
+ *     static void model_ground(const double *x, const double *env, double *g)
+ *     g = (speed over ground, course over ground), and
+ *     static void model_ground_jacobian(const double *x, const double *env, double *dgdx,
+ *                                       double *dgde)
+ *     their partial derivatives, dgdx 2 x 6, dgde 2 x 4.
  *
  * Nothing in the layer depends on the model variant beyond these names.
  */
@@ -70,8 +87,14 @@
 
 /* Number of states (u, v, r, x, y, psi) integrated by the layer. */
 #define SHIP_N_STATES 6
-/* Number of inputs (rudder angle, propeller speed). */
+/* Number of inputs of the model (rudder angle, propeller speed). */
 #define SHIP_N_INPUTS 2
+/* Number of environment inputs (current speed and direction, wind speed and direction). */
+#define SHIP_N_ENVIRONMENT 4
+/* Number of windage parameters (fmu_model.environment.Windage). */
+#define SHIP_N_WINDAGE 7
+/* Number of outputs over ground (sog, cog). */
+#define SHIP_N_GROUND 2
 
 typedef enum {
     SHIP_INPUT = 0,      /* settable before and after initialisation */
