@@ -18,6 +18,40 @@ starboard. The state vector is ``[u, v_m, r, x, y, psi]`` in m/s, m/s, rad/s, m,
 Drift angle beta = atan(-v_m/u). Primed (non-dimensional) quantities use L, d and a speed
 U: forces over 1/2 rho L d U^2, yaw moments over 1/2 rho L^2 d U^2, v' = v_m/U,
 r' = r L/U.
+
+At sea (:class:`~scenarios.sea.SeaEnvironment`, ``docs/kvlcc2_environment.md``):
+
+* u, v_m, r are velocities **through the water**; the hull, propeller and rudder forces
+  see only them. The position moves over ground:
+  x_dot = u cos psi - v_m sin psi + c_N, y_dot = u sin psi + v_m cos psi + c_E.
+  For a uniform current that does not change in time the equations of motion in the
+  water-relative velocities are exactly the calm-water ones (Fossen 2011, *Handbook of
+  Marine Craft Hydrodynamics and Motion Control*, §8.3, Property 8.1: with
+  nu = nu_r + nu_c and nu_c_dot = -S(r) nu_c, M_RB nu_dot + C_RB(nu) nu =
+  M_RB nu_r_dot + C_RB(nu_r) nu_r), so a steady current only moves the track.
+* A current that changes in time, c_dot = (dc_N/dt, dc_E/dt) over ground, adds
+  M_RB R(psi)^T c_dot to the rigid-body side of that identity: in the MMG equations (which
+  keep the added masses on the water-relative accelerations) it is a body-frame force
+  -m R^T c_dot at the centre of gravity, i.e. at midship surge -m c_dot_u, sway
+  -m c_dot_v and yaw -x_G m c_dot_v, with c_dot_u = dc_N/dt cos psi + dc_E/dt sin psi and
+  c_dot_v = -dc_N/dt sin psi + dc_E/dt cos psi. On the ship's mass alone it is the
+  "-dc/dt in the body frame" of the water-relative accelerations (the added masses
+  move with the water). This treats the current as a prescribed velocity field
+  without its own pressure gradient; a current driven by a horizontal pressure
+  gradient (a tide) would add the Froude-Krylov force rho Vol c_dot = m c_dot, which
+  cancels the term exactly for a floating ship. For the slow changes it is meant
+  for (0.5 m/s per hour: 1.4e-4 m/s^2) either choice is far below any other force.
+* The wind load of Blendermann (1994) (``fmu_model.environment``, loaded tanker) on
+  the apparent wind, computed from the true wind and the ship's velocity **over
+  ground**, enters as dimensional forces X, Y at midship and a yaw moment N about
+  midship (the windage's lateral centroid is given from midship, see
+  :func:`kvlcc2_windage`). Only what the true wind adds is applied: the load in the
+  apparent wind minus the load the ship's own motion through still air gives, as the
+  ITTC speed/power trial procedure (7.5-04-01-01.1, wind resistance correction:
+  1/2 rho_A C_X(psi_WR) A_XV V_WR^2 - 1/2 rho_A C_X(0) A_XV V_G^2) corrects a trial
+  for wind, here for all three components. The still-air part is taken to belong to
+  the calm-water model (R_0' and the hull derivatives); so no wind means exactly the
+  calm-water ship, and the load is continuous as the wind tends to 0.
 """
 
 from __future__ import annotations
@@ -29,7 +63,16 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import root
 
+from fmu_model.environment import (
+    AIR_DENSITY_KGPM3,
+    TANKER_LOADED,
+    Windage,
+    apparent_wind,
+    ground_velocity_body,
+    wind_loads,
+)
 from fmu_model.integrate import rk4_into
+from scenarios.sea import GustProcess, SeaEnvironment, default_gust_time_s
 from trials.run import SingleShip
 
 FROUDE_SCALE_RATIO = 320.0 / 7.0
@@ -524,6 +567,20 @@ def _derivatives(
 ) -> tuple[float, float, float, float, float, float]:
     """Right-hand side of the equations of motion about midship (ref. §2)."""
     f = _modules(ship, u, v, r, delta, n)
+    u_dot, v_dot, r_dot = _accelerations(
+        ship, u, v, r, f.X_H + f.X_P + f.X_R, f.Y_H + f.Y_R, f.N_H + f.N_R
+    )
+    cos_psi = math.cos(psi)
+    sin_psi = math.sin(psi)
+    x_dot = u * cos_psi - v * sin_psi
+    y_dot = u * sin_psi + v * cos_psi
+    return u_dot, v_dot, r_dot, x_dot, y_dot, r
+
+
+def _accelerations(
+    ship: MmgShip, u: float, v: float, r: float, X: float, Y: float, N: float
+) -> tuple[float, float, float]:
+    """u_dot, v_dot, r_dot of Y&Y2015 eq. (4) under the total forces X, Y [N], N [N m]."""
     rho = ship.water_density_kgpm3
     L = ship.length_m
     half_rho_L2_d = 0.5 * rho * L * L * ship.draught_m
@@ -533,9 +590,6 @@ def _derivatives(
     J_z = ship.J_z * half_rho_L2_d * L * L  # J_z' over 1/2 rho L^4 d
     I_zG = m * ship.yaw_gyration_radius_m**2
     x_G = ship.x_g_m
-    X = f.X_H + f.X_P + f.X_R
-    Y = f.Y_H + f.Y_R
-    N = f.N_H + f.N_R
     # Y&Y2015 eq. (4), ref. §2: surge explicit, sway and yaw as a 2x2 system
     u_dot = (X + (m + m_y) * v * r + x_G * m * r * r) / (m + m_x)
     a11 = m + m_y
@@ -546,28 +600,39 @@ def _derivatives(
     det = a11 * a22 - a12 * a12
     v_dot = (a22 * b1 - a12 * b2) / det
     r_dot = (a11 * b2 - a12 * b1) / det
-    cos_psi = math.cos(psi)
-    sin_psi = math.sin(psi)
-    x_dot = u * cos_psi - v * sin_psi
-    y_dot = u * sin_psi + v * cos_psi
-    return u_dot, v_dot, r_dot, x_dot, y_dot, r
+    return u_dot, v_dot, r_dot
 
 
-def mmg_rhs(ship: MmgShip, state: np.ndarray, rudder_rad: float, n_rps: float) -> np.ndarray:
-    """Time derivative of the MMG state (Y&Y2015 eq. (4), ref. §2).
+def mmg_rhs(
+    ship: MmgShip,
+    state: np.ndarray,
+    rudder_rad: float,
+    n_rps: float,
+    *,
+    environment: SeaEnvironment | None = None,
+    windage: Windage | None = None,
+    time_s: float = 0.0,
+) -> np.ndarray:
+    """Time derivative of the MMG state (Y&Y2015 eq. (4), ref. §2), at sea if asked.
 
     Parameters
     ----------
     ship : MmgShip
         The ship.
     state : numpy.ndarray
-        ``[u, v_m, r, x, y, psi]``, shape (6,): surge velocity [m/s], sway velocity at
-        midship [m/s], yaw rate [rad/s], North and East position of midship [m],
-        heading [rad].
+        ``[u, v_m, r, x, y, psi]``, shape (6,): surge velocity through the water [m/s],
+        sway velocity at midship through the water [m/s], yaw rate [rad/s], North and
+        East position of midship [m], heading [rad].
     rudder_rad : float
         Actual rudder angle [rad] (no steering gear here).
     n_rps : float
         Propeller speed [rev/s].
+    environment : SeaEnvironment, optional
+        Current and wind (module docstring); calm water when None.
+    windage : Windage, optional
+        The ship's windage; :func:`kvlcc2_windage` of the ship's scale when None.
+    time_s : float
+        Time from the start of the run [s] (the current's change and the gusts).
 
     Returns
     -------
@@ -576,7 +641,238 @@ def mmg_rhs(ship: MmgShip, state: np.ndarray, rudder_rad: float, n_rps: float) -
 
     """
     u, v, r, _, _, psi = (float(s) for s in state)
-    return np.array(_derivatives(ship, u, v, r, psi, float(rudder_rad), float(n_rps)))
+    if environment is None:
+        return np.array(_derivatives(ship, u, v, r, psi, float(rudder_rad), float(n_rps)))
+    sea = _SeaRun(ship, environment, windage)
+    return np.array(
+        _derivatives_at_sea(ship, sea, u, v, r, psi, float(rudder_rad), float(n_rps), time_s)
+    )
+
+
+# --------------------------------------------------------------------------- at sea
+
+# KVLCC2's windage at full scale (docs/kvlcc2_environment.md): no published value was
+# found; estimated from the published hull (L_pp 320 m, L_wl 325.5 m, B 58 m, D 30 m,
+# T 20.8 m) and a stated aft superstructure. Freeboard f = D - T = 9.2 m.
+_FREEBOARD_M = 30.0 - 20.8
+_WINDAGE_FULL = {
+    # length overall: not published for the hull form; a typical VLCC's (~330 m)
+    "length_overall_m": 330.0,
+    # hull f x B (533.6) + deckhouse 40 m x 25 m (1000) + bridge wings 18 m x 2.8 m
+    # (50.4) + funnel above the deckhouse 8 m x 10 m (80) + fittings (50)
+    "frontal_area_m2": _FREEBOARD_M * 58.0 + 1000.0 + 18.0 * 2.8 + 80.0 + 50.0,
+    # hull f x L_wl (2994.6) + deckhouse 30 m x 25 m (750) + funnel 10 m x 10 m (100)
+    # + forecastle, piping, cranes, masts (150)
+    "lateral_area_m2": _FREEBOARD_M * 325.5 + 750.0 + 100.0 + 150.0,
+}
+# lateral centroid from midship: hull and fittings at 0, deckhouse at -145 m, funnel at
+# -150 m (between x = -160 m, the aft perpendicular, and -130 m)
+_WINDAGE_FULL["lateral_centroid_m"] = (750.0 * -145.0 + 100.0 * -150.0) / _WINDAGE_FULL[
+    "lateral_area_m2"
+]
+
+
+def kvlcc2_windage(scale: str = "full") -> Windage:
+    """KVLCC2's windage for the Blendermann (1994) wind load (``docs/kvlcc2_environment.md``).
+
+    Estimated, not published: the hull above the full-load waterline (freeboard
+    D - T = 9.2 m over L_wl = 325.5 m and B = 58 m) plus an aft deckhouse, bridge wings,
+    funnel and deck fittings of a typical VLCC. Full scale: A_F = 1714.0 m^2,
+    A_L = 3994.6 m^2, L_oa = 330 m, lateral centroid 30.98 m aft of midship. The model
+    (L = 7 m) is its Froude scale (areas / lambda^2, lengths / lambda). The effective
+    inertias are this ship's about midship: m + m_x, m + m_y and I_zG + x_G^2 m + J_z
+    (the MMG equations use the forces; the inertias complete the :class:`Windage`).
+
+    Parameters
+    ----------
+    scale : str
+        ``"full"`` or ``"model"``, as :func:`kvlcc2`.
+
+    Returns
+    -------
+    Windage
+        Areas [m^2], length overall [m], lateral centroid forward of midship [m]
+        (negative: aft), inertias [kg, kg m^2].
+
+    """
+    ship = kvlcc2(scale)
+    lam = _FULL_LENGTH_M / ship.length_m
+    half_rho_L2_d = 0.5 * ship.water_density_kgpm3 * ship.length_m**2 * ship.draught_m
+    m = ship.mass_kg
+    return Windage(
+        frontal_area_m2=_WINDAGE_FULL["frontal_area_m2"] / lam**2,
+        lateral_area_m2=_WINDAGE_FULL["lateral_area_m2"] / lam**2,
+        length_overall_m=_WINDAGE_FULL["length_overall_m"] / lam,
+        lateral_centroid_m=_WINDAGE_FULL["lateral_centroid_m"] / lam,
+        surge_mass_kg=m + ship.m_x * half_rho_L2_d,
+        sway_mass_kg=m + ship.m_y * half_rho_L2_d,
+        yaw_inertia_kgm2=m * ship.yaw_gyration_radius_m**2
+        + ship.x_g_m**2 * m
+        + ship.J_z * half_rho_L2_d * ship.length_m**2,
+    )
+
+
+@dataclass(frozen=True)
+class EnvironmentForces:
+    """What the environment adds to the MMG equations at one state (module docstring).
+
+    Attributes
+    ----------
+    X_wind_N, Y_wind_N : float
+        Wind force at midship, forward and to starboard [N]: Blendermann's load in the
+        apparent wind minus the load of the ship's own motion through still air.
+    N_wind_Nm : float
+        Wind yaw moment about midship, positive turning to starboard [N m].
+    X_current_N, Y_current_N : float
+        Force of a changing current, -m R^T c_dot at midship [N].
+    N_current_Nm : float
+        Its moment about midship, -x_G m c_dot_v [N m].
+    current_north_mps, current_east_mps : float
+        The current's velocity over ground c_N, c_E [m/s].
+
+    """
+
+    X_wind_N: float
+    Y_wind_N: float
+    N_wind_Nm: float
+    X_current_N: float
+    Y_current_N: float
+    N_current_Nm: float
+    current_north_mps: float
+    current_east_mps: float
+
+
+def environment_forces(
+    ship: MmgShip,
+    state: np.ndarray,
+    environment: SeaEnvironment,
+    *,
+    windage: Windage | None = None,
+    time_s: float = 0.0,
+) -> EnvironmentForces:
+    """Return the forces the current and the wind add to the MMG equations at one state.
+
+    Parameters
+    ----------
+    ship : MmgShip
+        The ship.
+    state : numpy.ndarray
+        ``[u, v_m, r, x, y, psi]`` (velocities through the water), shape (6,).
+    environment : SeaEnvironment
+        Current and wind.
+    windage : Windage, optional
+        The ship's windage; :func:`kvlcc2_windage` of the ship's scale when None.
+    time_s : float
+        Time from the start of the run [s].
+
+    Returns
+    -------
+    EnvironmentForces
+        Wind and current forces [N] and moments [N m] at midship, and the current.
+
+    """
+    u, v, _, _, _, psi = (float(s) for s in state)
+    sea = _SeaRun(ship, environment, windage)
+    c_n, c_e, dc_n, dc_e = environment.current_ne(time_s)
+    X_w, Y_w, N_w = sea.wind_forces(u, v, psi, c_n, c_e, time_s)
+    X_c, Y_c, N_c = sea.current_forces(psi, dc_n, dc_e)
+    return EnvironmentForces(X_w, Y_w, N_w, X_c, Y_c, N_c, c_n, c_e)
+
+
+class _SeaRun:
+    """One run's environment for one ship: the current, the wind with its gust path."""
+
+    def __init__(self, ship: MmgShip, environment: SeaEnvironment, windage: Windage | None) -> None:
+        self.ship = ship
+        self.environment = environment
+        if windage is None:
+            if ship.name != "kvlcc2":
+                raise ValueError(f"no windage known for {ship.name!r}: give one")
+            windage = kvlcc2_windage(ship.scale)
+        self.windage = windage
+        self.gust_time_s = (
+            default_gust_time_s(ship.length_m)
+            if environment.gust_time_s is None
+            else environment.gust_time_s
+        )
+        self.gust = GustProcess(environment.gust_std_mps, self.gust_time_s, environment.gust_seed)
+
+    def wind_speed(self, time_s: float) -> float:
+        """Return the true wind speed W = W_mean + g(t) along the mean direction [m/s]."""
+        return self.environment.wind_speed_mps + self.gust.value(time_s)
+
+    def wind_forces(
+        self, u: float, v: float, psi: float, c_n: float, c_e: float, time_s: float
+    ) -> tuple[float, float, float]:
+        """X [N], Y [N], N [N m] at midship that the true wind adds (module docstring)."""
+        if not self.environment.has_wind:
+            return 0.0, 0.0, 0.0
+        u_g, v_g = ground_velocity_body(u, v, psi, c_n, c_e)
+        # [the true wind, still air]: the same ship motion, one evaluation
+        speed, angle = apparent_wind(
+            np.array([self.wind_speed(time_s), 0.0]),
+            self.environment.wind_from_rad,
+            psi,
+            u_g,
+            v_g,
+        )
+        X, Y, N = wind_loads(speed, angle, self.windage, AIR_DENSITY_KGPM3, TANKER_LOADED)
+        return float(X[0] - X[1]), float(Y[0] - Y[1]), float(N[0] - N[1])
+
+    def current_forces(self, psi: float, dc_n: float, dc_e: float) -> tuple[float, float, float]:
+        """-m R^T c_dot at the CG as X, Y [N] at midship and N [N m] about it."""
+        m = self.ship.mass_kg
+        cos_psi = math.cos(psi)
+        sin_psi = math.sin(psi)
+        dc_u = dc_n * cos_psi + dc_e * sin_psi
+        dc_v = -dc_n * sin_psi + dc_e * cos_psi
+        return -m * dc_u, -m * dc_v, -self.ship.x_g_m * m * dc_v
+
+    def apparent_wind(
+        self, time_s: np.ndarray, u: np.ndarray, v: np.ndarray, psi: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Apparent wind speed [m/s] and angle off the bow [rad] at the given states."""
+        current = np.array([self.environment.current_ne(float(t))[:2] for t in time_s])
+        c_n = current[:, 0] if current.size else np.zeros(0)
+        c_e = current[:, 1] if current.size else np.zeros(0)
+        u_g, v_g = ground_velocity_body(u, v, psi, c_n, c_e)
+        wind = self.environment.wind_speed_mps + self.gust.values(time_s)
+        return apparent_wind(wind, self.environment.wind_from_rad, psi, u_g, v_g)
+
+
+def _derivatives_at_sea(
+    ship: MmgShip,
+    sea: _SeaRun,
+    u: float,
+    v: float,
+    r: float,
+    psi: float,
+    delta: float,
+    n: float,
+    time_s: float,
+) -> tuple[float, float, float, float, float, float]:
+    """:func:`_derivatives` with the current and the wind (module docstring).
+
+    In calm conditions every added term is 0.0, so the result is the calm one bit for bit.
+    """
+    f = _modules(ship, u, v, r, delta, n)
+    c_n, c_e, dc_n, dc_e = sea.environment.current_ne(time_s)
+    X_w, Y_w, N_w = sea.wind_forces(u, v, psi, c_n, c_e, time_s)
+    X_c, Y_c, N_c = sea.current_forces(psi, dc_n, dc_e)
+    u_dot, v_dot, r_dot = _accelerations(
+        ship,
+        u,
+        v,
+        r,
+        f.X_H + f.X_P + f.X_R + X_w + X_c,
+        f.Y_H + f.Y_R + Y_w + Y_c,
+        f.N_H + f.N_R + N_w + N_c,
+    )
+    cos_psi = math.cos(psi)
+    sin_psi = math.sin(psi)
+    x_dot = u * cos_psi - v * sin_psi + c_n  # the track moves over ground
+    y_dot = u * sin_psi + v * cos_psi + c_e
+    return u_dot, v_dot, r_dot, x_dot, y_dot, r
 
 
 def step(
@@ -633,22 +929,122 @@ def _derivative_into(
     out[:] = _derivatives(ship, u, v, r, psi, *inputs)
 
 
-class ReferencePlant(SingleShip):
-    """The MMG reference ship as a plant of ``trials.run``, rudder held over each step."""
+def _derivative_at_sea_into(
+    state: np.ndarray,
+    context: tuple[MmgShip, _SeaRun],
+    inputs: tuple[float, float, float],
+    out: np.ndarray,
+) -> None:
+    """``fmu_model.integrate`` form of :func:`_derivatives_at_sea`; inputs (δ, n, t)."""
+    u, v, r, _, _, psi = (float(s) for s in state)
+    out[:] = _derivatives_at_sea(context[0], context[1], u, v, r, psi, *inputs)
 
-    def __init__(self, ship: MmgShip) -> None:
+
+class ReferencePlant(SingleShip):
+    """The MMG reference ship as a plant of ``trials.run``, rudder held over each step.
+
+    Parameters
+    ----------
+    ship : MmgShip
+        The ship.
+    environment : SeaEnvironment, optional
+        Current and wind (module docstring); calm water when None (the calm-water
+        equations, untouched). Its time runs from the last :meth:`reset`.
+    windage : Windage, optional
+        The ship's windage; :func:`kvlcc2_windage` of the ship's scale when None.
+
+    """
+
+    def __init__(
+        self,
+        ship: MmgShip,
+        environment: SeaEnvironment | None = None,
+        windage: Windage | None = None,
+    ) -> None:
         self.ship = ship
         self.length_m = ship.length_m
+        self.environment = environment
+        self._windage = windage
+        self._sea = None if environment is None else _SeaRun(ship, environment, windage)
         self._state = np.zeros(6)
+        self._time_s = 0.0
+
+    @property
+    def gust_time_s(self) -> float | None:
+        """Correlation time of the gusts in use [s]; None in calm water."""
+        return None if self._sea is None else self._sea.gust_time_s
 
     def reset(self, initial_state: np.ndarray) -> None:
-        """Start again from ``initial_state``."""
+        """Start again from ``initial_state`` at time 0 (the same gusts again)."""
         self._state = np.array(initial_state, dtype=float)
+        self._time_s = 0.0
+        if self.environment is not None:
+            self._sea = _SeaRun(self.ship, self.environment, self._windage)
 
     def step(self, rudder_rad: float, n_rps: float, dt_s: float) -> np.ndarray:
         """Advance ``dt_s`` (:func:`step`'s RK4 substeps)."""
-        self._state = step(self.ship, self._state, rudder_rad, n_rps, dt_s)
+        if self._sea is None:
+            self._state = step(self.ship, self._state, rudder_rad, n_rps, dt_s)
+            return self._state
+        if not (math.isfinite(dt_s) and dt_s > 0.0):
+            raise ValueError(f"dt_s must be a positive finite number, got {dt_s!r}")
+        h_max = _FULL_SCALE_MAX_SUBSTEP_S * math.sqrt(self.ship.length_m / _FULL_LENGTH_M)
+        n_sub = max(1, math.ceil(dt_s / h_max - 1e-9))
+        h = dt_s / n_sub
+        delta, n = float(rudder_rad), float(n_rps)
+        work = np.empty((5, 6))
+        context = (self.ship, self._sea)
+        t0 = self._time_s
+        for i in range(n_sub):
+            t = t0 + i * h
+            rk4_into(
+                _derivative_at_sea_into,
+                self._state,
+                h,
+                context,
+                (delta, n, t),
+                (delta, n, t + 0.5 * h),
+                (delta, n, t + h),
+                work,
+            )
+        self._time_s = t0 + dt_s
         return self._state
+
+    def apparent_wind(
+        self, time_s: np.ndarray, u: np.ndarray, v: np.ndarray, psi: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Return the apparent wind an anemometer at midship sees along a run of this plant.
+
+        Parameters
+        ----------
+        time_s : numpy.ndarray
+            Times from the start of the run (the last :meth:`reset`) [s].
+        u, v : numpy.ndarray
+            Surge and sway (midship) velocity through the water [m/s].
+        psi : numpy.ndarray
+            Heading [rad].
+
+        Returns
+        -------
+        speed_mps, angle_rad : numpy.ndarray
+            Apparent wind speed [m/s] and the angle it comes from off the bow, positive
+            from starboard, in [-pi, pi] [rad]; ``fmu_model.environment.apparent_wind``.
+
+        Raises
+        ------
+        ValueError
+            In calm water (no environment).
+
+        """
+        if self._sea is None:
+            raise ValueError("the plant sails in calm water: no apparent wind to give")
+        sea = _SeaRun(self.ship, self._sea.environment, self._windage)  # the same gusts
+        return sea.apparent_wind(
+            np.asarray(time_s, dtype=float),
+            np.asarray(u, dtype=float),
+            np.asarray(v, dtype=float),
+            np.asarray(psi, dtype=float),
+        )
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,18 @@ sampled at the logger's rate with Gaussian measurement noise on position and hea
 (reproducible from a seed). Rudder angle and rpm are logged without noise, as the
 steering-gear feedback and shaft counter are far more precise than GNSS. The heading
 is written wrapped to [0, 360) like a gyro compass.
+
+At sea (a reference ship given a :class:`~scenarios.sea.SeaEnvironment`) the log also
+carries what the ship's own sensors measure, drawn after the noise above so that the
+required columns are those of the same seed in calm water: ``stw_mps`` from a speed
+log, the magnitude of the velocity through the water at midship √(u² + v_m²) with
+Gaussian noise of :data:`STW_NOISE_MPS` (folded at 0); and, when there is a wind,
+``wind_speed_mps`` and ``wind_angle_deg`` from an anemometer, the apparent wind at
+midship (``fmu_model.environment.apparent_wind``: true wind, gusts included, minus the
+velocity over ground; no yaw-rate lever arm, no flow distortion by the superstructure)
+with Gaussian noise of :data:`WIND_SPEED_NOISE_MPS` (folded at 0) and
+:data:`WIND_ANGLE_NOISE_DEG`, the angle written wrapped to [0, 360) like an MWV
+sentence's.
 """
 
 from __future__ import annotations
@@ -21,9 +33,17 @@ import numpy as np
 from fmu_model import ModelParameters
 from scenarios.errors import ScenarioError
 from scenarios.kvlcc2 import ReferencePlant, kvlcc2
+from scenarios.sea import SeaEnvironment
 from trials.logs import ManeuverLog, write_log
 from trials.maneuvers import Program, turning_circle, zigzag
 from trials.run import ModelPlant, Plant, run_program
+
+STW_NOISE_MPS = 0.05
+"""Standard deviation of the speed-log noise [m/s] (about 0.1 kn, a Doppler log's)."""
+WIND_SPEED_NOISE_MPS = 0.3
+"""Standard deviation of the anemometer's speed noise [m/s]."""
+WIND_ANGLE_NOISE_DEG = 2.0
+"""Standard deviation of the anemometer's angle noise [deg]."""
 
 MANEUVERS: dict[str, Callable[[], Program]] = {
     "turning-35": lambda: turning_circle(math.radians(35.0)),
@@ -48,19 +68,35 @@ class TruthShip:
     source: str
 
 
-def reference_ship(name: str = "kvlcc2", scale: str = "full") -> TruthShip:
-    """Return the MMG reference vessel (only ``kvlcc2`` today) at ``scale`` full or model."""
+def reference_ship(
+    name: str = "kvlcc2", scale: str = "full", environment: SeaEnvironment | None = None
+) -> TruthShip:
+    """Return the MMG reference vessel (only ``kvlcc2`` today) at ``scale`` full or model.
+
+    With an ``environment`` it sails in that current and wind (``scenarios.kvlcc2``,
+    windage of ``docs/kvlcc2_environment.md``), all values at the ship's scale; its
+    ``source`` says so. Without, it is the calm-water ship.
+    """
     if name != "kvlcc2":
         raise ValueError(f"unknown reference vessel {name!r} (known: kvlcc2)")
     ship = kvlcc2(scale)
+    plant = ReferencePlant(ship, environment)
+    source = f"KVLCC2 MMG standard model (Yasukawa & Yoshimura 2015), {scale} scale"
+    if environment is not None:
+        source += f"; at sea: {environment.describe(plant.gust_time_s)}"
+        if environment.has_wind:
+            source += (
+                "; wind load Blendermann (1994) loaded tanker on the estimated windage of "
+                "docs/kvlcc2_environment.md"
+            )
     return TruthShip(
         name=f"kvlcc2-{scale}",
-        plant=ReferencePlant(ship),
+        plant=plant,
         length_m=ship.length_m,
         speed_mps=ship.approach_speed_mps,
         n_rps=ship.nominal_rps,
         rudder_rate_radps=ship.rudder_rate_radps,
-        source=f"KVLCC2 MMG standard model (Yasukawa & Yoshimura 2015), {scale} scale",
+        source=source,
     )
 
 
@@ -110,6 +146,13 @@ def synthesize_log(
         Simulation step [s]; defaults to the largest divisor of the logging interval
         not above 0.1 s · √(L / 320 m) (0.1 s at full scale KVLCC2).
 
+    Returns
+    -------
+    ManeuverLog
+        The log; at sea (a :class:`~scenarios.kvlcc2.ReferencePlant` with an
+        environment) with ``stw_mps`` and, when there is a wind, ``wind_speed_mps`` and
+        ``wind_angle_rad`` (module docstring).
+
     """
     if rate_hz <= 0.0 or position_noise_m < 0.0 or heading_noise_deg < 0.0:
         raise ValueError("rate_hz must be positive and noise levels non-negative")
@@ -126,23 +169,46 @@ def synthesize_log(
     )[::every]
     rng = np.random.default_rng(seed)
     size = run.size
+    time_s = run["time_s"] - run["time_s"][0]
     heading = run["psi_rad"] + math.radians(heading_noise_deg) * rng.standard_normal(size)
+    x_m = run["x_m"] + position_noise_m * rng.standard_normal(size)
+    y_m = run["y_m"] + position_noise_m * rng.standard_normal(size)
+    source = (
+        f"synthetic {program.name}: {ship.source}; {rate_hz:g} Hz, position noise "
+        f"{position_noise_m:g} m, heading noise {heading_noise_deg:g} deg, seed {seed}"
+    )
+    sensors: dict[str, np.ndarray] = {}
+    plant = ship.plant
+    if isinstance(plant, ReferencePlant) and plant.environment is not None:
+        # drawn after the required columns' noise: those stay as in calm water
+        stw = np.hypot(run["u_mps"], run["v_mps"]) + STW_NOISE_MPS * rng.standard_normal(size)
+        sensors["stw_mps"] = np.abs(stw)
+        source += f"; speed-log noise {STW_NOISE_MPS:g} m/s"
+        if plant.environment.has_wind:
+            speed, angle = plant.apparent_wind(time_s, run["u_mps"], run["v_mps"], run["psi_rad"])
+            speed = speed + WIND_SPEED_NOISE_MPS * rng.standard_normal(size)
+            angle = angle + math.radians(WIND_ANGLE_NOISE_DEG) * rng.standard_normal(size)
+            sensors["wind_speed_mps"] = np.abs(speed)
+            sensors["wind_angle_rad"] = np.mod(angle, 2.0 * math.pi)
+            source += (
+                f"; anemometer noise {WIND_SPEED_NOISE_MPS:g} m/s, {WIND_ANGLE_NOISE_DEG:g} deg"
+            )
     return ManeuverLog(
-        time_s=run["time_s"] - run["time_s"][0],
-        x_m=run["x_m"] + position_noise_m * rng.standard_normal(size),
-        y_m=run["y_m"] + position_noise_m * rng.standard_normal(size),
+        time_s=time_s,
+        x_m=x_m,
+        y_m=y_m,
         heading_rad=heading,
         rudder_rad=run["rudder_rad"],
         n_rps=run["n_rps"],
         metadata={
             "vessel": ship.name,
             "length_m": repr(ship.length_m),
-            "source": (
-                f"synthetic {program.name}: {ship.source}; {rate_hz:g} Hz, position noise "
-                f"{position_noise_m:g} m, heading noise {heading_noise_deg:g} deg, seed {seed}"
-            ),
+            "source": source,
             "execute_time_s": repr(approach_s),
         },
+        wind_speed_mps=sensors.get("wind_speed_mps"),
+        wind_angle_rad=sensors.get("wind_angle_rad"),
+        stw_mps=sensors.get("stw_mps"),
     )
 
 
@@ -169,6 +235,7 @@ def synthesize_logs(
     heading_noise_deg: float = 0.1,
     seed: int = 0,
     approach_s: float = 60.0,
+    environment: SeaEnvironment | None = None,
     on_log: Callable[[Path], object] | None = None,
 ) -> list[Path]:
     """Write one synthetic trial log per manoeuvre, ``directory/<manoeuvre>.csv``.
@@ -185,6 +252,10 @@ def synthesize_logs(
         As ``synthesize_log`` [Hz, m, deg, s].
     seed : int
         Run seed; each manoeuvre's noise seed is :func:`maneuver_seed` of it.
+    environment : SeaEnvironment, optional
+        Current and wind the ship sails in (values at the ship's scale); calm water
+        when None. Its ``gust_seed`` is replaced by each manoeuvre's noise seed, so the
+        gusts too are reproducible from ``seed``.
     on_log : callable, optional
         Called with each path written.
 
@@ -205,13 +276,16 @@ def synthesize_logs(
         raise ScenarioError(str(exc)) from None
     written = []
     for name in dict.fromkeys(maneuvers):  # once each, in order
+        noise_seed = maneuver_seed(seed, name)
+        if environment is not None:
+            ship = reference_ship(vessel, scale, replace(environment, gust_seed=noise_seed))
         log = synthesize_log(
             ship,
             MANEUVERS[name](),
             rate_hz=rate_hz,
             position_noise_m=position_noise_m,
             heading_noise_deg=heading_noise_deg,
-            seed=maneuver_seed(seed, name),
+            seed=noise_seed,
             approach_s=approach_s,
         )
         path = Path(directory) / f"{name}.csv"

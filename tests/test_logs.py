@@ -7,6 +7,7 @@ import pickle
 import re
 import tempfile
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ from trials.logs import (
     LOG_COLUMNS,
     MAX_POSITION_M,
     MIN_SAMPLES,
+    OPTIONAL_COLUMNS,
     ManeuverLog,
     format_log,
     parse_log,
@@ -103,6 +105,23 @@ def _example_log(n: int = 15, **metadata: str) -> ManeuverLog:
         n_rps=np.full(n, 1.6),
         metadata=metadata or {"vessel": "kvlcc2", "length_m": "320.0", "source": "unit test"},
     )
+
+
+def _with_optional_columns(n_rows: int = N_ROWS) -> list[str]:
+    """_valid_lines() with wind_speed_mps, wind_angle_deg and stw_mps appended."""
+    lines = _valid_lines(n_rows)
+    lines[HEADER_LINE - 1] += "," + ",".join(OPTIONAL_COLUMNS)
+    for row in range(n_rows):
+        lines[_row_line(row) - 1] += f",{10.0 + row},{350.0 + 2.0 * row},{7.5 - 0.25 * row}"
+    return lines
+
+
+def _with_optional_cell(row: int, column: str, value: str) -> str:
+    lines = _with_optional_columns()
+    fields = lines[_row_line(row) - 1].split(",")
+    fields[(*LOG_COLUMNS, *OPTIONAL_COLUMNS).index(column)] = value
+    lines[_row_line(row) - 1] = ",".join(fields)
+    return _text(lines)
 
 
 # --------------------------------------------------------------------------- reading
@@ -189,6 +208,39 @@ def test_quoted_header_and_cells_are_read() -> None:
     lines += [f'{i},"{i}.5",0,0,0,60' for i in range(MIN_SAMPLES)]
     log = parse_log(_text(lines))
     np.testing.assert_array_equal(log.x_m, np.arange(MIN_SAMPLES) + 0.5)
+
+
+def test_optional_columns_are_read_when_present_and_none_when_absent() -> None:
+    plain = parse_log(_text(_valid_lines()))
+    assert (plain.wind_speed_mps, plain.wind_angle_rad, plain.stw_mps) == (None, None, None)
+
+    log = parse_log(_text(_with_optional_columns()))
+    rows = np.arange(N_ROWS)
+    for name in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps"):
+        np.testing.assert_array_equal(getattr(log, name), getattr(plain, name))
+    assert log.wind_speed_mps is not None
+    assert log.wind_angle_rad is not None
+    assert log.stw_mps is not None
+    np.testing.assert_array_equal(log.wind_speed_mps, 10.0 + rows)
+    # 350, 352, ... 372 deg: read as it is, not wrapped nor unwrapped
+    np.testing.assert_allclose(log.wind_angle_rad, np.deg2rad(350.0 + 2.0 * rows), rtol=1e-15)
+    np.testing.assert_array_equal(log.stw_mps, 7.5 - 0.25 * rows)
+    for array in (log.wind_speed_mps, log.wind_angle_rad, log.stw_mps):
+        assert array.dtype == np.float64
+        assert not array.flags.writeable
+
+
+def test_one_optional_column_alone_in_any_place() -> None:
+    lines = _valid_lines()
+    lines[HEADER_LINE - 1] = "stw_mps," + lines[HEADER_LINE - 1]
+    for row in range(N_ROWS):
+        lines[_row_line(row) - 1] = f"{6.0 + row}," + lines[_row_line(row) - 1]
+    log = parse_log(_text(lines))
+    assert log.wind_speed_mps is None
+    assert log.wind_angle_rad is None
+    assert log.stw_mps is not None
+    np.testing.assert_array_equal(log.stw_mps, 6.0 + np.arange(N_ROWS))
+    assert format_log(log).split("\n")[len(METADATA)] == HEADER + ",stw_mps"
 
 
 def test_exactly_min_samples_rows_is_enough() -> None:
@@ -343,6 +395,70 @@ BAD_LOGS: list[tuple[str, Callable[[], str], int | None, str | None, str]] = [
         HEADER_LINE,
         "x_m",
         r"column 'x_m': expected each column once, got 'x_m' in fields 2, 7$",
+    ),
+    (
+        "duplicate optional column",
+        lambda: _with_line(HEADER_LINE, HEADER + ",stw_mps,stw_mps"),
+        HEADER_LINE,
+        "stw_mps",
+        r"column 'stw_mps': expected each column once, got 'stw_mps' in fields 7, 8$",
+    ),
+    (
+        "text in the wind speed column",
+        lambda: _with_optional_cell(3, "wind_speed_mps", "calm"),
+        _row_line(3),
+        "wind_speed_mps",
+        r"column 'wind_speed_mps': expected a finite number, got 'calm'$",
+    ),
+    (
+        "empty wind angle",
+        lambda: _with_optional_cell(0, "wind_angle_deg", ""),
+        _row_line(0),
+        "wind_angle_deg",
+        r"column 'wind_angle_deg': expected a finite number, got an empty field$",
+    ),
+    (
+        "nan speed through the water",
+        lambda: _with_optional_cell(11, "stw_mps", "nan"),
+        _row_line(11),
+        "stw_mps",
+        r"column 'stw_mps': expected a finite number, got 'nan'$",
+    ),
+    (
+        "negative wind speed",
+        lambda: _with_optional_cell(2, "wind_speed_mps", "-0.5"),
+        _row_line(2),
+        "wind_speed_mps",
+        r"column 'wind_speed_mps': expected a wind speed from 0 to 100 m/s, got '-0\.5'$",
+    ),
+    (
+        "wind speed beyond the bound",
+        lambda: _with_optional_cell(2, "wind_speed_mps", "100.5"),
+        _row_line(2),
+        "wind_speed_mps",
+        r"column 'wind_speed_mps': expected a wind speed from 0 to 100 m/s, got '100\.5'$",
+    ),
+    (
+        "wind angle beyond the bound",
+        lambda: _with_optional_cell(5, "wind_angle_deg", "-36000.1"),
+        _row_line(5),
+        "wind_angle_deg",
+        r"column 'wind_angle_deg': expected a wind angle within ±36000 deg \(100 turns\), "
+        r"got '-36000\.1'$",
+    ),
+    (
+        "negative speed through the water",
+        lambda: _with_optional_cell(4, "stw_mps", "-1e-9"),
+        _row_line(4),
+        "stw_mps",
+        r"column 'stw_mps': expected a speed through the water from 0 to 50 m/s, got '-1e-9'$",
+    ),
+    (
+        "speed through the water beyond the bound",
+        lambda: _with_optional_cell(4, "stw_mps", "51"),
+        _row_line(4),
+        "stw_mps",
+        r"column 'stw_mps': expected a speed through the water from 0 to 50 m/s, got '51'$",
     ),
     (
         "no header",
@@ -544,6 +660,44 @@ def test_write_then_read_round_trips(tmp_path: Path) -> None:
     assert os.listdir(path.parent) == ["trial.csv"]
 
 
+def test_write_then_read_round_trips_the_optional_columns(tmp_path: Path) -> None:
+    log = _example_log()
+    n = log.n_samples
+    full = ManeuverLog(
+        log.time_s,
+        log.x_m,
+        log.y_m,
+        log.heading_rad,
+        log.rudder_rad,
+        log.n_rps,
+        log.metadata,
+        wind_speed_mps=np.linspace(0.0, 31.7, n),
+        wind_angle_rad=np.linspace(-np.pi, 3.0 * np.pi, n),
+        stw_mps=np.linspace(8.1, 3.3, n),
+    )
+    path = tmp_path / "trial.csv"
+
+    write_log(path, full)
+    back = read_log(path)
+
+    assert path.read_text().split("\n")[len(log.metadata)] == (
+        HEADER + ",wind_speed_mps,wind_angle_deg,stw_mps"
+    )
+    assert back.wind_speed_mps is not None
+    assert back.wind_angle_rad is not None
+    assert back.stw_mps is not None
+    assert full.wind_angle_rad is not None
+    np.testing.assert_array_equal(back.wind_speed_mps, full.wind_speed_mps)
+    np.testing.assert_array_equal(back.stw_mps, full.stw_mps)
+    np.testing.assert_allclose(back.wind_angle_rad, full.wind_angle_rad, rtol=1e-12, atol=0)
+    np.testing.assert_array_equal(back.x_m, log.x_m)
+
+    # absent fields are absent from the file
+    only_stw = replace(full, metadata={}, wind_speed_mps=None, wind_angle_rad=None)
+    assert format_log(only_stw).split("\n")[0] == HEADER + ",stw_mps"
+    assert format_log(log).split("\n")[len(log.metadata)] == HEADER
+
+
 def test_format_log_layout() -> None:
     log = ManeuverLog(
         time_s=np.array([0.0, 0.1]),
@@ -595,6 +749,15 @@ def test_maneuver_log_stores_read_only_float_copies() -> None:
     with pytest.raises(TypeError):
         log.metadata["vessel"] = "c"  # type: ignore[index]
 
+    stw = np.arange(12)
+    with_stw = ManeuverLog(time_s, x_m, x_m, x_m, x_m, x_m, stw_mps=stw)  # type: ignore[arg-type]
+    stw[0] = 99
+    assert with_stw.stw_mps is not None
+    assert with_stw.stw_mps[0] == 0.0
+    assert with_stw.stw_mps.dtype == np.float64
+    with pytest.raises(ValueError, match="read-only"):
+        with_stw.stw_mps[0] = 1.0
+
 
 @pytest.mark.parametrize(
     ("change", "message"),
@@ -609,6 +772,10 @@ def test_maneuver_log_stores_read_only_float_copies() -> None:
         ({"metadata": {"source": "two\nlines"}}, r"metadata 'source' must be one line"),
         ({"metadata": {"source": " padded"}}, r"metadata 'source' must be one line"),
         ({"metadata": {"length_m": 320.0}}, r"metadata 'length_m' must be a str"),
+        ({"stw_mps": np.zeros(11)}, r"arrays differ in length: .*'stw_mps': 11"),
+        ({"wind_speed_mps": np.r_[np.zeros(11), np.inf]}, r"wind_speed_mps\[11\] is not finite"),
+        ({"wind_angle_rad": np.zeros((12, 2))}, r"wind_angle_rad must be one-dimensional"),
+        ({"stw_mps": np.array(["1"] * 12)}, r"stw_mps must be real-valued"),
     ],
 )
 def test_maneuver_log_invariants(change: dict[str, object], message: str) -> None:
@@ -844,6 +1011,9 @@ def maneuver_logs(draw: st.DrawFn) -> ManeuverLog:
         rudder_rad=floats(-0.7, 0.7, n),
         n_rps=floats(0.0, 5.0, n),
         metadata=metadata,
+        wind_speed_mps=floats(0.0, 100.0, n) if draw(st.booleans()) else None,
+        wind_angle_rad=floats(-600.0, 600.0, n) if draw(st.booleans()) else None,
+        stw_mps=floats(0.0, 50.0, n) if draw(st.booleans()) else None,
     )
 
 
@@ -861,6 +1031,11 @@ def test_random_logs_round_trip_through_a_file(log: ManeuverLog) -> None:
     for name in ("heading_rad", "rudder_rad", "n_rps"):
         np.testing.assert_allclose(getattr(back, name), getattr(log, name), rtol=1e-12, atol=0)
     assert dict(back.metadata) == dict(log.metadata)
+    for name in ("wind_speed_mps", "wind_angle_rad", "stw_mps"):
+        if getattr(log, name) is None:
+            assert getattr(back, name) is None
+        else:
+            np.testing.assert_allclose(getattr(back, name), getattr(log, name), rtol=1e-12, atol=0)
 
 
 @settings(max_examples=100, deadline=None)
@@ -874,11 +1049,12 @@ def test_single_cell_corruption_names_line_and_column(
 ) -> None:
     lines = format_log(log).split("\n")
     header_index = len(log.metadata)  # 0-based: the metadata lines come first
-    assert lines[header_index] == HEADER
+    header = lines[header_index].split(",")
+    assert header[: len(LOG_COLUMNS)] == list(LOG_COLUMNS)
     row = data.draw(st.integers(0, log.n_samples - 1), label="row")
-    column = data.draw(st.sampled_from(LOG_COLUMNS), label="column")
+    column = data.draw(st.sampled_from(header), label="column")
     fields = lines[header_index + 1 + row].split(",")
-    fields[LOG_COLUMNS.index(column)] = bad
+    fields[header.index(column)] = bad
     lines[header_index + 1 + row] = ",".join(fields)
     line = header_index + 2 + row  # 1-based
 

@@ -19,21 +19,24 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
   ``length_m``, if present, must be a ship length from 0.1 to 1000 m (the FMU's
   bounds), and ``vessel`` printable text (it becomes the FMU's name).
 - The header names the columns; ``time_s, x_m, y_m, heading_deg, rudder_deg, rpm``
-  must all be present, in any order; other columns are ignored (their cells are
-  not checked). Names are case-sensitive; whitespace around names is ignored.
+  must all be present, in any order. The optional columns (:data:`OPTIONAL_COLUMNS`)
+  may be present, each once; other columns are ignored (their cells are not checked).
+  Names are case-sensitive; whitespace around names is ignored.
 - The separator is ``,`` only. A semicolon-, tab- or space-separated file (as some
   spreadsheets write with a decimal comma) is rejected with an error that names
   the expected ``','`` separator: guessing the separator would also mean guessing
   the decimal mark.
-- Every data row has as many fields as the header. Each cell of a required column
-  is a plain decimal number (``12``, ``-0.5``, ``1.5e-3``; whitespace around it is
-  ignored) and finite: ``nan``, ``inf``, empty cells, text and values that overflow
-  (``1e999``) are rejected.
+- Every data row has as many fields as the header. Each cell of a required column,
+  and of an optional column that is present, is a plain decimal number (``12``,
+  ``-0.5``, ``1.5e-3``; whitespace around it is ignored) and finite: ``nan``,
+  ``inf``, empty cells, text and values that overflow (``1e999``) are rejected.
 - Plausibility bounds, so that no value overflows the arithmetic downstream:
   ``|time_s|`` ≤ :data:`MAX_TIME_S`, ``|x_m|`` and ``|y_m|`` ≤ :data:`MAX_POSITION_M`,
   ``|heading_deg|`` ≤ :data:`MAX_HEADING_DEG`, ``|rudder_deg|`` ≤
   :data:`MAX_RUDDER_DEG`, and ``rpm`` from 0 to :data:`MAX_RPM` (astern, a negative
-  rpm, cannot be identified by these models).
+  rpm, cannot be identified by these models); when present, ``wind_speed_mps`` from 0
+  to :data:`MAX_WIND_SPEED_MPS`, ``|wind_angle_deg|`` ≤ :data:`MAX_WIND_ANGLE_DEG` and
+  ``stw_mps`` from 0 to :data:`MAX_STW_MPS`.
 - ``time_s`` increases strictly (irregular sampling is fine), without a step longer
   than the rest of the log together (two runs in one file: split it there); at least
   :data:`MIN_SAMPLES` rows.
@@ -43,6 +46,17 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
 - ``heading_deg`` may be wrapped (0..360) or continuous: it is unwrapped on reading
   with ``np.unwrap``, so a heading change of half a turn or more between two
   consecutive samples cannot be represented.
+
+Optional columns, what the ship's own sensors measured (an NMEA recording gives them
+from MWV and VHW/VBW sentences):
+
+- ``wind_speed_mps``: the apparent (relative) wind speed, as an anemometer on board
+  measures it: the air's velocity relative to the moving ship [m/s].
+- ``wind_angle_deg``: the apparent wind's angle relative to the bow, the direction the
+  wind comes **from**: 0 = from ahead, positive from starboard (90 = on the starboard
+  beam, 180 = from astern, 270 or -90 = on the port beam) [deg]. Wrapped (0..360) or
+  not; it is read as it is (converted to radians, not unwrapped).
+- ``stw_mps``: speed through the water from a speed log [m/s].
 
 Every violation raises :class:`~trials.errors.LogFormatError` with the file,
 the 1-based line number (None for whole-file problems), the column where one
@@ -76,8 +90,12 @@ __all__ = [
     "MAX_POSITION_M",
     "MAX_RPM",
     "MAX_RUDDER_DEG",
+    "MAX_STW_MPS",
     "MAX_TIME_S",
+    "MAX_WIND_ANGLE_DEG",
+    "MAX_WIND_SPEED_MPS",
     "MIN_SAMPLES",
+    "OPTIONAL_COLUMNS",
     "ManeuverLog",
     "format_log",
     "parse_log",
@@ -100,6 +118,10 @@ a log is informative enough; the identification judges that.
 LOG_COLUMNS: Final = ("time_s", "x_m", "y_m", "heading_deg", "rudder_deg", "rpm")
 """The required columns of a trial log, in the order :func:`format_log` writes them."""
 
+OPTIONAL_COLUMNS: Final = ("wind_speed_mps", "wind_angle_deg", "stw_mps")
+"""The optional columns of a trial log, in the order :func:`format_log` writes them
+(after :data:`LOG_COLUMNS`, each only when the log has it)."""
+
 MAX_TIME_S: Final = 1.0e10
 """Largest ``|time_s|`` [s]: about 317 years, so that Unix or GPS time in seconds fits,
 and milliseconds since 1970 (1.7e12) do not."""
@@ -114,6 +136,13 @@ MAX_RPM: Final = MAX_PROPELLER_RPM
 """Largest ``rpm``, the FMU's input bound (100 rev/s: no ship propeller turns faster).
 The least is 0: the models have no astern-propeller terms, so astern running cannot be
 identified or validated."""
+MAX_WIND_SPEED_MPS: Final = 100.0
+"""Largest ``wind_speed_mps`` [m/s]: above any recorded gust at sea (hurricane force
+is 33 m/s); the least is 0."""
+MAX_WIND_ANGLE_DEG: Final = 36000.0
+"""Largest ``|wind_angle_deg|``, as for the heading: 100 turns."""
+MAX_STW_MPS: Final = 50.0
+"""Largest ``stw_mps`` [m/s] (97 kn: no displacement ship is faster); the least is 0."""
 
 _SEPARATOR: Final = ","
 _OTHER_SEPARATORS: Final = ((";", "';'"), ("\t", "a tab"), ("|", "'|'"))
@@ -141,7 +170,20 @@ _BOUNDS: Final = {
         f"a rudder angle within ±{MAX_RUDDER_DEG:g} deg",
     ),
     "rpm": (0.0, MAX_RPM, f"a propeller speed from 0 to {MAX_RPM:g} rpm"),
+    "wind_speed_mps": (
+        0.0,
+        MAX_WIND_SPEED_MPS,
+        f"a wind speed from 0 to {MAX_WIND_SPEED_MPS:g} m/s",
+    ),
+    "wind_angle_deg": (
+        -MAX_WIND_ANGLE_DEG,
+        MAX_WIND_ANGLE_DEG,
+        f"a wind angle within ±{MAX_WIND_ANGLE_DEG:g} deg (100 turns)",
+    ),
+    "stw_mps": (0.0, MAX_STW_MPS, f"a speed through the water from 0 to {MAX_STW_MPS:g} m/s"),
 }
+# ManeuverLog's optional arrays, in the order of OPTIONAL_COLUMNS.
+_OPTIONAL_FIELDS: Final = ("wind_speed_mps", "wind_angle_rad", "stw_mps")
 _ASTERN_HINT: Final = (
     " (astern: the models have no astern-propeller terms, so astern running cannot be "
     "identified; cut it out of the log)"
@@ -183,13 +225,24 @@ class ManeuverLog:
         :func:`format_log` can write them back unchanged.
     path : str or None
         File the log was read from, used in error messages; None if built in memory.
+    wind_speed_mps : numpy.ndarray or None
+        Apparent wind speed measured on board [m/s] (column ``wind_speed_mps``); None
+        when the log has no such column.
+    wind_angle_rad : numpy.ndarray or None
+        Apparent wind angle relative to the bow, the direction the wind comes from: 0
+        from ahead, positive from starboard [rad] (column ``wind_angle_deg``, not
+        unwrapped); None when absent.
+    stw_mps : numpy.ndarray or None
+        Speed through the water from a speed log [m/s] (column ``stw_mps``); None when
+        absent.
 
     Raises
     ------
     ValueError
         If an array is not one-dimensional, not real-valued, not finite, the arrays
-        differ in length, time does not increase strictly, or the metadata cannot be
-        written back (internal invariant: a log read from a file always satisfies it).
+        (the optional ones too, when given) differ in length, time does not increase
+        strictly, or the metadata cannot be written back (internal invariant: a log
+        read from a file always satisfies it).
 
     """
 
@@ -201,9 +254,13 @@ class ManeuverLog:
     n_rps: _FloatArray
     metadata: Mapping[str, str] = field(default_factory=_empty_metadata)
     path: str | None = None
+    wind_speed_mps: _FloatArray | None = None
+    wind_angle_rad: _FloatArray | None = None
+    stw_mps: _FloatArray | None = None
 
     def __post_init__(self) -> None:
-        names = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
+        names: tuple[str, ...] = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
+        names += tuple(name for name in _OPTIONAL_FIELDS if getattr(self, name) is not None)
         for name in names:
             object.__setattr__(self, name, _frozen_float_array(name, getattr(self, name)))
         lengths = {name: len(getattr(self, name)) for name in names}
@@ -301,7 +358,8 @@ def parse_log(text: str, path: str | os.PathLike[str] | None = None) -> Maneuver
 def format_log(log: ManeuverLog) -> str:
     """Return the CSV text of a trial log: metadata lines, header, one row per sample.
 
-    Columns are written in the order of :data:`LOG_COLUMNS`, with degrees and rpm,
+    Columns are written in the order of :data:`LOG_COLUMNS`, then those of
+    :data:`OPTIONAL_COLUMNS` the log has (its field is not None), with degrees and rpm,
     and every value with Python's shortest round-trip ``repr``, so that
     ``parse_log(format_log(log))`` gives back time and positions exactly and
     heading, rudder and propeller speed to within a few units in the last place
@@ -334,12 +392,19 @@ def format_log(log: ManeuverLog) -> str:
             "rudder_deg": np.rad2deg(log.rudder_rad),
             "rpm": log.n_rps * _SECONDS_PER_MINUTE,
         }
+        angle = None if log.wind_angle_rad is None else np.rad2deg(log.wind_angle_rad)
+    optional = (
+        ("wind_speed_mps", log.wind_speed_mps),
+        ("wind_angle_deg", angle),
+        ("stw_mps", log.stw_mps),
+    )
+    columns.update((name, values) for name, values in optional if values is not None)
     for column, values in columns.items():
         if not np.all(np.isfinite(values)):
             raise ValueError(f"column {column!r} overflows when converted to file units")
     lines = [f"# {key}: {value}".rstrip() for key, value in log.metadata.items()]
-    lines.append(_SEPARATOR.join(LOG_COLUMNS))
-    rows = zip(*(columns[column].tolist() for column in LOG_COLUMNS), strict=True)
+    lines.append(_SEPARATOR.join(columns))
+    rows = zip(*(values.tolist() for values in columns.values()), strict=True)
     lines.extend(_SEPARATOR.join(map(repr, row)) for row in rows)
     return "\n".join(lines) + "\n"
 
@@ -460,11 +525,12 @@ class _Parser:
         self.metadata_lines: dict[str, int] = {}
         self.header_line: int | None = None
         self.n_fields = 0
+        self.columns: tuple[str, ...] = LOG_COLUMNS  # + the optional ones present
         self.column_index: list[int] = []
         self.first_blank_line: int | None = None
         self.seen_text = False
         self.row_lines: list[int] = []
-        self.values: list[list[float]] = [[] for _ in LOG_COLUMNS]
+        self.values: list[list[float]] = []
 
     def error(
         self, message: str, line: int | None, expected: str, column: str | None = None
@@ -562,7 +628,7 @@ class _Parser:
                 number,
                 expected=f"columns {', '.join(LOG_COLUMNS)}",
             )
-        for column in LOG_COLUMNS:
+        for column in LOG_COLUMNS + OPTIONAL_COLUMNS:
             positions = [i + 1 for i, name in enumerate(names) if name == column]
             if len(positions) > 1:
                 raise self.error(
@@ -574,7 +640,9 @@ class _Parser:
                 )
         self.header_line = number
         self.n_fields = len(names)
-        self.column_index = [names.index(column) for column in LOG_COLUMNS]
+        self.columns = LOG_COLUMNS + tuple(c for c in OPTIONAL_COLUMNS if c in names)
+        self.column_index = [names.index(column) for column in self.columns]
+        self.values = [[] for _ in self.columns]
 
     def check_separator(self, number: int, line: str, expected_header: str) -> None:
         """Reject a header that uses another separator than ','."""
@@ -610,7 +678,7 @@ class _Parser:
                 number,
                 expected=f"{self.n_fields} fields",
             )
-        for column, index, values in zip(LOG_COLUMNS, self.column_index, self.values, strict=True):
+        for column, index, values in zip(self.columns, self.column_index, self.values, strict=True):
             cell = fields[index].strip()
             value = float(cell) if NUMBER.fullmatch(cell) else math.nan
             if not math.isfinite(value):
@@ -676,9 +744,12 @@ class _Parser:
                 None,
                 expected=f"at least {MIN_SAMPLES} data rows",
             )
-        time_s, x_m, y_m, heading_deg, rudder_deg, rpm = (
-            np.array(values, dtype=np.float64) for values in self.values
-        )
+        arrays = {
+            column: np.array(values, dtype=np.float64)
+            for column, values in zip(self.columns, self.values, strict=True)
+        }
+        time_s, x_m, y_m, heading_deg, rudder_deg, rpm = (arrays[c] for c in LOG_COLUMNS)
+        wind_angle_deg = arrays.get("wind_angle_deg")
         steps = np.diff(time_s)
         if np.any(steps <= 0.0):
             k = int(np.flatnonzero(steps <= 0.0)[0]) + 1
@@ -703,4 +774,7 @@ class _Parser:
             n_rps=rpm / _SECONDS_PER_MINUTE,
             metadata=self.metadata,
             path=self.path,
+            wind_speed_mps=arrays.get("wind_speed_mps"),
+            wind_angle_rad=None if wind_angle_deg is None else np.deg2rad(wind_angle_deg),
+            stw_mps=arrays.get("stw_mps"),
         )

@@ -43,7 +43,11 @@ from scenarios.cli.fmu_runs import (
     run_turning_circle_command,
     run_zigzag_command,
 )
-from scenarios.cli.synthesize import add_synthesize_command, run_synthesize_command
+from scenarios.cli.synthesize import (
+    add_synthesize_command,
+    check_synthesize_usage,
+    run_synthesize_command,
+)
 from scenarios.cli.uncertainty import add_uncertainty_command, run_uncertainty_command
 from scenarios.cli.validation import (
     add_demo_command,
@@ -105,6 +109,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "validate":
         check_validate_usage(commands["validate"], args)
+    if args.command == "synthesize":
+        check_synthesize_usage(commands["synthesize"], args)
     try:
         return _COMMANDS[args.command](args)
     except (

@@ -1,15 +1,34 @@
-"""``python -m scenarios synthesize``: reference-ship trial logs, DIR/<manoeuvre>.csv."""
+"""``python -m scenarios synthesize``: reference-ship trial logs, DIR/<manoeuvre>.csv.
+
+At sea with ``--current-mps C --current-to-deg D`` (optionally changing linearly,
+``--current-change-mps-per-h``, ``--current-veer-deg-per-h``) and/or ``--wind-mps W
+--wind-from-deg D`` (optionally gusty, ``--gust-std-mps S [--gust-time-s T]``); every
+value at the ship's scale. The logs then carry ``stw_mps`` and, with a wind,
+``wind_speed_mps`` and ``wind_angle_deg`` (``scenarios.synthesize``); their ``# source:``
+line names the environment. Without these options the logs are the calm-water ones.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
 from fmu_model import argtypes
 from scenarios.cli.common import make_bars
+from scenarios.sea import SeaEnvironment
 from scenarios.synthesize import MANEUVERS, synthesize_logs
 
-__all__ = ["add_synthesize_command", "run_synthesize_command"]
+__all__ = ["add_synthesize_command", "check_synthesize_usage", "run_synthesize_command"]
+
+MAX_CURRENT_MPS = 5.0
+"""Largest ``--current-mps`` [m/s] (10 kn: beyond all but a few tidal races)."""
+MAX_WIND_MPS = 40.0
+"""Largest ``--wind-mps`` [m/s] (hurricane force is 33 m/s; the apparent wind, gusts and
+the ship's own speed added, stays within the log's 100 m/s)."""
+MAX_GUST_STD_MPS = 5.0
+"""Largest ``--gust-std-mps`` [m/s]."""
+_SECONDS_PER_HOUR = 3600.0
 
 
 def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
@@ -34,6 +53,101 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--approach-s", type=argtypes.non_negative, default=60.0, help="approach [s]")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    sea = p.add_argument_group(
+        "at sea",
+        "a uniform current and a wind, at the ship's scale (docs/kvlcc2_environment.md); "
+        "the logs then carry stw_mps and, with a wind, wind_speed_mps and wind_angle_deg",
+    )
+    sea.add_argument(
+        "--current-mps",
+        type=argtypes.within(0.0, MAX_CURRENT_MPS, "m/s"),
+        metavar="C",
+        help="current speed over ground [m/s] (needs --current-to-deg)",
+    )
+    sea.add_argument(
+        "--current-to-deg",
+        type=argtypes.within(-360.0, 360.0, "deg"),
+        metavar="D",
+        help="direction the current sets towards, clockwise from North [deg]",
+    )
+    sea.add_argument(
+        "--current-change-mps-per-h",
+        type=argtypes.within(-MAX_CURRENT_MPS, MAX_CURRENT_MPS, "m/s per hour"),
+        metavar="R",
+        help="linear change of the current speed over the run [m/s per hour] (default 0)",
+    )
+    sea.add_argument(
+        "--current-veer-deg-per-h",
+        type=argtypes.within(-360.0, 360.0, "deg per hour"),
+        metavar="R",
+        help="linear change of the current direction, clockwise positive [deg per hour]",
+    )
+    sea.add_argument(
+        "--wind-mps",
+        type=argtypes.within(0.0, MAX_WIND_MPS, "m/s"),
+        metavar="W",
+        help="mean true wind speed over ground [m/s] (needs --wind-from-deg)",
+    )
+    sea.add_argument(
+        "--wind-from-deg",
+        type=argtypes.within(-360.0, 360.0, "deg"),
+        metavar="D",
+        help="direction the true wind comes from, clockwise from North [deg]",
+    )
+    sea.add_argument(
+        "--gust-std-mps",
+        type=argtypes.within(0.0, MAX_GUST_STD_MPS, "m/s"),
+        metavar="S",
+        help="gusts: standard deviation of a first-order Gauss-Markov wind speed [m/s]",
+    )
+    sea.add_argument(
+        "--gust-time-s",
+        type=argtypes.within(0.1, 3600.0, "s"),
+        metavar="T",
+        help="gusts: correlation time [s] (default 60 s at full scale, Froude-scaled)",
+    )
+
+
+# (option, the option it needs): an option given without the one it belongs to
+_NEEDS = (
+    ("current_to_deg", "current_mps"),
+    ("current_change_mps_per_h", "current_mps"),
+    ("current_veer_deg_per_h", "current_mps"),
+    ("wind_from_deg", "wind_mps"),
+    ("gust_std_mps", "wind_mps"),
+    ("gust_time_s", "gust_std_mps"),
+)
+
+
+def _option(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def check_synthesize_usage(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Exit 2 (``parser``, the synthesize subparser) for an environment option out of place."""
+    if args.current_mps is not None and args.current_to_deg is None:
+        parser.error("--current-mps needs --current-to-deg (the direction it sets towards)")
+    if args.wind_mps is not None and args.wind_from_deg is None:
+        parser.error("--wind-mps needs --wind-from-deg (the direction it comes from)")
+    for name, needed in _NEEDS:
+        if getattr(args, name) is not None and getattr(args, needed) is None:
+            parser.error(f"{_option(name)} needs {_option(needed)}")
+
+
+def _environment(args: argparse.Namespace) -> SeaEnvironment | None:
+    """Return the environment the options ask for; None when none is given."""
+    if args.current_mps is None and args.wind_mps is None:
+        return None
+    return SeaEnvironment(
+        current_speed_mps=args.current_mps or 0.0,
+        current_to_rad=math.radians(args.current_to_deg or 0.0),
+        current_change_mps2=(args.current_change_mps_per_h or 0.0) / _SECONDS_PER_HOUR,
+        current_veer_radps=math.radians(args.current_veer_deg_per_h or 0.0) / _SECONDS_PER_HOUR,
+        wind_speed_mps=args.wind_mps or 0.0,
+        wind_from_rad=math.radians(args.wind_from_deg or 0.0),
+        gust_std_mps=args.gust_std_mps or 0.0,
+        gust_time_s=args.gust_time_s,
+    )
 
 
 def run_synthesize_command(args: argparse.Namespace) -> int:
@@ -50,6 +164,7 @@ def run_synthesize_command(args: argparse.Namespace) -> int:
             heading_noise_deg=args.heading_noise_deg,
             seed=args.seed,
             approach_s=args.approach_s,
+            environment=_environment(args),
             on_log=lambda _path: bar.update(1),
         )
     finally:
