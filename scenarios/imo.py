@@ -17,6 +17,12 @@ perpendiculars [m], V = test speed [m/s]:
 
 "Should not exceed": a value equal to its limit passes. Angles are radians in this
 API; the human-readable text (``Criterion.describe``) and ``as_dict`` use degrees.
+
+A turning circle sailed in current drifts; MSC/Circ.1053 3.4.2.5 corrects it from a
+turn continued to 720° (``trials.current_correction``).
+:func:`turning_ability_in_current` judges §5.3.1 on the current-corrected indices when
+the estimated drift exceeds a stated threshold (1 % of the approach speed by default),
+else on the raw ones, and says which.
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from trials.current_correction import DRIFT_THRESHOLD_FRACTION, CurrentCorrection
 from trials.metrics import TurningMetrics, ZigzagMetrics
 
 __all__ = [
@@ -35,12 +42,14 @@ __all__ = [
     "TACTICAL_DIAMETER_LIMIT_L",
     "ZIGZAG_20_FIRST_OVERSHOOT_LIMIT_RAD",
     "Criterion",
+    "TurningJudgement",
     "evaluate",
     "first_overshoot_limit_10_rad",
     "initial_turning_ability",
     "second_overshoot_limit_10_rad",
     "stopping_ability",
     "turning_ability",
+    "turning_ability_in_current",
     "yaw_checking_10",
     "yaw_checking_20",
 ]
@@ -183,7 +192,9 @@ def second_overshoot_limit_10_rad(length_m: float, speed_mps: float) -> float:
     return _zigzag_10_limit_rad(length_m, speed_mps, 25.0, 40.0, 17.5, 0.75)
 
 
-def turning_ability(metrics: TurningMetrics, length_m: float) -> tuple[Criterion, Criterion]:
+def turning_ability(
+    metrics: TurningMetrics, length_m: float, *, note: str | None = None
+) -> tuple[Criterion, Criterion]:
     """Judge turning ability, §5.3.1: advance ≤ 4.5 L, tactical diameter ≤ 5 L.
 
     Parameters
@@ -192,6 +203,9 @@ def turning_ability(metrics: TurningMetrics, length_m: float) -> tuple[Criterion
         A turning circle at 35° (or the maximum) rudder angle.
     length_m : float
         Ship length L [m].
+    note : str, optional
+        Added to the side in the criteria's names, e.g. ``"current-corrected"`` gives
+        ``"turning ability: advance (starboard, current-corrected)"``.
 
     Returns
     -------
@@ -201,6 +215,8 @@ def turning_ability(metrics: TurningMetrics, length_m: float) -> tuple[Criterion
     """
     _require_positive(length_m, "length_m")
     side = "starboard" if metrics.direction > 0 else "port"
+    if note:
+        side = f"{side}, {note}"
     return (
         Criterion(
             name=f"turning ability: advance ({side})",
@@ -219,6 +235,87 @@ def turning_ability(metrics: TurningMetrics, length_m: float) -> tuple[Criterion
             length_m=length_m,
         ),
     )
+
+
+@dataclass(frozen=True)
+class TurningJudgement:
+    """Turning ability judged on the raw or on the current-corrected indices.
+
+    Attributes
+    ----------
+    criteria : tuple of Criterion
+        (advance, tactical diameter), §5.3.1.
+    corrected : bool
+        True when the criteria judge the current-corrected indices.
+    basis : str
+        ``"current-corrected"`` or ``"raw"``.
+    reason : str
+        Why, in words: the drift against its threshold, or why there is no estimate.
+
+    """
+
+    criteria: tuple[Criterion, Criterion]
+    corrected: bool
+    basis: str
+    reason: str
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON record: ``basis``, ``reason``, ``criteria`` (``Criterion.as_dict`` each)."""
+        return {
+            "basis": self.basis,
+            "reason": self.reason,
+            "criteria": [c.as_dict() for c in self.criteria],
+        }
+
+
+def turning_ability_in_current(
+    raw: TurningMetrics,
+    correction: CurrentCorrection | None,
+    length_m: float,
+    *,
+    correct: bool = True,
+    threshold_fraction: float = DRIFT_THRESHOLD_FRACTION,
+) -> TurningJudgement:
+    """Judge §5.3.1 on the current-corrected indices when the run shows a drift, else raw.
+
+    Parameters
+    ----------
+    raw : TurningMetrics
+        The turning circle as measured.
+    correction : CurrentCorrection or None
+        Its current correction (``trials.current_correction.correct_turning_circle``,
+        MSC/Circ.1053 3.4.2.5); None when the run does not allow one (it covers less
+        than 720° of heading change).
+    length_m : float
+        Ship length L [m].
+    correct : bool, optional
+        False judges the raw indices whatever the drift.
+    threshold_fraction : float, optional
+        The corrected indices are judged when the drift speed exceeds this fraction of
+        the approach speed through the water (default 1 %) [-].
+
+    Returns
+    -------
+    TurningJudgement
+        The criteria and which indices they judge, with the reason.
+
+    """
+    if correction is None:
+        reason = "no current estimate: the run covers less than 720 deg of heading change"
+        return TurningJudgement(turning_ability(raw, length_m), False, "raw", reason)
+    estimate = correction.estimate
+    threshold = correction.threshold_mps(threshold_fraction)
+    drift = (
+        f"drift {estimate.speed_mps:.3f} m/s (MSC/Circ.1053 3.4.2.5) against "
+        f"{threshold:.3f} m/s = {100.0 * threshold_fraction:g} % of the approach speed"
+    )
+    if not correct:
+        reason = f"current correction switched off; {drift}"
+        return TurningJudgement(turning_ability(raw, length_m), False, "raw", reason)
+    if correction.is_significant(threshold_fraction):
+        criteria = turning_ability(correction.corrected, length_m, note="current-corrected")
+        return TurningJudgement(criteria, True, "current-corrected", f"{drift}: above")
+    return TurningJudgement(turning_ability(raw, length_m), False, "raw", f"{drift}: not above")
 
 
 def initial_turning_ability(distance_m: float, length_m: float) -> Criterion:

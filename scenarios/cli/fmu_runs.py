@@ -5,6 +5,21 @@ the steering-gear rate to 2.34 deg/s (KVLCC2 full scale, a typical large ship's)
 manoeuvre prints its metrics and can write them as JSON (``--json``), the trajectory as
 a trial log (``--csv``) and a figure (``--plot``); ``imo`` judges the standard set
 against IMO MSC.137(76) (``--strict``: exit 3 when a criterion fails).
+
+A turning circle of 720° or more of heading change (``--heading-change-deg``; a log
+given to ``--like``) is also corrected for the current it drifted in, by IMO
+MSC/Circ.1053 3.4.2.5 (``trials.current_correction``): the raw and the corrected
+indices are printed side by side with the drift, and IMO §5.3.1 judges the corrected
+ones when the drift exceeds 1 % of the approach speed, else the raw ones (the text and
+the JSON say which). The record of such a run gains ``current_corrected``: the
+corrected indices (the keys of the raw ones), the drift (``drift_north_mps``,
+``drift_east_mps``, ``drift_speed_mps``, ``drift_direction_deg`` towards, their
+``spread_*`` over the heading pairs, ``n_pairs``, ``first_heading_change_deg``,
+``last_heading_change_deg``, ``mean_period_s``), ``threshold_mps``, ``applied`` and
+``imo_basis``, ``imo_reason`` (with ``imo_criteria`` for a 35° or maximum-rudder
+turn). A logged turning circle's ``logged`` record gains the same for the log, and a
+corrected log is sailed again at its speed through the water and compared corrected.
+``--no-current-correction`` keeps the raw values for both.
 """
 
 from __future__ import annotations
@@ -15,7 +30,7 @@ import sys
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -23,7 +38,7 @@ from fmu_model import argtypes
 from scenarios.cli.common import EXIT_GATE_FAILED, PROG, make_bars, sim_progress
 from scenarios.errors import ScenarioError
 from scenarios.fmu_checks import FmuInfo, check_rudder, open_fmu, read_fmu_info
-from scenarios.imo import Criterion
+from scenarios.imo import Criterion, TurningJudgement, turning_ability_in_current
 from scenarios.records import Condition, ManeuverRun
 from scenarios.report import criteria_table, format_table, write_json
 from scenarios.runs import (
@@ -33,8 +48,19 @@ from scenarios.runs import (
     run_standard_set,
     simulate,
 )
-from trials.conditions import log_trajectory, logged_condition, maneuver_indices
-from trials.logs import read_log
+from trials.conditions import (
+    LoggedCondition,
+    log_trajectory,
+    logged_condition,
+    maneuver_indices,
+)
+from trials.current_correction import (
+    DRIFT_THRESHOLD_FRACTION,
+    REFERENCE,
+    CurrentCorrection,
+    correct_turning_circle,
+)
+from trials.logs import ManeuverLog, read_log
 from trials.maneuvers import (
     DEFAULT_RUDDER_RATE_DEG_S,
     Program,
@@ -43,7 +69,7 @@ from trials.maneuvers import (
     turning_circle,
     zigzag,
 )
-from trials.metrics import pullout_metrics, spiral_metrics, steady_yaw_rate
+from trials.metrics import MetricsError, pullout_metrics, spiral_metrics, steady_yaw_rate
 
 __all__ = [
     "DEFAULT_SPIRAL_STEPS_DEG",
@@ -62,6 +88,16 @@ DEFAULT_SPIRAL_STEPS_DEG = (
 _DEFAULT_HOLD_L_OVER_U = 15.0
 # Steady yaw rate of a spiral step: mean over this last fraction of the hold.
 _STEADY_FRACTION = 0.3
+# IMO 5.3.1 judges a turn at 35 deg or the maximum rudder; this much less still counts
+# (a log's rudder plateau is read from the log).
+_IMO_RUDDER_SLACK_RAD = math.radians(0.5)
+# The turning indices shown raw and current-corrected: (key without unit, label).
+_TURNING_LINES = (
+    ("advance", "advance"),
+    ("transfer", "transfer"),
+    ("tactical_diameter", "tactical diameter"),
+    ("steady_diameter", "steady diameter"),
+)
 
 
 # ---------------------------------------------------------------- argument types
@@ -150,7 +186,13 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
         type=argtypes.positive,
         metavar="DEG",
         default=540.0,
-        help="stop after this heading change [deg] (default 540)",
+        help="stop after this heading change [deg] (default 540; from 720 on the drift in a "
+        "current is estimated and taken out, IMO MSC/Circ.1053 3.4.2.5)",
+    )
+    p.add_argument(
+        "--no-current-correction",
+        action="store_true",
+        help="judge and compare the raw indices even when the turn shows a drift",
     )
 
     p = sub.add_parser("zigzag", parents=[outputs], help="zig-zag test on an FMU")
@@ -280,44 +322,169 @@ def _run_on_fmu(args: argparse.Namespace, program: Program, condition: Condition
 
 def _measured_run(
     args: argparse.Namespace, info: FmuInfo, program: Program, condition: Condition
-) -> tuple[Program, Condition, np.ndarray, dict[str, Any]]:
+) -> tuple[Program, Condition, np.ndarray, dict[str, Any], list[str]]:
     """Run a turning circle or zig-zag after ``--approach-s``; its JSON record of metrics.
 
     With ``--like LOG.csv`` the program and condition are the log's
     (``trials.conditions.logged_condition``), and the record gains the log's own
-    indices under ``"logged"``.
+    indices under ``"logged"``. A logged turning circle of 720° or more is corrected for
+    its current (:func:`_corrected_log`): the record's ``logged`` gains
+    ``current_corrected``, and when the drift counts the ship sails the corrected log's
+    condition (its approach speed through the water). The last item returned are the
+    lines that report the log's current (none without one).
     """
-    logged: dict[str, float | None] | None = None
+    logged: dict[str, Any] | None = None
+    lines: list[str] = []
     if args.like:
         log = read_log(args.like)
-        like = logged_condition(log, max_time_s=_limit_s(args, info, condition))
+        limit_s = _limit_s(args, info, condition)
+        like = logged_condition(log, max_time_s=limit_s)
         if like.program.kind != program.kind:
             raise ScenarioError(
                 f"{args.like}: the log is a {like.program.kind} manoeuvre, not a {program.kind}"
             )
         check_rudder(info, like.program.rudder_rad)
+        current: dict[str, Any] | None = None
+        if like.program.kind == "turning":
+            corrected_log, current, lines = _corrected_log(args, info, log, like)
+            if corrected_log is not None:
+                like = logged_condition(corrected_log, max_time_s=limit_s)
         program = like.program
         condition = Condition(like.speed_mps, like.n_rps, like.rudder_rate_radps, args.dt_s)
         angles = (program.rudder_rad, program.heading_rad)
-        logged = maneuver_indices(program.kind, log_trajectory(log), like.execute_time_s, angles)
+        logged = {
+            **maneuver_indices(program.kind, log_trajectory(log), like.execute_time_s, angles)
+        }
+        if current is not None:
+            logged["current_corrected"] = current
     program = replace(program, approach_s=args.approach_s)
     trajectory = _run_on_fmu(args, program, condition)
     run = ManeuverRun(program, trajectory, measure(program, trajectory))
     record = {**run.metrics_dict(info.length_m), "run": _run_record(args, info, program, condition)}
     if logged is not None:
         record["logged"] = {"log": args.like, **logged}
-    return program, condition, trajectory, record
+    return program, condition, trajectory, record, lines
+
+
+def _judged_by_imo(info: FmuInfo, rudder_rad: float) -> bool:
+    """Whether IMO 5.3.1 applies to a turn at ``rudder_rad``: 35 deg or the FMU's maximum."""
+    full = min(math.radians(35.0), info.rudder_limit_rad)
+    return abs(rudder_rad) >= full - _IMO_RUDDER_SLACK_RAD
+
+
+def _current_of_turn(
+    args: argparse.Namespace,
+    info: FmuInfo,
+    trajectory: np.ndarray,
+    execute_time_s: float,
+    rudder_rad: float,
+    *,
+    velocities: Literal["ground", "water"],
+    where: str,
+) -> tuple[CurrentCorrection, dict[str, Any], list[str]] | None:
+    """Correct a turning circle for its current; return that, its JSON record and text lines.
+
+    None when the turn does not allow one (less than 720 deg of heading change).
+    ``velocities``: ``"water"`` for a simulated run, ``"ground"`` for a log.
+    """
+    try:
+        correction = correct_turning_circle(trajectory, execute_time_s, velocities=velocities)
+    except MetricsError:
+        return None
+    judgement = turning_ability_in_current(
+        correction.raw, correction, info.length_m, correct=not args.no_current_correction
+    )
+    judged = _judged_by_imo(info, rudder_rad)
+    record: dict[str, Any] = {
+        **correction.corrected.as_dict(info.length_m),
+        **correction.estimate.as_dict(),
+        "threshold_fraction": DRIFT_THRESHOLD_FRACTION,
+        "threshold_mps": correction.threshold_mps(),
+        "applied": judgement.corrected,
+        "imo_basis": judgement.basis,
+        "imo_reason": judgement.reason,
+    }
+    if judged:
+        record["imo_criteria"] = [c.as_dict() for c in judgement.criteria]
+    return correction, record, _current_lines(correction, judgement, where, judged)
+
+
+def _current_lines(
+    correction: CurrentCorrection,
+    judgement: TurningJudgement,
+    where: str,
+    judged: bool,
+) -> list[str]:
+    """Text: the drift, raw and corrected indices side by side, the IMO basis."""
+    e = correction.estimate
+    lines = [
+        f"  current in {where} ({REFERENCE}, {e.n_pairs} heading pairs one turn apart from "
+        f"{math.degrees(e.first_heading_change_rad):.0f} to "
+        f"{math.degrees(e.last_heading_change_rad):.0f} deg): drift {e.speed_mps:.3f} m/s "
+        f"towards {math.degrees(e.direction_rad):.1f} deg (N {e.drift_north_mps:+.4f}, "
+        f"E {e.drift_east_mps:+.4f} m/s; spread {e.spread_north_mps:.4f}, "
+        f"{e.spread_east_mps:.4f} m/s)",
+        f"  {'':<18} {'raw':>11}  {'corrected':>11}",
+    ]
+    for key, label in _TURNING_LINES:
+        raw = getattr(correction.raw, f"{key}_m")
+        corrected = getattr(correction.corrected, f"{key}_m")
+        if raw is not None and corrected is not None:
+            lines.append(f"  {label:<18} {raw:9.1f} m  {corrected:9.1f} m")
+    values = "current-corrected" if judgement.corrected else "raw"
+    if judged:
+        lines.append(f"  IMO MSC.137(76) 5.3.1 judged on the {values} values ({judgement.reason}):")
+        lines.extend(f"    {c.describe()}" for c in judgement.criteria)
+    else:
+        lines.append(f"  {values} values stand ({judgement.reason})")
+    return lines
+
+
+def _corrected_log(
+    args: argparse.Namespace, info: FmuInfo, log: ManeuverLog, like: LoggedCondition
+) -> tuple[ManeuverLog | None, dict[str, Any] | None, list[str]]:
+    """Correct a logged turning circle for its current, when it shows one.
+
+    Returns (the log with the drift taken out of its positions, or None when the
+    correction is not applied; the ``current_corrected`` record, or None when the log
+    covers less than 720 deg; the text lines).
+    """
+    found = _current_of_turn(
+        args,
+        info,
+        log_trajectory(log),
+        like.execute_time_s,
+        like.program.rudder_rad,
+        velocities="ground",
+        where="the log",
+    )
+    if found is None:
+        return None, None, []
+    correction, record, lines = found
+    if not record["applied"]:
+        return None, record, lines
+    corrected = replace(
+        log, x_m=correction.trajectory["x_m"].copy(), y_m=correction.trajectory["y_m"].copy()
+    )
+    return corrected, record, lines
 
 
 def _logged_lines(record: dict[str, Any]) -> list[str]:
-    """Lines "logged vs predicted" of a ``--like`` run (none without it)."""
+    """Lines "logged vs predicted" of a ``--like`` run (none without it).
+
+    A log corrected for its current is compared with its corrected indices.
+    """
     logged = record.get("logged")
     if logged is None:
         return []
-    lines = [f"  as logged in {logged['log']}:"]
+    current = logged.get("current_corrected")
+    corrected = current is not None and current["applied"]
+    lines = [f"  as logged in {logged['log']}{', current-corrected' if corrected else ''}:"]
     for key, value in logged.items():
-        if key == "log" or value is None or record.get(key) is None:
+        if key in ("log", "current_corrected") or value is None or record.get(key) is None:
             continue
+        if corrected:
+            value = current[key]
         unit = key.rsplit("_", 1)[-1]
         lines.append(
             f"  {key:<22} logged {value:9.2f} {unit}  predicted {record[key]:9.2f} {unit}  "
@@ -371,7 +538,16 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
         heading_change_rad=math.radians(args.heading_change_deg),
         max_time_s=_limit_s(args, info, condition),
     )
-    program, condition, trajectory, record = _measured_run(args, info, program, condition)
+    program, condition, trajectory, record, logged_lines = _measured_run(
+        args, info, program, condition
+    )
+    current_lines: list[str] = []
+    found = _current_of_turn(
+        args, info, trajectory, 0.0, program.rudder_rad, velocities="water", where="this run"
+    )
+    if found is not None:
+        record["current_corrected"] = found[1]
+        current_lines = found[2]
 
     def figure() -> Any:
         from scenarios.plots import trajectory_figure
@@ -382,17 +558,12 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
 
     _save_outputs(args, info, program, condition, trajectory, record, figure)
     lines = [_header(info, program, condition)]
-    for key, label in (
-        ("advance", "advance"),
-        ("transfer", "transfer"),
-        ("tactical_diameter", "tactical diameter"),
-        ("steady_diameter", "steady diameter"),
-    ):
+    for key, label in _TURNING_LINES:
         if f"{key}_m" in record:
             lines.append(f"  {label:<18} {record[f'{key}_m']:9.1f} m  {record[f'{key}_L']:7.3f} L")
     lines.append(f"  {'time to 90 deg':<18} {record['time_to_90_s']:9.1f} s")
     lines.append(f"  {'speed loss':<18} {record['speed_loss_pct']:9.1f} %")
-    print("\n".join(lines + _logged_lines(record)))
+    print("\n".join(lines + current_lines + logged_lines + _logged_lines(record)))
     return 0
 
 
@@ -408,7 +579,7 @@ def run_zigzag_command(args: argparse.Namespace) -> int:
         n_reversals=args.reversals,
         max_time_s=_limit_s(args, info, condition),
     )
-    program, condition, trajectory, record = _measured_run(args, info, program, condition)
+    program, condition, trajectory, record, _ = _measured_run(args, info, program, condition)
 
     def figure() -> Any:
         from scenarios.plots import zigzag_figure
