@@ -29,7 +29,8 @@ corrected; nothing here raises:
 * a value :meth:`fmu_model.fmi_rules.FmuVariable.problem` rejects (non-finite or
   outside the declared min/max) is stored but blocks every step until a valid value is
   set; setting an output, a local or the time, or a fixed parameter after
-  initialisation, is ignored;
+  initialisation, is ignored, and so is a call with an unknown value reference
+  (``fmi2GetReal`` then gives NaN; pythonfmu's own lookup would raise: ``fmi2Fatal``);
 * a start below the model's least start speed (the native FMU stays in initialization
   mode): the instance is initialised but never steps;
 * ``fmi2SetFMUstate`` with a state :func:`fmu_model.fmi_rules.fmu_state_problem`
@@ -182,6 +183,29 @@ class ShipManoeuvringSlave(Fmi2Slave):
             )
 
     # -- variable access ------------------------------------------------------------------
+
+    def _unknown(self, function: str, vrs: list[int]) -> bool:
+        """Log the first value reference the FMU does not have, as the native FMU does.
+
+        pythonfmu's own ``get_real``/``set_real`` raise ``KeyError`` for it, which its
+        wrapper turns into ``fmi2Fatal``.
+        """
+        unknown = next((vr for vr in vrs if vr not in self.vars), None)
+        if unknown is None:
+            return False
+        self.log(f"{function}: unknown value reference {unknown}", Fmi2Status.error)
+        return True
+
+    def get_real(self, vrs: list[int]) -> list[float]:
+        """Values of ``vrs``; NaN for all when a value reference is unknown (logged)."""
+        if self._unknown("fmi2GetReal", vrs):
+            return [math.nan] * len(vrs)
+        return super().get_real(vrs)
+
+    def set_real(self, vrs: list[int], values: list[float]) -> None:
+        """Set ``vrs`` to ``values``; nothing when a value reference is unknown (logged)."""
+        if not self._unknown("fmi2SetReal", vrs):
+            super().set_real(vrs, values)
 
     def _get(self, k: int) -> float:
         if k in self._state_index:

@@ -5,6 +5,9 @@
  *   host LIBRARY [STEPS]            self-test, exit status 0 when every check passes
  *   host LIBRARY STEPS --bench      time STEPS calls of fmi2DoStep (h = 0.1 s) and print
  *                                   "us_per_step <microseconds>"
+ *   host LIBRARY --run NAME         sail manoeuvre NAME (manoeuvre.h: turn-35, zigzag-10,
+ *                                   zigzag-10-current) and print it as CSV on stdout, as
+ *                                   the FMI 3.0 host host3.c does
  *
  * LIBRARY is the shared library of an unpacked FMU (<dir>/binaries/<platform>/<id>.so);
  * the GUID is read from <dir>/modelDescription.xml. The value references are those of
@@ -15,7 +18,8 @@
  * checks that each equals a run of a fresh instance alone (no shared state), that
  * fmi2GetFMUstate/fmi2SetFMUstate and fmi2SerializeFMUstate/fmi2DeSerializeFMUstate
  * continue bit-identically, that fmi2Reset returns to the initial state, that bad
- * input gives fmi2Error, and that every allocation is freed.
+ * input gives fmi2Error, and that every allocation is freed. A run (--run) reads the
+ * value references of its variables from modelDescription.xml by name.
  */
 #define _XOPEN_SOURCE 700 /* POSIX 2008 with XSI: dlopen, clock_gettime, realpath */
 
@@ -28,6 +32,7 @@
 #include <time.h>
 
 #include "fmi2FunctionTypes.h"
+#include "manoeuvre.h"
 
 #define VR_RUDDER 0u
 #define VR_RPM 1u
@@ -36,7 +41,6 @@
 #define VR_U0 10u
 #define N_STATES 6
 #define STEP_SIZE 0.1
-#define PI 3.14159265358979323846
 
 typedef struct {
     fmi2InstantiateTYPE *instantiate;
@@ -151,60 +155,26 @@ static int load_api(void *library, Api *api)
 
 /* URI of the FMU's resources folder, passed to fmi2Instantiate. */
 static char resource_location[4200] = "";
+/* The value references of a run (--run), by name. */
+static unsigned int vr_run_inputs[N_RUN_INPUTS];
+static unsigned int vr_run_outputs[N_RUN_OUTPUTS];
 
-/* Read guid="..." from <library>/../../modelDescription.xml into guid and set
-   resource_location to file://<library>/../../resources. */
-static int read_guid(const char *library_path, char *guid, size_t size)
+/* Read guid="..." from <library>/../../modelDescription.xml into guid, set
+   resource_location to file://<library>/../../resources and, for a run, its value
+   references. */
+static int read_guid(const char *library_path, char *guid, size_t size, int run)
 {
-    char path[4096];
-    char *text;
-    char *start;
-    char *end;
-    long length;
-    int levels = 0;
-    size_t n = strlen(library_path);
-    FILE *file;
-    if (n >= sizeof path) {
+    char root[4096];
+    char *text = read_model_description(library_path, root, sizeof root);
+    int ok;
+    if (text == NULL) {
         return 0;
     }
-    memcpy(path, library_path, n + 1);
-    while (n > 0 && levels < 3) { /* strip file name, platform and binaries */
-        n--;
-        if (path[n] == '/') {
-            levels++;
-            path[n] = '\0';
-        }
-    }
-    if (levels != 3 || n + strlen("/modelDescription.xml") + 1 > sizeof path) {
-        return 0;
-    }
-    snprintf(resource_location, sizeof resource_location, "file://%s/resources", path);
-    strcat(path, "/modelDescription.xml");
-    file = fopen(path, "rb");
-    if (file == NULL) {
-        fprintf(stderr, "cannot open %s\n", path);
-        return 0;
-    }
-    fseek(file, 0, SEEK_END);
-    length = ftell(file);
-    fseek(file, 0, SEEK_SET);
-    text = (char *)calloc((size_t)length + 1, 1);
-    if (text == NULL || fread(text, 1, (size_t)length, file) != (size_t)length) {
-        fclose(file);
-        free(text);
-        return 0;
-    }
-    fclose(file);
-    start = strstr(text, "guid=\"");
-    end = start != NULL ? strchr(start + 6, '"') : NULL;
-    if (start == NULL || end == NULL || (size_t)(end - start - 6) >= size) {
-        free(text);
-        return 0;
-    }
-    memcpy(guid, start + 6, (size_t)(end - start - 6));
-    guid[end - start - 6] = '\0';
+    snprintf(resource_location, sizeof resource_location, "file://%s/resources", root);
+    ok = root_attribute(text, "guid", guid, size) &&
+         (!run || run_value_references(text, vr_run_inputs, vr_run_outputs));
     free(text);
-    return 1;
+    return ok;
 }
 
 /* Inputs of a run at step k: a rudder sine of amplitude `rudder_deg`, rpm near 120. */
@@ -402,19 +372,72 @@ static int bench(const Api *api, const char *guid, int steps)
     return 0;
 }
 
+/* Sail the manoeuvre from the FMU's start values and print it (manoeuvre.h); 0 when every
+   call succeeded. */
+static int sail(const Api *api, const char *guid, const Manoeuvre *m)
+{
+    double y[N_RUN_OUTPUTS];
+    double u[N_RUN_INPUTS];
+    Helm helm = {NULL, 0.0, 0.0, 0.0, 0};
+    const int n = (int)(m->duration_s / RUN_STEP_S + 0.5);
+    int k;
+    fmi2Component c = api->instantiate(m->name, fmi2CoSimulation, guid, resource_location,
+                                       &callbacks, fmi2False, fmi2False);
+    if (c == NULL || api->setup_experiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) != fmi2OK ||
+        api->enter_initialization_mode(c) != fmi2OK ||
+        api->exit_initialization_mode(c) != fmi2OK) {
+        fprintf(stderr, "instantiation failed\n");
+        if (c != NULL) {
+            api->free_instance(c);
+        }
+        return 1;
+    }
+    helm.m = m;
+    print_header();
+    for (k = 0;; k++) {
+        if (api->get_real(c, vr_run_outputs, N_RUN_OUTPUTS, y) != fmi2OK) {
+            failures++;
+            break;
+        }
+        helm_next(&helm, y[RUN_PSI], u);
+        print_row(k * RUN_STEP_S, u, y);
+        if (k == n) {
+            break;
+        }
+        if (api->set_real(c, vr_run_inputs, N_RUN_INPUTS, u) != fmi2OK ||
+            api->do_step(c, k * RUN_STEP_S, RUN_STEP_S, fmi2True) != fmi2OK) {
+            fprintf(stderr, "step %d failed\n", k);
+            failures++;
+            break;
+        }
+    }
+    CHECK(api->terminate(c) == fmi2OK, "fmi2Terminate failed");
+    api->free_instance(c);
+    CHECK(environment.live_allocations == 0, "%ld allocations not freed",
+          environment.live_allocations);
+    return failures == 0 ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
     Api api;
     void *library;
     char *path;
     char guid[128];
+    const Manoeuvre *manoeuvre = NULL;
     int steps = 10000;
     int status;
     if (argc < 2 || argc > 4) {
-        fprintf(stderr, "usage: %s LIBRARY [STEPS] [--bench]\n", argv[0]);
+        fprintf(stderr, "usage: %s LIBRARY [STEPS] [--bench] | LIBRARY --run NAME\n", argv[0]);
         return 2;
     }
-    if (argc >= 3) {
+    if (argc == 4 && strcmp(argv[2], "--run") == 0) {
+        manoeuvre = find_manoeuvre(argv[3]);
+        if (manoeuvre == NULL) {
+            fprintf(stderr, "unknown manoeuvre %s\n", argv[3]);
+            return 2;
+        }
+    } else if (argc >= 3) {
         steps = atoi(argv[2]);
         if (steps < 2) {
             fprintf(stderr, "STEPS must be at least 2\n");
@@ -422,7 +445,7 @@ int main(int argc, char **argv)
         }
     }
     path = realpath(argv[1], NULL);
-    if (path == NULL || !read_guid(path, guid, sizeof guid)) {
+    if (path == NULL || !read_guid(path, guid, sizeof guid, manoeuvre != NULL)) {
         fprintf(stderr, "cannot read the GUID from the modelDescription.xml of %s\n", argv[1]);
         free(path);
         return 2;
@@ -437,7 +460,9 @@ int main(int argc, char **argv)
         dlclose(library);
         return 2;
     }
-    if (argc == 4 && strcmp(argv[3], "--bench") == 0) {
+    if (manoeuvre != NULL) {
+        status = sail(&api, guid, manoeuvre);
+    } else if (argc == 4 && strcmp(argv[3], "--bench") == 0) {
         status = bench(&api, guid, steps);
     } else {
         status = self_test(&api, guid, steps);
