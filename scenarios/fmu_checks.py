@@ -19,12 +19,23 @@ from typing import TYPE_CHECKING
 
 from fmu_model import get_model
 from scenarios.errors import ScenarioError
-from scenarios.fmu_plant import REQUIRED_VARIABLES, FmuPlant
+from scenarios.fmu_plant import ENVIRONMENT_INPUTS, REQUIRED_VARIABLES, FmuPlant
 
 if TYPE_CHECKING:
     from fmu_model import ModelParameters
+    from scenarios.sea import SeaEnvironment
 
-__all__ = ["FmuInfo", "check_params_match", "check_rudder", "open_fmu", "read_fmu_info"]
+__all__ = [
+    "FmuInfo",
+    "check_environment",
+    "check_params_match",
+    "check_rudder",
+    "open_fmu",
+    "read_fmu_info",
+]
+
+# The windage parameters that make a wind load (fmu_model.interface): 0 means none.
+_WINDAGE_AREAS = ("frontal_area", "lateral_area")
 
 
 @dataclass(frozen=True)
@@ -55,6 +66,10 @@ class FmuInfo:
         ``prime-rudder[k=0.0004,…]``), as its coefficient parameters' descriptions
         name it (``coefficient of … (<structure>)``, ``fmu_model.interface``); None
         when they name none.
+    has_environment_inputs : bool
+        Whether the FMU has the environment inputs ``current_speed``,
+        ``current_direction``, ``wind_speed``, ``wind_direction`` (DESIGN.md "FMU
+        interface"), so that it can sail at sea.
 
     """
 
@@ -67,6 +82,12 @@ class FmuInfo:
     max_step_s: float | None
     parameters: Mapping[str, float] = field(default_factory=dict)
     structure_name: str | None = None
+    has_environment_inputs: bool = False
+
+    @property
+    def has_windage(self) -> bool:
+        """Whether a wind acts on the FMU: its ``frontal_area`` or ``lateral_area`` is > 0."""
+        return any(self.parameters.get(name, 0.0) > 0.0 for name in _WINDAGE_AREAS)
 
 
 def _float_or_none(value: object) -> float | None:
@@ -155,22 +176,38 @@ def read_fmu_info(path: str | os.PathLike[str]) -> FmuInfo:
         structure_name=_structure_name(
             name, (v.description for v in md.modelVariables if v.causality == "parameter")
         ),
+        has_environment_inputs=all(
+            k in variables and variables[k].causality == "input" for k in ENVIRONMENT_INPUTS
+        ),
     )
 
 
 @contextmanager
-def open_fmu(path: str | os.PathLike[str]) -> Iterator[FmuPlant]:
-    """Open an FMU as a plant (:class:`trials.run.FmuPlant`); close it on exit.
+def open_fmu(
+    path: str | os.PathLike[str], environment: SeaEnvironment | None = None
+) -> Iterator[FmuPlant]:
+    """Open an FMU as a plant (:class:`scenarios.fmu_plant.FmuPlant`); close it on exit.
+
+    Parameters
+    ----------
+    path : path-like
+        The FMU.
+    environment : SeaEnvironment, optional
+        Current and wind the plant sails in (:func:`check_environment`); calm water
+        when None.
 
     Raises
     ------
     ScenarioError
-        The FMU cannot be loaded or instantiated on this platform.
+        The FMU cannot be loaded or instantiated on this platform, or it cannot sail in
+        ``environment``.
 
     """
-    read_fmu_info(path)  # clear errors for a missing or foreign file first
+    info = read_fmu_info(path)  # clear errors for a missing or foreign file first
+    if environment is not None:
+        check_environment(info)
     try:
-        plant = FmuPlant(path)
+        plant = FmuPlant(path, environment=environment)
     except Exception as exc:  # fmpy: OSError, plain Exception, FMICallException
         raise ScenarioError(f"{os.fspath(path)}: cannot load the FMU ({exc})") from None
     try:
@@ -238,6 +275,15 @@ def check_params_match(info: FmuInfo, params: ModelParameters, source: str = "")
             problems.append(", ".join(differ[:3]) + more)
     if problems:
         raise ScenarioError(f"{what} do not match the FMU {info.path}: {'; '.join(problems)}")
+
+
+def check_environment(info: FmuInfo) -> None:
+    """Raise :class:`ScenarioError` when the FMU has no environment inputs to sail at sea."""
+    if not info.has_environment_inputs:
+        raise ScenarioError(
+            f"{info.path}: the FMU has no environment inputs ({', '.join(ENVIRONMENT_INPUTS)}) "
+            "to sail it in a current or a wind; build it again with build_fmu.py"
+        )
 
 
 def check_rudder(info: FmuInfo, rudder_rad: float) -> None:

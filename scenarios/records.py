@@ -13,6 +13,14 @@ also carries a 95 % interval (:class:`Interval`) from a Monte-Carlo run over the
 identified coefficients' covariance (``scenarios.validation.uncertainty_bands``), and
 a row says whether the reference value lies inside it.
 
+At sea (``Validation.environment``) both ships sail the same current and wind, and
+their 35° turns are continued to 720° so that each can be corrected for the drift it
+shows (MSC/Circ.1053 3.4.2.5, ``trials.current_correction``; :class:`TurnCorrection`
+of a run). A turn whose drift exceeds 1 % of its approach speed is judged on its
+current-corrected indices (``scenarios.imo.turning_ability_in_current``), and a pair
+of turns is compared on the corrected indices when either is judged so (the label of
+the row says "current-corrected"); otherwise on the raw ones.
+
 Written out by :mod:`scenarios.report`; produced by :mod:`scenarios.runs` and
 :mod:`scenarios.validation`.
 """
@@ -26,7 +34,9 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.imo import Criterion
+from scenarios.imo import Criterion, TurningJudgement, turning_ability_in_current
+from scenarios.sea import SeaEnvironment
+from trials.current_correction import DRIFT_THRESHOLD_FRACTION, CurrentCorrection
 from trials.maneuvers import Program
 from trials.metrics import TurningMetrics, ZigzagMetrics
 
@@ -35,9 +45,12 @@ __all__ = [
     "Condition",
     "Interval",
     "ManeuverRun",
+    "TurnCorrection",
     "UncertaintyBands",
     "Validation",
     "compare_runs",
+    "current_correction_record",
+    "environment_record",
     "failing_rows",
     "interval_counts",
     "maneuver_label",
@@ -88,19 +101,115 @@ class Condition:
         }
 
 
+def environment_record(environment: SeaEnvironment) -> dict[str, float]:
+    """JSON record of a steady current and wind, in degrees.
+
+    ``current_mps``, ``current_to_deg`` (the direction it sets towards), ``wind_mps``,
+    ``wind_from_deg`` (the direction it comes from), as the command-line options name
+    them.
+    """
+    return {
+        "current_mps": environment.current_speed_mps,
+        "current_to_deg": math.degrees(environment.current_to_rad),
+        "wind_mps": environment.wind_speed_mps,
+        "wind_from_deg": math.degrees(environment.wind_from_rad),
+    }
+
+
+def current_correction_record(
+    correction: CurrentCorrection, judgement: TurningJudgement, length_m: float
+) -> dict[str, Any]:
+    """JSON record of a turn's current correction and of the basis it is judged on.
+
+    The corrected indices (the keys of the raw ones, ``TurningMetrics.as_dict``), the
+    drift (``CurrentEstimate.as_dict``), ``threshold_fraction``, ``threshold_mps``,
+    ``applied`` (whether the corrected indices count), ``imo_basis`` and
+    ``imo_reason``.
+    """
+    return {
+        **correction.corrected.as_dict(length_m),
+        **correction.estimate.as_dict(),
+        "threshold_fraction": DRIFT_THRESHOLD_FRACTION,
+        "threshold_mps": correction.threshold_mps(),
+        "applied": judgement.corrected,
+        "imo_basis": judgement.basis,
+        "imo_reason": judgement.reason,
+    }
+
+
+@dataclass(frozen=True)
+class TurnCorrection:
+    """A turning circle sailed at sea: its current correction, and whether it counts.
+
+    Attributes
+    ----------
+    correction : CurrentCorrection or None
+        MSC/Circ.1053 3.4.2.5 correction of the turn (``trials.current_correction``);
+        None when the run does not allow one (less than 720° of heading change).
+    enabled : bool
+        False judges the raw indices whatever the drift (``--no-current-correction``).
+
+    """
+
+    correction: CurrentCorrection | None
+    enabled: bool = True
+
+    def judgement(self, raw: TurningMetrics, length_m: float) -> TurningJudgement:
+        """IMO 5.3.1 on the raw or the corrected indices (``turning_ability_in_current``)."""
+        return turning_ability_in_current(raw, self.correction, length_m, correct=self.enabled)
+
+    @property
+    def applied(self) -> bool:
+        """Whether the corrected indices count: enabled, and the drift is above 1 % of U."""
+        return self.enabled and self.correction is not None and self.correction.is_significant()
+
+
 @dataclass(frozen=True)
 class ManeuverRun:
-    """One manoeuvre simulated: the program, its trajectory and its metrics."""
+    """One manoeuvre simulated: the program, its trajectory and its metrics.
+
+    ``current`` is the current correction of a turning circle sailed at sea (None in
+    calm water, and for the other manoeuvres).
+    """
 
     program: Program
     trajectory: np.ndarray
     metrics: TurningMetrics | ZigzagMetrics
+    current: TurnCorrection | None = None
+
+    def judgement(self, length_m: float) -> TurningJudgement | None:
+        """IMO 5.3.1 of a turn sailed at sea, raw or current-corrected; None otherwise."""
+        if self.current is None or not isinstance(self.metrics, TurningMetrics):
+            return None
+        return self.current.judgement(self.metrics, length_m)
+
+    @property
+    def current_corrected(self) -> bool:
+        """Whether the run's current-corrected indices count (:attr:`TurnCorrection.applied`)."""
+        return self.current is not None and self.current.applied
 
     def metrics_dict(self, length_m: float) -> dict[str, Any]:
-        """Return the metrics' JSON record (``as_dict``); ``length_m`` for the L keys [m]."""
-        if isinstance(self.metrics, TurningMetrics):
-            return dict(self.metrics.as_dict(length_m))
-        return dict(self.metrics.as_dict())
+        """Return the metrics' JSON record (``as_dict``); ``length_m`` for the L keys [m].
+
+        A turn sailed at sea adds ``current_corrected`` (:func:`current_correction_record`;
+        only ``applied``, ``imo_basis`` and ``imo_reason`` when it allows no correction).
+        """
+        if not isinstance(self.metrics, TurningMetrics):
+            return dict(self.metrics.as_dict())
+        record: dict[str, Any] = dict(self.metrics.as_dict(length_m))
+        judgement = self.judgement(length_m)
+        if self.current is not None and judgement is not None:
+            if self.current.correction is None:
+                record["current_corrected"] = {
+                    "applied": False,
+                    "imo_basis": judgement.basis,
+                    "imo_reason": judgement.reason,
+                }
+            else:
+                record["current_corrected"] = current_correction_record(
+                    self.current.correction, judgement, length_m
+                )
+        return record
 
 
 @dataclass(frozen=True)
@@ -274,6 +383,9 @@ class Validation:
         Anything the reader must know (e.g. the two lengths differ).
     uncertainty : UncertaintyBands, optional
         95 % intervals of the predicted quantities (``rows`` carry them).
+    environment : SeaEnvironment, optional
+        The current and wind both ships sailed in; None in calm water (module
+        docstring).
 
     """
 
@@ -290,6 +402,7 @@ class Validation:
     reference_criteria: tuple[Criterion, ...]
     warnings: tuple[str, ...] = ()
     uncertainty: UncertaintyBands | None = None
+    environment: SeaEnvironment | None = None
     rows: tuple[ComparisonRow, ...] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -343,7 +456,10 @@ def compare_runs(
     -------
     list of ComparisonRow
         Advance, transfer, tactical diameter [m] of every turning run; first and second
-        overshoot [deg] of every zig-zag.
+        overshoot [deg] of every zig-zag. A pair of turns sailed at sea is compared on
+        its current-corrected indices when either run's correction counts
+        (:attr:`ManeuverRun.current_corrected`) and both have one; the label then ends
+        in "(current-corrected)".
 
     """
     if [r.program.name for r in reference] != [p.program.name for p in predicted]:
@@ -353,9 +469,20 @@ def compare_runs(
         quantities = (
             _TURNING_QUANTITIES if isinstance(ref.metrics, TurningMetrics) else _ZIGZAG_QUANTITIES
         )
+        ref_metrics, pred_metrics, note = ref.metrics, pred.metrics, ""
+        if (
+            (ref.current_corrected or pred.current_corrected)
+            and ref.current is not None
+            and ref.current.correction is not None
+            and pred.current is not None
+            and pred.current.correction is not None
+        ):
+            ref_metrics = ref.current.correction.corrected
+            pred_metrics = pred.current.correction.corrected
+            note = " (current-corrected)"
         for key, label, unit in quantities:
-            a = getattr(ref.metrics, key)
-            b = getattr(pred.metrics, key)
+            a = getattr(ref_metrics, key)
+            b = getattr(pred_metrics, key)
             a = None if a is None else float(a)
             b = None if b is None else float(b)
             difference = None if a is None or b is None else b - a
@@ -364,7 +491,7 @@ def compare_runs(
                 ComparisonRow(
                     maneuver=ref.program.name,
                     quantity=key,
-                    label=f"{maneuver_label(ref.program)}: {label}",
+                    label=f"{maneuver_label(ref.program)}: {label}{note}",
                     unit=unit,
                     reference=a,
                     predicted=b,

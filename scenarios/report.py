@@ -43,7 +43,14 @@ location comes from the validation run, the spread from the samples.
      "imo": {"passed": bool, "criteria": [Criterion.as_dict(), ...]},
      "imo_reference": {...same for the reference ship...},
      "runs": {"reference": {maneuver: metrics}, "predicted": {maneuver: metrics}},
-     "warnings": [str, ...]}
+     "warnings": [str, ...],
+     "environment": {"current_mps", "current_to_deg", "wind_mps", "wind_from_deg"}}
+
+``environment`` only at sea; its turning runs then carry ``current_corrected``
+(``scenarios.records.ManeuverRun.metrics_dict``: the corrected indices, the drift and
+which indices IMO 5.3.1 judged, ``imo_basis``, ``imo_reason``), and a comparison row of
+corrected turns says so in its label. Without an environment the document is the calm
+water one, unchanged.
 """
 
 from __future__ import annotations
@@ -66,13 +73,17 @@ from scenarios.plots import (
 )
 from scenarios.records import (
     ComparisonRow,
+    ManeuverRun,
     UncertaintyBands,
     Validation,
+    environment_record,
     failing_rows,
     interval_counts,
     maneuver_label,
     turn_side,
 )
+from scenarios.sea import SeaEnvironment
+from trials.current_correction import REFERENCE as CURRENT_CORRECTION_REFERENCE
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -85,6 +96,7 @@ __all__ = [
     "figure_names",
     "format_table",
     "render_markdown",
+    "sea_lines",
     "uncertainty_figure",
     "uncertainty_scope",
     "validation_json",
@@ -110,6 +122,44 @@ def uncertainty_scope(bands: UncertaintyBands) -> str:
 
 
 # ----------------------------------------------------------------------------- text
+
+
+def sea_lines(
+    environment: SeaEnvironment, sides: Sequence[tuple[str, Sequence[ManeuverRun], float]]
+) -> list[str]:
+    """Say where the runs sailed and which values IMO judged (plain text, one item a line).
+
+    Parameters
+    ----------
+    environment : SeaEnvironment
+        The current and wind.
+    sides : sequence of (str, sequence of ManeuverRun, float)
+        Who sailed (``"reference"``, ``"predicted"``; ``""`` for a single ship), their
+        runs and their ship length [m].
+
+    Returns
+    -------
+    list of str
+        The environment; per turning run sailed at sea the values IMO 5.3.1 judged
+        (raw or current-corrected) and why; what the other criteria judged.
+
+    """
+    who = "both ships" if len(sides) > 1 else "the ship"
+    lines = [
+        f"at sea, {who}: {environment.describe()}",
+        f"35 deg turns continued to 720 deg; {CURRENT_CORRECTION_REFERENCE} correction "
+        "where the drift exceeds 1 % of the approach speed:",
+    ]
+    for name, runs, length_m in sides:
+        for run in runs:
+            judgement = run.judgement(length_m)
+            if judgement is not None:
+                label = f"{name} {run.program.name}".strip()
+                lines.append(f"  {label}: {judgement.basis} values ({judgement.reason})")
+    lines.append(
+        "zig-zag overshoots and the initial turning distance (over ground): raw, as sailed"
+    )
+    return lines
 
 
 def _number(value: float | None, digits: int) -> str:
@@ -286,8 +336,27 @@ def render_markdown(validation: Validation, max_error_pct: float | None = None) 
         f"communication step {c.dt_s:g} s",
         "- metrics: ITTC/IMO definitions from the execute point (start of the rudder "
         "command), interpolated at the crossings",
-        "",
     ]
+    if v.environment is not None:
+        sea = sea_lines(
+            v.environment,
+            [
+                ("reference", v.reference, v.reference_length_m),
+                ("predicted", v.predicted, v.model_length_m),
+            ],
+        )
+        lines.append(
+            f"- {sea[0]} (the FMU through its environment inputs, the reference through its "
+            "own equations and windage)"
+        )
+        lines.append(f"- {sea[1]}")
+        lines += [f"  - {line.strip()}" for line in sea[2:-1]]
+        lines.append(f"- {sea[-1]}")
+        lines.append(
+            "- a turn is compared on the current-corrected indices when either ship's "
+            "correction counts (its label says so), else on the raw ones"
+        )
+    lines.append("")
     for warning in v.warnings:
         lines.append(f"> **Warning:** {warning}")
         lines.append("")
@@ -419,6 +488,8 @@ def validation_json(validation: Validation, max_error_pct: float | None = None) 
         },
         "warnings": list(v.warnings),
     }
+    if v.environment is not None:
+        doc["environment"] = environment_record(v.environment)
     result: dict[str, Any] = _finite_or_none(doc)
     return result
 

@@ -6,6 +6,12 @@ reference's approach condition and returns the :class:`scenarios.records.Validat
 Monte-Carlo run over the identified coefficients' covariance
 (``scenarios.uncertainty.monte_carlo``), located at the predicted values by
 :func:`uncertainty_bands`. Problems are :class:`scenarios.errors.ScenarioError`.
+
+At sea (``environment``) both ships sail the same current and wind: the FMU through
+its environment inputs (``scenarios.fmu_plant``), the reference through its own
+equations and windage (``scenarios.kvlcc2.ReferencePlant``); their turns are
+continued to 720° and compared and judged on the current-corrected indices where the
+drift counts (``scenarios.runs``, ``scenarios.records``).
 """
 
 from __future__ import annotations
@@ -17,7 +23,13 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from scenarios.errors import ScenarioError, UncertaintyError
-from scenarios.fmu_checks import check_params_match, check_rudder, open_fmu, read_fmu_info
+from scenarios.fmu_checks import (
+    check_environment,
+    check_params_match,
+    check_rudder,
+    open_fmu,
+    read_fmu_info,
+)
 from scenarios.records import ComparisonRow, Interval, UncertaintyBands, Validation
 from scenarios.runs import imo_criteria, reference_runs, run_standard_set
 from scenarios.uncertainty.model_form import model_form_half_widths, widen
@@ -27,6 +39,7 @@ if TYPE_CHECKING:
     from distributed import Client
 
     from fmu_model import ModelParameters
+    from scenarios.sea import SeaEnvironment
     from scenarios.uncertainty.results import UncertaintyResult
 
 __all__ = ["uncertainty_bands", "validate", "with_uncertainty"]
@@ -46,6 +59,8 @@ def validate(
     scheduler: str | None = None,
     n_workers: int = 2,
     params_source: str = "",
+    environment: SeaEnvironment | None = None,
+    current_correction: bool = True,
 ) -> Validation:
     """Run the standard set on an FMU and on a reference ship, same approach condition.
 
@@ -81,16 +96,22 @@ def validate(
         Workers of that local cluster.
     params_source : str, optional
         Where ``params`` come from (e.g. the params.json path), for the report.
+    environment : SeaEnvironment, optional
+        Current and wind both ships sail in (module docstring); calm water when None.
+    current_correction : bool
+        At sea, False compares and judges the turns' raw indices whatever their drift.
 
     Raises
     ------
     ScenarioError
         Bad FMU, parameters that do not match it or have no covariance, a run that does
-        not give its metrics, an FMU error.
+        not give its metrics, an FMU error, an FMU without environment inputs at sea.
 
     """
     info = read_fmu_info(fmu_path)
     check_rudder(info, math.radians(35.0))
+    if environment is not None:
+        check_environment(info)
     if params is not None:
         check_params_match(info, params, params_source)
     if params is not None and uncertainty_samples > 0 and params.covariance is None:
@@ -98,16 +119,20 @@ def validate(
             f"{params_source or 'the parameters'}: no covariance, so no uncertainty to "
             "sample; identify with a covariance or leave out the uncertainty"
         )
-    ref_name, description, ref_length, condition, ref = reference_runs(reference, scale, dt_s)
+    ref_name, description, ref_length, condition, ref = reference_runs(
+        reference, scale, dt_s, environment=environment, current_correction=current_correction
+    )
     if on_run is not None:
         for run in ref:
             on_run(f"reference {run.program.name}")
-    with open_fmu(fmu_path) as plant:
+    with open_fmu(fmu_path, environment) as plant:
         predicted = run_standard_set(
             plant,
             condition,
             ref_length,
             on_run=None if on_run is None else lambda name: on_run(f"predicted {name}"),
+            at_sea=environment is not None,
+            current_correction=current_correction,
         )
     warnings = []
     if abs(info.length_m - ref_length) > 1e-9 * ref_length:
@@ -119,6 +144,16 @@ def validate(
         warnings.append(
             f"the FMU's start speed u0 = {info.speed_mps:.4g} m/s differs from the approach "
             f"speed {condition.speed_mps:.4g} m/s used for both ships"
+        )
+    if environment is not None and environment.has_wind and not info.has_windage:
+        warnings.append(
+            "the FMU has no windage (frontal_area = lateral_area = 0): the wind acts on the "
+            "reference ship only"
+        )
+    if environment is not None and params is not None and uncertainty_samples > 0:
+        warnings.append(
+            "the 95 % intervals come from Monte-Carlo runs in calm water, moved to the "
+            "predicted values at sea"
         )
     validation = Validation(
         fmu_path=info.path,
@@ -133,6 +168,7 @@ def validate(
         criteria=tuple(imo_criteria(predicted, info.length_m, condition.speed_mps)),
         reference_criteria=tuple(imo_criteria(ref, ref_length, condition.speed_mps)),
         warnings=tuple(warnings),
+        environment=environment,
     )
     if params is None or uncertainty_samples <= 0:
         return validation

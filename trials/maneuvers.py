@@ -153,15 +153,20 @@ def pullout(rudder_rad: float, *, turn_s: float = 600.0, release_s: float = 600.
     )
 
 
-def standard_set(length_m: float, speed_mps: float) -> tuple[Program, ...]:
+def standard_set(
+    length_m: float, speed_mps: float, *, turn_heading_change_rad: float = math.radians(540.0)
+) -> tuple[Program, ...]:
     """Return the validation set: 35° turning both ways, 10/10 and 20/20 zig-zags starboard first.
 
-    ``length_m`` and ``speed_mps`` scale the time limits (about 60 L/U).
+    ``length_m`` and ``speed_mps`` scale the time limits (about 60 L/U); the turns end
+    at ``turn_heading_change_rad`` of heading change (540° by default; 720° for the
+    current correction of MSC/Circ.1053 3.4.2.5).
     """
     limit_s = 60.0 * length_m / max(speed_mps, 1e-3)
+    turn = turn_heading_change_rad
     return (
-        turning_circle(math.radians(35.0), max_time_s=limit_s),
-        turning_circle(-math.radians(35.0), max_time_s=limit_s),
+        turning_circle(math.radians(35.0), heading_change_rad=turn, max_time_s=limit_s),
+        turning_circle(-math.radians(35.0), heading_change_rad=turn, max_time_s=limit_s),
         zigzag(math.radians(10.0), math.radians(10.0), max_time_s=limit_s),
         zigzag(math.radians(20.0), math.radians(20.0), max_time_s=limit_s),
     )

@@ -14,7 +14,10 @@ Commands::
     demo            logs -> identification -> native FMU -> validation report with intervals
 
 Speed and propeller speed default to the FMU's start values (``u0``, ``propeller_rpm``);
-the steering-gear rate to 2.34 deg/s (KVLCC2 full scale, a typical large ship's).
+the steering-gear rate to 2.34 deg/s (KVLCC2 full scale, a typical large ship's). The
+commands that sail an FMU (and ``validate`` the reference ship with it) take a steady
+current and wind, ``--current-mps C --current-to-deg D``, ``--wind-mps W
+--wind-from-deg D`` (:mod:`~scenarios.cli.sea`); without them they sail in calm water.
 
 Exit status: 0 success; 1 data error (missing or foreign FMU, rudder beyond the FMU's
 limit, a run that does not give its metrics, unreadable files); 2 usage error
@@ -43,6 +46,7 @@ from scenarios.cli.fmu_runs import (
     run_turning_circle_command,
     run_zigzag_command,
 )
+from scenarios.cli.sea import check_sea_usage
 from scenarios.cli.synthesize import (
     add_synthesize_command,
     check_synthesize_usage,
@@ -73,6 +77,10 @@ _COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "demo": run_demo_command,
     "uncertainty": run_uncertainty_command,
 }
+
+
+# The commands with the at-sea options of scenarios.cli.sea.
+_AT_SEA = ("turning-circle", "zigzag", "spiral", "pullout", "imo", "validate")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -111,6 +119,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         check_validate_usage(commands["validate"], args)
     if args.command == "synthesize":
         check_synthesize_usage(commands["synthesize"], args)
+    elif args.command in _AT_SEA:
+        check_sea_usage(commands[args.command], args)
     try:
         return _COMMANDS[args.command](args)
     except (

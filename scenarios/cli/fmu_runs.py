@@ -20,6 +20,15 @@ corrected indices (the keys of the raw ones), the drift (``drift_north_mps``,
 turn). A logged turning circle's ``logged`` record gains the same for the log, and a
 corrected log is sailed again at its speed through the water and compared corrected.
 ``--no-current-correction`` keeps the raw values for both.
+
+At sea (``--current-mps C --current-to-deg D``, ``--wind-mps W --wind-from-deg D``,
+``scenarios.cli.sea``) the FMU sails in that steady current and wind through its
+environment inputs (``scenarios.fmu_plant``); the text names the environment and the
+JSON record gains ``environment`` (``current_mps``, ``current_to_deg``, ``wind_mps``,
+``wind_from_deg``). A turning circle continued to 720° is then corrected as above (the
+drift a wind adds is taken out with the current's, as on a trial); ``imo`` continues
+its 35° turns to 720° and judges them so, and says which values it judged. Without
+these options every command sails in calm water, as before.
 """
 
 from __future__ import annotations
@@ -36,11 +45,17 @@ import numpy as np
 
 from fmu_model import argtypes
 from scenarios.cli.common import EXIT_GATE_FAILED, PROG, make_bars, sim_progress
+from scenarios.cli.sea import add_sea_arguments, sea_environment
 from scenarios.errors import ScenarioError
-from scenarios.fmu_checks import FmuInfo, check_rudder, open_fmu, read_fmu_info
+from scenarios.fmu_checks import FmuInfo, check_environment, check_rudder, open_fmu, read_fmu_info
 from scenarios.imo import Criterion, TurningJudgement, turning_ability_in_current
-from scenarios.records import Condition, ManeuverRun
-from scenarios.report import criteria_table, format_table, write_json
+from scenarios.records import (
+    Condition,
+    ManeuverRun,
+    current_correction_record,
+    environment_record,
+)
+from scenarios.report import criteria_table, format_table, sea_lines, write_json
 from scenarios.runs import (
     STANDARD_LIMIT_L_OVER_U,
     imo_criteria,
@@ -48,6 +63,7 @@ from scenarios.runs import (
     run_standard_set,
     simulate,
 )
+from scenarios.sea import SeaEnvironment
 from trials.conditions import (
     LoggedCondition,
     log_trajectory,
@@ -55,7 +71,6 @@ from trials.conditions import (
     maneuver_indices,
 )
 from trials.current_correction import (
-    DRIFT_THRESHOLD_FRACTION,
     REFERENCE,
     CurrentCorrection,
     correct_turning_circle,
@@ -151,6 +166,7 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
     fmu_run.add_argument(
         "--dt-s", type=argtypes.positive, default=0.1, metavar="S", help="communication step [s]"
     )
+    add_sea_arguments(fmu_run)
 
     outputs = argparse.ArgumentParser(add_help=False, parents=[fmu_run])
     outputs.add_argument("--json", metavar="OUT", help="write the metrics as JSON")
@@ -245,6 +261,11 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
     p = sub.add_parser("imo", parents=[fmu_run], help="IMO MSC.137(76) criteria of an FMU")
     p.add_argument("--strict", action="store_true", help="exit 3 when any criterion fails")
     p.add_argument("--json", metavar="OUT", help="write the criteria as JSON")
+    p.add_argument(
+        "--no-current-correction",
+        action="store_true",
+        help="at sea: judge the turns' raw indices even when they show a drift",
+    )
 
 
 # ------------------------------------------------------------------------ helpers
@@ -286,6 +307,36 @@ def _run_record(
     }
 
 
+def _at_sea(args: argparse.Namespace, info: FmuInfo) -> SeaEnvironment | None:
+    """Return the environment the options ask for, checked against the FMU; None in calm water."""
+    environment = sea_environment(args)
+    if environment is not None:
+        check_environment(info)
+    return environment
+
+
+def _sea_record(args: argparse.Namespace, record: dict[str, Any]) -> dict[str, Any]:
+    """``record`` with ``environment`` at sea (unchanged in calm water)."""
+    environment = sea_environment(args)
+    if environment is not None:
+        record["environment"] = environment_record(environment)
+    return record
+
+
+def _sea_text(args: argparse.Namespace, info: FmuInfo) -> list[str]:
+    """Return the lines naming the environment (none in calm water)."""
+    environment = sea_environment(args)
+    if environment is None:
+        return []
+    lines = [f"  at sea: {environment.describe()}"]
+    if environment.has_wind and not info.has_windage:
+        lines.append(
+            "  the FMU has no windage (frontal_area = lateral_area = 0): the wind does not act "
+            "on it"
+        )
+    return lines
+
+
 def _write_csv(path: str, trajectory: np.ndarray, info: FmuInfo, source: str) -> None:
     from trials.logs import ManeuverLog, write_log
 
@@ -306,17 +357,27 @@ def _write_csv(path: str, trajectory: np.ndarray, info: FmuInfo, source: str) ->
     write_log(path, log)
 
 
-def _source(command: str, info: FmuInfo, program: Program, condition: Condition) -> str:
+def _source(args: argparse.Namespace, info: FmuInfo, program: Program, condition: Condition) -> str:
     c = condition.as_dict()
-    return (
-        f"simulated {program.name} ({PROG} {command}) on {Path(info.path).name}: "
+    text = (
+        f"simulated {program.name} ({PROG} {args.command}) on {Path(info.path).name}: "
         f"U {c['speed_mps']:.6g} m/s, {c['rpm']:.6g} rpm, rudder rate "
         f"{c['rudder_rate_deg_s']:.4g} deg/s, step {c['dt_s']:g} s"
     )
+    environment = sea_environment(args)
+    if environment is not None:
+        text += f"; at sea: {environment.describe()}"
+    return text
 
 
-def _run_on_fmu(args: argparse.Namespace, program: Program, condition: Condition) -> np.ndarray:
-    with open_fmu(args.fmu) as plant, sim_progress(program.name, args.quiet) as progress:
+def _run_on_fmu(
+    args: argparse.Namespace, info: FmuInfo, program: Program, condition: Condition
+) -> np.ndarray:
+    environment = _at_sea(args, info)
+    with (
+        open_fmu(args.fmu, environment) as plant,
+        sim_progress(program.name, args.quiet) as progress,
+    ):
         return simulate(plant, program, condition, progress)
 
 
@@ -358,9 +419,10 @@ def _measured_run(
         if current is not None:
             logged["current_corrected"] = current
     program = replace(program, approach_s=args.approach_s)
-    trajectory = _run_on_fmu(args, program, condition)
+    trajectory = _run_on_fmu(args, info, program, condition)
     run = ManeuverRun(program, trajectory, measure(program, trajectory))
     record = {**run.metrics_dict(info.length_m), "run": _run_record(args, info, program, condition)}
+    _sea_record(args, record)
     if logged is not None:
         record["logged"] = {"log": args.like, **logged}
     return program, condition, trajectory, record, lines
@@ -395,15 +457,7 @@ def _current_of_turn(
         correction.raw, correction, info.length_m, correct=not args.no_current_correction
     )
     judged = _judged_by_imo(info, rudder_rad)
-    record: dict[str, Any] = {
-        **correction.corrected.as_dict(info.length_m),
-        **correction.estimate.as_dict(),
-        "threshold_fraction": DRIFT_THRESHOLD_FRACTION,
-        "threshold_mps": correction.threshold_mps(),
-        "applied": judgement.corrected,
-        "imo_basis": judgement.basis,
-        "imo_reason": judgement.reason,
-    }
+    record = current_correction_record(correction, judgement, info.length_m)
     if judged:
         record["imo_criteria"] = [c.as_dict() for c in judgement.criteria]
     return correction, record, _current_lines(correction, judgement, where, judged)
@@ -472,23 +526,31 @@ def _corrected_log(
 def _logged_lines(record: dict[str, Any]) -> list[str]:
     """Lines "logged vs predicted" of a ``--like`` run (none without it).
 
-    A log corrected for its current is compared with its corrected indices.
+    A log corrected for its current is compared with its corrected indices, and so is
+    a run sailed in a current whose correction counts (``--current-mps``).
     """
     logged = record.get("logged")
     if logged is None:
         return []
     current = logged.get("current_corrected")
     corrected = current is not None and current["applied"]
+    sailed: dict[str, Any] = record.get("current_corrected") or {}
+    predicted_corrected = bool(sailed.get("applied"))
     lines = [f"  as logged in {logged['log']}{', current-corrected' if corrected else ''}:"]
+    if predicted_corrected:
+        lines.append("  predicted: the run's current-corrected indices")
     for key, value in logged.items():
         if key in ("log", "current_corrected") or value is None or record.get(key) is None:
             continue
         if corrected:
             value = current[key]
+        predicted = sailed.get(key) if predicted_corrected else None
+        if predicted is None:
+            predicted = record[key]
         unit = key.rsplit("_", 1)[-1]
         lines.append(
-            f"  {key:<22} logged {value:9.2f} {unit}  predicted {record[key]:9.2f} {unit}  "
-            f"difference {record[key] - value:+8.2f} {unit}"
+            f"  {key:<22} logged {value:9.2f} {unit}  predicted {predicted:9.2f} {unit}  "
+            f"difference {predicted - value:+8.2f} {unit}"
         )
     return lines
 
@@ -505,7 +567,7 @@ def _save_outputs(
     if args.json:
         write_json(args.json, record)
     if args.csv:
-        _write_csv(args.csv, trajectory, info, _source(args.command, info, program, condition))
+        _write_csv(args.csv, trajectory, info, _source(args, info, program, condition))
     if args.plot and figure is not None:
         from scenarios.plots import save_png
 
@@ -548,6 +610,11 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
     if found is not None:
         record["current_corrected"] = found[1]
         current_lines = found[2]
+    elif sea_environment(args) is not None:
+        current_lines = [
+            f"  raw values: the current correction ({REFERENCE}) needs 720 deg of heading "
+            "change (--heading-change-deg 720)"
+        ]
 
     def figure() -> Any:
         from scenarios.plots import trajectory_figure
@@ -557,7 +624,7 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
         )
 
     _save_outputs(args, info, program, condition, trajectory, record, figure)
-    lines = [_header(info, program, condition)]
+    lines = [_header(info, program, condition), *_sea_text(args, info)]
     for key, label in _TURNING_LINES:
         if f"{key}_m" in record:
             lines.append(f"  {label:<18} {record[f'{key}_m']:9.1f} m  {record[f'{key}_L']:7.3f} L")
@@ -587,7 +654,9 @@ def run_zigzag_command(args: argparse.Namespace) -> int:
         return zigzag_figure([(info.model_name, trajectory)], title=_title(info, program))
 
     _save_outputs(args, info, program, condition, trajectory, record, figure)
-    lines = [_header(info, program, condition)]
+    lines = [_header(info, program, condition), *_sea_text(args, info)]
+    if sea_environment(args) is not None:
+        lines.append("  overshoots and times as sailed (no current correction for a zig-zag)")
     for key, label, unit in (
         ("first_overshoot_deg", "1st overshoot", "deg"),
         ("second_overshoot_deg", "2nd overshoot", "deg"),
@@ -611,7 +680,7 @@ def run_spiral_command(args: argparse.Namespace) -> int:
     condition = _condition(args, info)
     hold = _hold_s(args.hold_s, info, condition)
     program = replace(spiral(steps, hold_s=hold), approach_s=args.approach_s)
-    trajectory = _run_on_fmu(args, program, condition)
+    trajectory = _run_on_fmu(args, info, program, condition)
     end = float(trajectory["time_s"][-1])
     rates = []
     for i in range(len(steps)):
@@ -635,6 +704,7 @@ def run_spiral_command(args: argparse.Namespace) -> int:
         "steady_window_s": _STEADY_FRACTION * hold,
         "run": _run_record(args, info, program, condition),
     }
+    _sea_record(args, record)
 
     def figure() -> Any:
         from scenarios.plots import spiral_figure
@@ -645,7 +715,11 @@ def run_spiral_command(args: argparse.Namespace) -> int:
         )
 
     _save_outputs(args, info, program, condition, trajectory, record, figure)
-    lines = [_header(info, program, condition), "  rudder [deg]  steady r [deg/s]  r L/U [-]"]
+    lines = [
+        _header(info, program, condition),
+        *_sea_text(args, info),
+        "  rudder [deg]  steady r [deg/s]  r L/U [-]",
+    ]
     for d, r, rn in zip(
         record["rudder_deg"],
         record["steady_yaw_rate_degps"],
@@ -670,7 +744,7 @@ def run_pullout_command(args: argparse.Namespace) -> int:
     program = replace(
         pullout(rudder, turn_s=turn_s, release_s=release_s), approach_s=args.approach_s
     )
-    trajectory = _run_on_fmu(args, program, condition)
+    trajectory = _run_on_fmu(args, info, program, condition)
     metrics = pullout_metrics(trajectory, turn_s)
 
     def deg(value: float | None) -> float | None:
@@ -685,6 +759,7 @@ def run_pullout_command(args: argparse.Namespace) -> int:
         "time_constant_s": metrics.time_constant_s,
         "run": _run_record(args, info, program, condition),
     }
+    _sea_record(args, record)
 
     def figure() -> Any:
         from scenarios.plots import pullout_figure
@@ -692,7 +767,7 @@ def run_pullout_command(args: argparse.Namespace) -> int:
         return pullout_figure([(info.model_name, trajectory)], title=_title(info, program))
 
     _save_outputs(args, info, program, condition, trajectory, record, figure)
-    lines = [_header(info, program, condition)]
+    lines = [_header(info, program, condition), *_sea_text(args, info)]
     lines.append(f"  {'yaw rate at release':<26} {record['initial_yaw_rate_degps']:9.4f} deg/s")
     lines.append(f"  {'residual yaw rate':<26} {record['residual_yaw_rate_degps']:9.4f} deg/s")
     if metrics.time_constant_s is not None:
@@ -715,12 +790,18 @@ def run_imo_command(args: argparse.Namespace) -> int:
     info = read_fmu_info(args.fmu)
     check_rudder(info, math.radians(35.0))
     condition = _condition(args, info)
+    environment = _at_sea(args, info)
     make = make_bars(args.quiet)
     bar = make("imo", 4, "run")
     try:
-        with open_fmu(args.fmu) as plant:
+        with open_fmu(args.fmu, environment) as plant:
             runs = run_standard_set(
-                plant, condition, info.length_m, on_run=lambda _name: bar.update(1)
+                plant,
+                condition,
+                info.length_m,
+                on_run=lambda _name: bar.update(1),
+                at_sea=environment is not None,
+                current_correction=not args.no_current_correction,
             )
     finally:
         bar.close()
@@ -729,20 +810,27 @@ def run_imo_command(args: argparse.Namespace) -> int:
     if args.json:
         write_json(
             args.json,
-            {
-                "fmu": info.path,
-                "model_name": info.model_name,
-                "length_m": info.length_m,
-                "condition": condition.as_dict(),
-                "passed": passed,
-                "criteria": [c.as_dict() for c in criteria],
-                "runs": {r.program.name: r.metrics_dict(info.length_m) for r in runs},
-            },
+            _sea_record(
+                args,
+                {
+                    "fmu": info.path,
+                    "model_name": info.model_name,
+                    "length_m": info.length_m,
+                    "condition": condition.as_dict(),
+                    "passed": passed,
+                    "criteria": [c.as_dict() for c in criteria],
+                    "runs": {r.program.name: r.metrics_dict(info.length_m) for r in runs},
+                },
+            ),
         )
     print(
         f"IMO MSC.137(76) criteria of {info.model_name} (L = {info.length_m:g} m, "
         f"V = {condition.speed_mps:.4g} m/s, {condition.n_rps * 60.0:.4g} rpm)"
     )
+    if environment is not None:
+        print("\n".join(sea_lines(environment, [("", runs, info.length_m)])))
+        for line in _sea_text(args, info)[1:]:
+            print(line.strip())
     print(_criteria_text(criteria))
     n_pass = sum(c.passed for c in criteria)
     print(f"verdict: {'PASS' if passed else 'FAIL'} ({n_pass} of {len(criteria)} criteria pass)")

@@ -2,8 +2,9 @@
 
 ``validate`` runs the standard set on an FMU and on a reference ship and writes the
 report (``--max-error-pct``: exit 3 when a quantity differs by more; ``--params``: 95 %
-intervals from the identified covariance); ``demo`` synthesises logs, identifies,
-builds a native FMU and validates it.
+intervals from the identified covariance; ``--current-mps``/``--wind-mps``: both
+ships at sea, ``scenarios.cli.sea``); ``demo`` synthesises logs, identifies, builds a
+native FMU and validates it.
 """
 
 from __future__ import annotations
@@ -17,10 +18,11 @@ from typing import Any
 
 from fmu_model import argtypes, load_params
 from scenarios.cli.common import EXIT_GATE_FAILED, PROG, make_bars, progress
+from scenarios.cli.sea import add_sea_arguments, sea_environment
 from scenarios.cli.uncertainty import add_cluster_arguments
 from scenarios.demo import DemoConfig, run_demo
 from scenarios.records import ComparisonRow, Validation, failing_rows, interval_counts
-from scenarios.report import comparison_table, format_table, write_report
+from scenarios.report import comparison_table, format_table, sea_lines, write_report
 from scenarios.validation import validate
 
 __all__ = [
@@ -49,6 +51,7 @@ def add_validate_command(sub: Any, common: argparse.ArgumentParser) -> None:
         help="exit 3 when any |error| exceeds P %% (overshoot angles: relative error too)",
     )
     p.add_argument("--dt-s", type=argtypes.positive, default=0.1, metavar="S", help="step [s]")
+    add_sea_arguments(p, correction=True)
     band = p.add_argument_group(
         "uncertainty",
         "95 % intervals of the predicted quantities from the coefficient covariance "
@@ -136,6 +139,8 @@ def run_validate_command(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             n_workers=args.workers,
             params_source=args.params or "",
+            environment=sea_environment(args),
+            current_correction=not args.no_current_correction,
         )
     finally:
         bar.close()
@@ -155,6 +160,12 @@ def _print_validation(validation: Validation) -> None:
         f"predicted {Path(validation.fmu_path).name} vs reference {validation.reference_name} "
         f"(step {validation.condition.dt_s:g} s)"
     )
+    if validation.environment is not None:
+        sides = [
+            ("reference", validation.reference, validation.reference_length_m),
+            ("predicted", validation.predicted, validation.model_length_m),
+        ]
+        print("\n".join(sea_lines(validation.environment, sides)))
     print(format_table(*comparison_table(validation.rows)))
     if validation.uncertainty is not None:
         inside, judged = interval_counts(validation.rows)
