@@ -33,7 +33,8 @@ def _derivative_kernel(structure: ModelStructure) -> Any:
 
     Signature ``f(state, context, inputs, out)`` of ``rk4_into`` with context
     (equation index, θ, L [m], φ scratch (p,), kinematics scratch (3,)) and inputs
-    (δ [rad], n [rev/s]).
+    (δ [rad], n [rev/s], a_u [m/s²], a_v [m/s²], a_r [rad/s²]): a known acceleration (of
+    a measured wind load) is added to the model's.
     """
     cached = _DERIVATIVES.get(structure.name)
     if cached is not None and cached[0] == structure:
@@ -43,12 +44,12 @@ def _derivative_kernel(structure: ModelStructure) -> Any:
     @numba.njit(cache=False)
     def derivative(s, context, inputs, out):
         eq_index, theta, length, phi, kin = context
-        rudder, n_rps = inputs
+        rudder, n_rps, a_u, a_v, a_r = inputs
         phi_fn(s[0], s[1], s[2], rudder, n_rps, length, phi)
         kin_fn(s[0], s[1], s[2], s[5], kin)
-        out[0] = 0.0
-        out[1] = 0.0
-        out[2] = 0.0
+        out[0] = a_u
+        out[1] = a_v
+        out[2] = a_r
         for i in range(theta.size):
             out[eq_index[i]] += theta[i] * phi[i]
         out[3] = kin[0]
@@ -61,13 +62,14 @@ def _derivative_kernel(structure: ModelStructure) -> Any:
 
 @numba.njit(cache=False)
 def _replay_batch(
-    derivative, eq_index, length, max_step, linear, t, rudder, n_rps, x0s, thetas, speed_limit,
-    out,
+    derivative, eq_index, length, max_step, linear, t, rudder, n_rps, extra, x0s, thetas,
+    speed_limit, out,
 ):  # fmt: skip
     """RK4 replay from every row of ``x0s`` (B, 6) with ``thetas`` (B, p) into ``out`` (B, N, 6).
 
-    Inputs are held over each interval (zero-order hold) or, with ``linear``,
-    interpolated linearly between the samples at every RK4 stage. Each interval has
+    Inputs (rudder, rpm and the known accelerations ``extra`` (N, 3)) are held over each
+    interval (zero-order hold) or, with ``linear``, interpolated linearly between the
+    samples at every RK4 stage. Each interval has
     ``n_substeps(T, max_step)`` equal substeps. A run that turns non-finite or faster
     than ``speed_limit`` is NaN from there on.
     """
@@ -91,16 +93,26 @@ def _replay_batch(
             h = (t[k + 1] - t[k]) / m
             d0 = rudder[k]
             n0 = n_rps[k]
+            e0, e1, e2 = extra[k, 0], extra[k, 1], extra[k, 2]
             dd = 0.0
             dn = 0.0
+            de0 = 0.0
+            de1 = 0.0
+            de2 = 0.0
             if linear:
                 dd = (rudder[k + 1] - d0) / m
                 dn = (n_rps[k + 1] - n0) / m
+                de0 = (extra[k + 1, 0] - e0) / m
+                de1 = (extra[k + 1, 1] - e1) / m
+                de2 = (extra[k + 1, 2] - e2) / m
             for j in range(m):
                 # Inputs at the stage times: fraction 0, ½, 1 of the substep.
-                at_start = (d0 + j * dd, n0 + j * dn)
-                at_middle = (d0 + (j + 0.5) * dd, n0 + (j + 0.5) * dn)
-                at_end = (d0 + (j + 1.0) * dd, n0 + (j + 1.0) * dn)
+                a = float(j)
+                at_start = (d0 + a * dd, n0 + a * dn, e0 + a * de0, e1 + a * de1, e2 + a * de2)
+                a = j + 0.5
+                at_middle = (d0 + a * dd, n0 + a * dn, e0 + a * de0, e1 + a * de1, e2 + a * de2)
+                a = j + 1.0
+                at_end = (d0 + a * dd, n0 + a * dn, e0 + a * de0, e1 + a * de1, e2 + a * de2)
                 _rk4(derivative, s, h, context, at_start, at_middle, at_end, work)
             finite = True
             for c in range(6):
@@ -127,6 +139,7 @@ def replay(
     inputs: str = "linear",
     max_step_s: float | None = None,
     speed_limit_mps: float = math.inf,
+    extra_acceleration: np.ndarray | None = None,
 ) -> np.ndarray:
     """Simulate a batch of coefficient vectors over given inputs with RK4.
 
@@ -158,6 +171,9 @@ def replay(
         Largest RK4 step [s]; one step per sample interval when None.
     speed_limit_mps : float
         A run faster than this [m/s] (or non-finite) has diverged: NaN from there on.
+    extra_acceleration : numpy.ndarray, optional
+        Known accelerations (u̇ [m/s²], v̇ [m/s²], ṙ [rad/s²]) at the sample times added
+        to the model's (a measured wind's load), shape (N, 3); none when None.
 
     Returns
     -------
@@ -184,6 +200,9 @@ def replay(
         t,
         np.array(rudder_rad, dtype=float, order="C"),
         np.array(n_rps, dtype=float, order="C"),
+        np.zeros((t.size, 3))
+        if extra_acceleration is None
+        else np.array(extra_acceleration, dtype=float, order="C"),
         x0s,
         batch,
         float(speed_limit_mps),

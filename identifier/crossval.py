@@ -32,6 +32,7 @@ from fmu_model.replay import replay
 from identifier.identify import FitSettings, identify
 from identifier.output_error import execute_state, smooth_log
 from identifier.smoothing import SmoothedTrack
+from identifier.wind import known_acceleration
 from trials.conditions import KINDS, maneuver_indices, maneuver_kind, zigzag_angles
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
@@ -238,6 +239,7 @@ def predict_log(
     """
     track = track or smooth_log(log)
     k, state = execute_state(params, log, track)
+    known = known_acceleration(log, params.windage)
     states = replay(
         params.structure,
         params.to_vector(),
@@ -246,6 +248,7 @@ def predict_log(
         log.rudder_rad[k:],
         log.n_rps[k:],
         state,
+        extra_acceleration=None if known is None else known[k:],
         max_step_s=0.05 * params.length_m / max(float(state[0]), 0.1),
         speed_limit_mps=5.0 * max(float(np.max(np.hypot(track.u_mps, track.v_mps))), 0.1),
     )

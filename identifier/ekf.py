@@ -66,6 +66,10 @@ class EkfSegment:
         Rudder angle [rad], shape (N,).
     n_rps : numpy.ndarray
         Propeller speed [rev/s], shape (N,).
+    known_acceleration : numpy.ndarray, optional
+        Accelerations (u̇ [m/s²], v̇ [m/s²], ṙ [rad/s²]) of known external loads (a
+        measured wind's, ``identifier.wind``), shape (N, 3), added to the model's, so
+        that the coefficients are the ship's alone; None: none.
 
     """
 
@@ -78,6 +82,13 @@ class EkfSegment:
     initial_track: np.ndarray
     rudder_rad: np.ndarray
     n_rps: np.ndarray
+    known_acceleration: np.ndarray | None = None
+
+    def known_acceleration_or_zero(self) -> np.ndarray:
+        """Return the known accelerations (N, 3), zeros when there are none."""
+        if self.known_acceleration is None:
+            return np.zeros((self.time_s.size, 3))
+        return np.ascontiguousarray(self.known_acceleration, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -104,6 +115,10 @@ class EkfSettings:
         constants of 10–20 s reaches several per cent on the coefficients.
     max_history_rows : int
         Most rows of the histories kept in ``EkfResult`` (see there).
+    current_random_walk_mps : float
+        Random walk of each current component in an hour [m/s] (a drifting current,
+        Q_c = σ² T / 3600 s per step of T seconds); 0 keeps an estimated current constant.
+        Used only when :func:`ekf_identify` estimates a current.
 
     """
 
@@ -113,6 +128,7 @@ class EkfSettings:
     measurements: str = "track"
     max_substep_s: float = 0.1
     max_history_rows: int = 10_000
+    current_random_walk_mps: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -139,6 +155,8 @@ class EkfResult:
     filtered: tuple[np.ndarray, ...]
     history_stride: int
     track_rms: tuple[tuple[float, float], ...]
+    current: np.ndarray | None = None
+    current_covariance: np.ndarray | None = None
 
 
 def ekf_identify(
@@ -149,8 +167,17 @@ def ekf_identify(
     length_m: float,
     settings: EkfSettings | None = None,
     progress: Callable[[int], None] | None = None,
+    current0: np.ndarray | None = None,
+    current_covariance0: np.ndarray | None = None,
 ) -> EkfResult:
     """Identify the coefficients θ of ``structure`` with the augmented-state EKF.
+
+    With ``current0`` the state is augmented further by a uniform current c = (c_N, c_E)
+    [m/s] that moves the ship over the ground (ẋ = u cos ψ − v sin ψ + c_N, ẏ = u sin ψ +
+    v cos ψ + c_E), constant or a random walk (``settings.current_random_walk_mps``); u, v
+    and the coefficients are then through the water. Like θ it carries over between the
+    logs (one sea area, one current). Only with ``measurements="track"``: the smoothed
+    velocities of ``"velocities"`` are over the ground.
 
     Parameters
     ----------
@@ -168,6 +195,10 @@ def ekf_identify(
         Tuning; defaults when omitted.
     progress : callable, optional
         Called with the number of samples processed since the last call.
+    current0 : numpy.ndarray, optional
+        Initial current (North, East) [m/s]; None estimates no current.
+    current_covariance0 : numpy.ndarray, optional
+        Its covariance (2, 2) [m²/s²]; required with ``current0``.
 
     Raises
     ------
@@ -191,6 +222,23 @@ def ekf_identify(
     with np.errstate(over="ignore"):  # an infinite Q or limit: the pass reports divergence
         q_theta = (settings.param_random_walk * np.sqrt(np.diag(P_theta))) ** 2
         variance_limit = settings.divergence_factor * np.maximum(np.diag(P_theta), 1e-300)
+    estimated_current = current0 is not None
+    if estimated_current:
+        if settings.measurements != "track":
+            raise ValueError('a current is estimated only with measurements="track"')
+        if current_covariance0 is None or np.shape(current_covariance0) != (2, 2):
+            raise ValueError("current_covariance0 must have shape (2, 2)")
+        # θ and c are one augmented block: they carry over together, correlations too.
+        theta = np.concatenate([theta, np.asarray(current0, dtype=float)])
+        P_theta = np.block(
+            [[P_theta, np.zeros((p, 2))], [np.zeros((2, p)), np.asarray(current_covariance0)]]
+        )
+        interval_s = float(np.median(np.concatenate([np.diff(s.time_s) for s in segments])))
+        q_current = settings.current_random_walk_mps**2 * interval_s / 3600.0
+        q_theta = np.concatenate([q_theta, [q_current, q_current]])
+        variance_limit = np.concatenate(
+            [variance_limit, settings.divergence_factor * np.diag(P_theta)[p:]]
+        )
     # Model error enters the accelerations; the kinematics are exact.
     q_state = np.concatenate(
         [np.asarray(settings.state_process_std, dtype=float) ** 2, np.zeros(3)]
@@ -206,10 +254,16 @@ def ekf_identify(
     row = 0
     for seg in segments:
         n = seg.time_s.size
-        # Motion states restart at the segment's first smoothed sample; θ carries over.
-        x = np.concatenate([seg.velocities[0], seg.initial_track, theta])
-        P = np.zeros((6 + p, 6 + p))
-        P[:3, :3] = np.diag(seg.velocity_std[0] ** 2)
+        # Motion states restart at the segment's first smoothed sample (through the water:
+        # less the current's body components); θ (and c) carry over.
+        velocities0 = seg.velocities[0].copy()
+        velocity_var0 = seg.velocity_std[0] ** 2
+        if estimated_current:
+            velocities0[:2] -= body_current(theta[p:], seg.initial_track[2])
+            velocity_var0[:2] += np.trace(P_theta[p:, p:])
+        x = np.concatenate([velocities0, seg.initial_track, theta])
+        P = np.zeros((6 + theta.size, 6 + theta.size))
+        P[:3, :3] = np.diag(velocity_var0)
         P[3:6, 3:6] = np.diag(seg.track_std**2)
         P[6:, 6:] = P_theta
         if settings.measurements == "track":  # one row of R for every sample
@@ -228,6 +282,7 @@ def ekf_identify(
                 np.ascontiguousarray(r_var, dtype=float),
                 np.ascontiguousarray(seg.rudder_rad, dtype=float),
                 np.ascontiguousarray(seg.n_rps, dtype=float),
+                seg.known_acceleration_or_zero(),
                 x, P, q_state, q_theta, variance_limit, stride, track,
                 states, theta_hist[row : row + states.shape[0]],
                 std_hist[row : row + states.shape[0]], square_sums,
@@ -257,15 +312,28 @@ def ekf_identify(
         if progress is not None:
             progress(n)
     return EkfResult(
-        theta=theta,
-        covariance=P_theta,
+        theta=theta[:p],
+        covariance=P_theta[:p, :p],
         theta_history=theta_hist,
         std_history=std_hist,
         segment_ends=tuple(ends),
         filtered=tuple(filtered),
         history_stride=stride,
         track_rms=tuple(track_rms),
+        current=theta[p:] if estimated_current else None,
+        current_covariance=P_theta[p:, p:] if estimated_current else None,
     )
+
+
+def body_current(current_ne: np.ndarray, heading_rad: np.ndarray | float) -> np.ndarray:
+    """Body-frame components (forward, starboard) of a current (North, East) [m/s].
+
+    c_u = c_N cos ψ + c_E sin ψ,  c_v = −c_N sin ψ + c_E cos ψ, so that the velocities
+    through the water are (u − c_u, v − c_v) of those over the ground.
+    """
+    c_n, c_e = current_ne[0], current_ne[1]
+    cos_psi, sin_psi = np.cos(heading_rad), np.sin(heading_rad)
+    return np.array([c_n * cos_psi + c_e * sin_psi, -c_n * sin_psi + c_e * cos_psi])
 
 
 _OK, _NONFINITE, _NOT_PD, _EXPLODED = 0, 1, 2, 3
@@ -282,19 +350,23 @@ _STATUS_MESSAGES = {
 @numba.njit(cache=False)  # first-class function arguments defeat the on-disk cache
 def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length, max_substep, offset,
-    t, y, r_var, rudder, n_rps, x, P, q_state, q_theta, variance_limit, stride, track,
+    t, y, r_var, rudder, n_rps, known, x, P, q_state, q_theta, variance_limit, stride, track,
     states, theta_hist, std_hist, square_sums,
 ):  # fmt: skip
     """One segment of the EKF, eq. (4)-(5), in place on x and P; returns (status, sample).
 
-    x = (u, v, r, x, y, ψ, θ); the measurement is states offset … offset+2, with the
+    x = (u, v, r, x, y, ψ, θ, c): c the current (North, East) [m/s] when ``q_theta``
+    is longer than θ by two (it moves the ship over the ground: ẋ += c_N, ẏ += c_E),
+    else none; the measurement is states offset … offset+2, with the
     variances of row k of ``r_var`` (its only row when it has one). The motion states
     and θ with its standard deviations after the updates at samples 0, stride, … go to
-    ``states``, ``theta_hist`` and ``std_hist``; ``square_sums`` accumulates the squared
+    ``states``, ``theta_hist`` and ``std_hist``; ``known`` (N, 3) are accelerations of
+    known loads added to the model's; ``square_sums`` accumulates the squared
     filtered-minus-logged position [m²] and wrapped heading [rad²] over every sample.
     """
-    p = q_theta.size
-    m = 6 + p
+    p = eq_index.size
+    m = 6 + q_theta.size
+    current = q_theta.size > p
     phi = np.empty(p)
     grad = np.empty(3 * p)
     kin = np.empty(3)
@@ -333,6 +405,8 @@ def _ekf_pass(
             kin_grad_fn(x[0], x[1], x[2], x[5], kin_grad)
             A[:, :] = 0.0
             f[:] = 0.0
+            for c in range(3):  # known loads (a measured wind's), averaged as the inputs
+                f[c] = (1.0 - w) * known[k, c] + w * known[k + 1, c]
             for i in range(p):
                 e = eq_index[i]
                 th = x[6 + i]
@@ -343,6 +417,9 @@ def _ekf_pass(
                 f[3 + c] = kin[c]
                 for d in range(6):
                     A[3 + c, d] += h * kin_grad[6 * c + d]
+            if current:
+                f[3] += x[6 + p]
+                f[4] += x[7 + p]
             for c in range(6):
                 A[c, c] += 1.0
             for b in range(m):
@@ -355,6 +432,9 @@ def _ekf_pass(
                     F[c, b] = acc
             for i in range(p):
                 F[eq_index[i], 6 + i] += h * phi[i]
+            if current:
+                F[3, 6 + p] += h
+                F[4, 7 + p] += h
             for c in range(6):
                 x[c] += h * f[c]
         # P⁻ = Φ P Φᵀ + Q: only the motion rows and columns change.
@@ -375,7 +455,7 @@ def _ekf_pass(
                     acc += G[c, a] * F[d, a]
                 P[c, d] = acc
             P[c, c] += q_state[c] * T * T
-        for i in range(p):
+        for i in range(q_theta.size):
             P[6 + i, 6 + i] += q_theta[i]
         # Update: S = H P⁻ Hᵀ + R = L Lᵀ (Cholesky, 3 × 3).
         rk = min(k + 1, last_row)
@@ -425,7 +505,7 @@ def _ekf_pass(
                 return _NONFINITE, k + 1
             if P[a, a] <= 0.0:
                 return _EXPLODED, k + 1
-        for i in range(p):
+        for i in range(q_theta.size):
             if P[6 + i, 6 + i] > variance_limit[i]:
                 return _EXPLODED, k + 1
         _add_track_residual(x, track, k + 1, square_sums)

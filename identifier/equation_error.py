@@ -113,7 +113,8 @@ def regression_chunks(
 
     Each segment is decimated by :func:`decimation` (ship length ``length_m`` [m]); the
     accelerations are central differences over the decimated samples. SI units: m/s, m/s,
-    rad/s, rad, rev/s; accelerations m/s², m/s², rad/s². The first and last decimated sample
+    rad/s, rad, rev/s; accelerations m/s², m/s², rad/s², less the segment's known ones (a
+    measured wind's load) when it has them. The first and last decimated sample
     of every segment have no central difference and are left out. At most ``chunk_rows``
     rows (default :data:`CHUNK_ROWS`) a chunk; a chunk never spans two segments. With
     ``row_step`` > 1 only every ``row_step``-th row of each chunk is kept (a subset spread
@@ -130,9 +131,12 @@ def regression_chunks(
             ahead = seg.velocities[(start + 1) * m : (stop + 1) * m : m].T
             behind = seg.velocities[(start - 1) * m : (stop - 1) * m : m].T
             span = t[start + 1 : stop + 1] - t[start - 1 : stop - 1]
+            acc = (ahead - behind) / span
+            if seg.known_acceleration is not None:  # the ship's own part of it
+                acc = acc - seg.known_acceleration[rows].T
             yield (
                 np.vstack([s, seg.rudder_rad[rows], seg.n_rps[rows]])[:, ::row_step],
-                ((ahead - behind) / span)[:, ::row_step],
+                acc[:, ::row_step],
             )
 
 

@@ -28,15 +28,30 @@ from pathlib import Path
 
 import numpy as np
 
-from fmu_model import DEFAULT_MODEL, ModelParameters, get_model
+from fmu_model import DEFAULT_MODEL, ModelParameters, ModelStructure, get_model
+from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
 from fmu_model.variants import parse_family
+from identifier.current import (
+    CURRENT_MODES,
+    CURRENT_PRIOR_STD_MPS,
+    CURRENT_TOLERANCE_MPS,
+    DRIFTING_RANDOM_WALK_MPS,
+    MAX_CURRENT_ITERATIONS,
+    MIN_HEADING_SPAN_RAD,
+    SHAPE_PASSES,
+    CurrentEstimate,
+    heading_span_rad,
+    water_frame,
+    water_segments,
+)
 from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import EquationErrorFit, equation_error_fit
 from identifier.output_error import RefinementResult, refine_output_error
-from identifier.shape import select_shape
+from identifier.shape import ShapeSelection, select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
+from identifier.wind import has_wind, known_acceleration
 from trials.conditions import EXECUTE_RUDDER_RAD, execute_index
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
@@ -113,6 +128,13 @@ class FitSettings:
         (``identifier.output_error.refine_output_error``, default settings), starting from
         whichever of the EKF and equation-error estimates replays the logs better, and
         keeping that start when the guards fire; "ekf": the EKF estimate (the paper).
+    current : {"constant", "drifting", "none"}
+        Uniform current estimated with the coefficients (``identifier.current``):
+        constant over all logs, a random walk, or none (still water, the paper's).
+    windage : Windage, optional
+        The vessel's windage: the load of the logs' measured wind is taken out
+        (``identifier.wind``) and the windage goes into params.json (the FMU applies the
+        same load to its wind inputs); None: logs with wind are fitted as they are.
 
     """
 
@@ -128,6 +150,8 @@ class FitSettings:
     max_relative_std: float = 0.5
     max_variance_inflation: float = 1e4
     method: str = "output-error"
+    current: str = "constant"
+    windage: Windage | None = None
 
 
 @dataclass(frozen=True)
@@ -157,6 +181,7 @@ class IdentificationResult:
     warnings: tuple[str, ...]
     settings: FitSettings
     refinement: RefinementResult | None = None  # both fits with method "output-error"
+    current: CurrentEstimate | None = None  # unless settings.current == "none"
 
     @property
     def not_identifiable(self) -> tuple[str, ...]:
@@ -189,14 +214,120 @@ def _json_safe(settings: dict[str, object]) -> dict[str, object]:
     }
 
 
-def _nominal(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]) -> tuple[float, float]:
-    """Approach speed [m/s] and propeller speed [rev/s]: means over the logs' approaches."""
+def _nominal(logs: Sequence[ManeuverLog], segments: Sequence[EkfSegment]) -> tuple[float, float]:
+    """Approach speed u [m/s] and propeller speed [rev/s]: means over the logs' approaches."""
     speeds, revs = [], []
-    for log, track in zip(logs, tracks, strict=True):
+    for log, segment in zip(logs, segments, strict=True):
         end = max(execute_index(log), 3)
-        speeds.append(float(np.mean(track.u_mps[:end])))
+        speeds.append(float(np.mean(segment.velocities[:end, 0])))
         revs.append(float(np.mean(log.n_rps[:end])))
     return float(np.mean(speeds)), float(np.mean(revs))
+
+
+def _structure_and_start(
+    settings: FitSettings,
+    segments: Sequence[EkfSegment],
+    length_m: float,
+    speed_mps: float,
+    n_rps: float,
+) -> tuple[ShapeSelection | None, ModelStructure, EquationErrorFit]:
+    """Choose the family's shape (if one is to be chosen), fit the equation-error start."""
+    family, fixed = parse_family(settings.model) or (None, {})
+    shape = None
+    if family is not None and len(fixed) < len(family.shape):  # a family, shape to choose
+        shape = select_shape(family, segments, length_m, speed_mps, n_rps, fixed=fixed)
+    structure = get_model(settings.model) if shape is None else shape.structure
+    ls = equation_error_fit(structure, segments, length_m)
+    if not (np.all(np.isfinite(ls.theta)) and np.all(np.isfinite(ls.covariance))):
+        raise IdentificationError(
+            "the equation-error fit is not finite (the model's terms overflow or divide by "
+            "zero on these logs)"
+        )
+    return shape, structure, ls
+
+
+def _run_ekf(
+    settings: FitSettings,
+    structure: ModelStructure,
+    ls: EquationErrorFit,
+    segments: Sequence[EkfSegment],
+    length_m: float,
+    progress: Callable[[int], None] | None,
+    current_ne: np.ndarray | None = None,
+    current_random_walk_mps: float = 0.0,
+) -> EkfResult:
+    """Run the augmented-state EKF from the start ``settings.initial`` (and a current)."""
+    if settings.initial == "equation-error":
+        theta0 = ls.theta
+        cov0 = ls.covariance * settings.prior_inflation**2
+    else:
+        theta0 = np.zeros(structure.n_coefficients)
+        cov0 = settings.alpha * np.eye(structure.n_coefficients)
+    return ekf_identify(
+        structure,
+        segments,
+        theta0,
+        cov0,
+        length_m,
+        EkfSettings(
+            state_process_std=(
+                float(ls.residual_std[0]),
+                float(ls.residual_std[1]),
+                float(ls.residual_std[2]),
+            ),
+            param_random_walk=settings.param_random_walk,
+            measurements=settings.measurements,
+            max_substep_s=settings.max_substep_s,
+            current_random_walk_mps=current_random_walk_mps,
+        ),
+        progress=progress,
+        current0=current_ne,
+        current_covariance0=None if current_ne is None else CURRENT_PRIOR_STD_MPS**2 * np.eye(2),
+    )
+
+
+def _estimate_current(
+    settings: FitSettings,
+    segments: Sequence[EkfSegment],
+    tracks: Sequence[SmoothedTrack],
+    logs: Sequence[ManeuverLog],
+    length_m: float,
+    progress: Callable[[int], None] | None,
+) -> tuple[ShapeSelection | None, ModelStructure, EquationErrorFit, EkfResult, CurrentEstimate]:
+    """Estimate current and coefficients together (``identifier.current``).
+
+    The equation-error start is fitted on the velocities through the water for the
+    current so far, the EKF estimates the current with the coefficients from it, until
+    the current settles; the shape is chosen on the ground velocities and once more for
+    the settled current. A last EKF pass (with progress, and the random walk of a
+    drifting current) gives the estimate.
+    """
+    current = np.zeros(2)
+    iterations = 0
+    for _ in range(SHAPE_PASSES):
+        water = water_segments(segments, tracks, current)
+        speed_mps, n_rps = _nominal(logs, water)
+        shape, structure, ls = _structure_and_start(settings, water, length_m, speed_mps, n_rps)
+        for _ in range(MAX_CURRENT_ITERATIONS):
+            ekf = _run_ekf(settings, structure, ls, segments, length_m, None, current)
+            assert ekf.current is not None  # estimated: current_ne was given
+            change = float(np.max(np.abs(ekf.current - current)))
+            current = ekf.current
+            iterations += 1
+            ls = equation_error_fit(structure, water_segments(segments, tracks, current), length_m)
+            if change < CURRENT_TOLERANCE_MPS:
+                break
+    walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
+    ekf = _run_ekf(settings, structure, ls, segments, length_m, progress, current, walk)
+    assert ekf.current is not None and ekf.current_covariance is not None
+    estimate = CurrentEstimate(
+        north_mps=float(ekf.current[0]),
+        east_mps=float(ekf.current[1]),
+        covariance=ekf.current_covariance,
+        mode=settings.current,
+        iterations=iterations,
+    )
+    return shape, structure, ls, ekf, estimate
 
 
 def _check_sampling(log: ManeuverLog, name: str) -> None:
@@ -346,6 +477,11 @@ def identify(
         raise ValueError(f"unknown initial guess {settings.initial!r}")
     if settings.method not in METHODS:
         raise ValueError(f"unknown method {settings.method!r} (known: {', '.join(METHODS)})")
+    if settings.current not in CURRENT_MODES:
+        known = ", ".join(CURRENT_MODES)
+        raise ValueError(f"unknown current {settings.current!r} (known: {known})")
+    if settings.current != "none" and settings.measurements != "track":
+        raise ValueError('a current is estimated only with measurements="track"')
     length = vessel_length(logs, length_m)
     vessel = vessel_name(logs)
     # Every result below is checked (the smoothed track, the equation-error fit, the
@@ -401,51 +537,44 @@ def _identify(
                 initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
                 rudder_rad=log.rudder_rad,
                 n_rps=log.n_rps,
+                known_acceleration=known_acceleration(log, settings.windage),
             )
         )
         if progress is not None:
             progress(log.n_samples)
 
     _check_rudder(logs)
-    nominal_speed_mps, nominal_n_rps = _nominal(logs, tracks)
-    family, fixed = parse_family(settings.model) or (None, {})
-    shape = None
-    if family is not None and len(fixed) < len(family.shape):  # a family, shape to choose
-        shape = select_shape(
-            family, segments, length, nominal_speed_mps, nominal_n_rps, fixed=fixed
+    with_wind = [_log_name(log, i) for i, log in enumerate(logs) if has_wind(log)]
+    if with_wind and settings.windage is None:
+        warnings.append(
+            f"{len(with_wind)} of {len(logs)} logs carry a measured wind, but no windage was "
+            "given: its load stays in the coefficients (give --windage FILE.json)"
         )
-    structure = get_model(settings.model) if shape is None else shape.structure
-    ls = equation_error_fit(structure, segments, length)
-    if not (np.all(np.isfinite(ls.theta)) and np.all(np.isfinite(ls.covariance))):
-        raise IdentificationError(
-            "the equation-error fit is not finite (the model's terms overflow or divide by "
-            "zero on these logs)"
+    current = None
+    if settings.current == "none":
+        nominal_speed_mps, nominal_n_rps = _nominal(logs, segments)
+        shape, structure, ls = _structure_and_start(
+            settings, segments, length, nominal_speed_mps, nominal_n_rps
         )
-    ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
-    if settings.initial == "equation-error":
-        theta0 = ls.theta
-        cov0 = ls_prior
+        ekf = _run_ekf(settings, structure, ls, segments, length, progress)
+        water_logs, water_tracks = list(logs), tracks
     else:
-        theta0 = np.zeros(structure.n_coefficients)
-        cov0 = settings.alpha * np.eye(structure.n_coefficients)
-    ekf = ekf_identify(
-        structure,
-        segments,
-        theta0,
-        cov0,
-        length,
-        EkfSettings(
-            state_process_std=(
-                float(ls.residual_std[0]),
-                float(ls.residual_std[1]),
-                float(ls.residual_std[2]),
-            ),
-            param_random_walk=settings.param_random_walk,
-            measurements=settings.measurements,
-            max_substep_s=settings.max_substep_s,
-        ),
-        progress=progress,
-    )
+        shape, structure, ls, ekf, current = _estimate_current(
+            settings, segments, tracks, logs, length, progress
+        )
+        nominal_speed_mps, nominal_n_rps = _nominal(
+            logs, water_segments(segments, tracks, current.vector)
+        )
+        moved = [water_frame(log, t, current.vector) for log, t in zip(logs, tracks, strict=True)]
+        water_logs, water_tracks = [m[0] for m in moved], [m[1] for m in moved]
+        if heading_span_rad(tracks) < MIN_HEADING_SPAN_RAD:
+            warnings.append(
+                f"the logs' headings span {math.degrees(heading_span_rad(tracks)):.0f} deg: "
+                "the current along the course is barely told apart from the ship's own "
+                "speed (add a turning circle of 360 deg or more, or runs on other headings, "
+                "or fit with --current none if the water was still)"
+            )
+    ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
     std = np.sqrt(np.diag(ekf.covariance))
     reports = tuple(
         CoefficientReport(
@@ -480,6 +609,7 @@ def _identify(
         nominal_speed_mps=nominal_speed_mps,
         nominal_n_rps=nominal_n_rps,
         covariance=ekf.covariance,
+        windage=settings.windage,
         identification={
             "method": "smoothing (CA Kalman + RTS) -> augmented-state EKF (Shi et al. 2009)",
             "logs": [
@@ -487,6 +617,7 @@ def _identify(
             ],
             "settings": _json_safe(asdict(settings)),
             **({} if shape is None else {"shape": shape.as_dict()}),
+            "environment": {"current": "none"} if current is None else current.as_dict(),
             "noise": [
                 {"position_m": t.position_noise_m, "heading_deg": math.degrees(t.heading_noise_rad)}
                 for t in tracks
@@ -511,7 +642,10 @@ def _identify(
     elif settings.method == "output-error":
         equation_error = params.with_vector(ls.theta, ls_prior)
         refinement = refine_output_error(
-            params, logs, tracks=tracks, alternatives={"equation-error": equation_error}
+            params,
+            water_logs,
+            tracks=water_tracks,
+            alternatives={"equation-error": equation_error},
         )
         params = refinement.params
         warnings.extend(refinement.warnings)
@@ -532,4 +666,5 @@ def _identify(
         warnings=tuple(warnings),
         settings=settings,
         refinement=refinement,
+        current=current,
     )

@@ -21,6 +21,7 @@ sentence's.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import zlib
@@ -31,8 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from fmu_model import ModelParameters
+from fmu_model.atomic import write_atomic
 from scenarios.errors import ScenarioError
-from scenarios.kvlcc2 import ReferencePlant, kvlcc2
+from scenarios.kvlcc2 import ReferencePlant, kvlcc2, kvlcc2_windage
 from scenarios.sea import SeaEnvironment
 from trials.logs import ManeuverLog, write_log
 from trials.maneuvers import Program, turning_circle, zigzag
@@ -294,3 +296,19 @@ def synthesize_logs(
         if on_log is not None:
             on_log(path)
     return written
+
+
+def write_windage(
+    directory: str | os.PathLike[str], vessel: str = "kvlcc2", scale: str = "full"
+) -> Path:
+    """Write the reference ship's windage, ``directory/windage.json`` (``fit --windage``).
+
+    The areas, lateral centroid and effective inertias its wind load was synthesised with
+    (``docs/kvlcc2_environment.md``), at ``scale``: what a trials engineer takes from the
+    ship's general arrangement and loading condition.
+    """
+    if vessel != "kvlcc2":
+        raise ScenarioError(f"unknown reference vessel {vessel!r} (known: kvlcc2)")
+    path = Path(directory) / "windage.json"
+    write_atomic(path, json.dumps(kvlcc2_windage(scale).to_dict(), indent=2) + "\n")
+    return path

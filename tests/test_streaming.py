@@ -162,7 +162,8 @@ def test_same_coefficients_as_the_in_memory_path_within_a_tenth_sigma(
     # Small blocks, chunks and histories: every bounded-memory path is exercised.
     monkeypatch.setattr(smoothing, "RTS_BLOCK_SAMPLES", 1000)
     monkeypatch.setattr(equation_error, "CHUNK_ROWS", 1000)
-    result = identify([read_log(path)], FitSettings(model="prime-rudder", method="ekf"))
+    settings = FitSettings(model="prime-rudder", method="ekf", current="none")  # as recorded
+    result = identify([read_log(path)], settings)
     assert list(result.params.names) == reference["names"]
     std = np.array(reference["std"])
     deviation = np.abs(result.params.coefficients - np.array(reference["theta"])) / std

@@ -70,6 +70,9 @@ class SingleShip(ABC):
 class ModelPlant:
     """The ``fmu_model`` Python model, RK4 with the FMU's substep rule.
 
+    In still air and water, as the FMU with its environment inputs at 0: a ship with a
+    windage (``params.windage``) feels the air load of its own motion, as the FMU does.
+
     Parameters
     ----------
     params : ModelParameters
@@ -112,7 +115,14 @@ class ModelPlant:
         with np.errstate(all="ignore"):  # a diverging draw is the runner's to judge
             for _ in range(m):
                 state = rk4_step(
-                    self._model, theta, self.length_m, state, rudder_rad, n_rps, dt_s / m
+                    self._model,
+                    theta,
+                    self.length_m,
+                    state,
+                    rudder_rad,
+                    n_rps,
+                    dt_s / m,
+                    windage=self.params.windage,
                 )
         state = state.reshape(6, ships.size)
         self._state[:, ships] = state

@@ -12,6 +12,7 @@ from tqdm import tqdm
 from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
+from identifier.current import CURRENT_MODES
 from identifier.identify import (
     ALPHA_RANGE,
     HEADING_NOISE_RANGE_DEG,
@@ -23,6 +24,7 @@ from identifier.identify import (
     IdentificationResult,
     identify,
 )
+from identifier.wind import read_windage
 from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]
@@ -95,6 +97,18 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="output-error: refine the EKF estimate by output error, guarded (default: "
         "predicts held-out manoeuvres best); ekf: the EKF estimate (the seed paper)",
     )
+    fit.add_argument(
+        "--current",
+        choices=CURRENT_MODES,
+        help="uniform current estimated with the coefficients: constant (default), drifting "
+        "(a random walk) or none (still water; the default with --measurements velocities)",
+    )
+    fit.add_argument(
+        "--windage",
+        metavar="FILE.json",
+        help="the vessel's windage (areas, centroid, effective inertias; README): the load of "
+        "the logs' measured wind is taken out of the coefficients and the FMU applies it",
+    )
     return fit
 
 
@@ -118,13 +132,29 @@ def _summary(result: IdentificationResult) -> str:
         )
     p = result.params
     lines.append(
-        f"nominal: {p.nominal_speed_mps:.3f} m/s at {p.nominal_n_rps * 60.0:.1f} rpm; "
-        f"L = {p.length_m:g} m"
+        f"nominal: {p.nominal_speed_mps:.3f} m/s through the water at "
+        f"{p.nominal_n_rps * 60.0:.1f} rpm; L = {p.length_m:g} m"
     )
+    cur = result.current
+    if cur is not None:
+        std_n, std_e = cur.std_mps
+        lines.append(
+            f"current ({cur.mode}): {cur.speed_mps:.3f} m/s towards "
+            f"{math.degrees(cur.to_rad):.1f} deg (North {cur.north_mps:+.3f} ± {std_n:.3f}, "
+            f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s)"
+        )
     return "\n".join(lines)
 
 
 def _fit(args: argparse.Namespace) -> int:
+    current = args.current or ("none" if args.measurements == "velocities" else "constant")
+    if current != "none" and args.measurements == "velocities":
+        return error(
+            f"--current {current} needs --measurements track (the smoothed velocities of "
+            "'velocities' are over the ground)",
+            status=2,
+        )
+    windage = None if args.windage is None else read_windage(args.windage)
     logs = [read_log(path) for path in args.logs]
     settings = FitSettings(
         model=args.model,
@@ -138,6 +168,8 @@ def _fit(args: argparse.Namespace) -> int:
             None if args.heading_noise_deg is None else math.radians(args.heading_noise_deg)
         ),
         method=args.method,
+        current=current,
+        windage=windage,
     )
     total = 2 * sum(log.n_samples for log in logs)
     with tqdm(total=total, unit="sample", disable=args.quiet, file=sys.stderr) as bar:

@@ -20,6 +20,7 @@ from fmu_model.replay import replay
 from identifier.output_error.objective import Objective, prepare_log
 from identifier.output_error.records import RefineSettings
 from identifier.smoothing import SmoothedTrack, smooth_track
+from identifier.wind import known_acceleration
 from trials.conditions import execute_index
 from trials.logs import ManeuverLog
 
@@ -78,7 +79,7 @@ def fit_initial_state(
     """
     track = track or smooth_log(log)
     settings = _resolved(settings, params, track)
-    d = prepare_log(log, track, log.path or "log", settings)
+    d = prepare_log(log, track, log.path or "log", settings, windage=params.windage)
     end = log.n_samples if end_index is None else min(int(end_index), log.n_samples)
     if end < 10:
         return d.x0
@@ -151,8 +152,14 @@ def execute_state(
         x0,
         inputs=settings.inputs,
         max_step_s=settings.max_step_s,
+        extra_acceleration=_head(known_acceleration(log, params.windage), k + 1),
     )
     return k, states[-1]
+
+
+def _head(values: np.ndarray | None, end: int) -> np.ndarray | None:
+    """Return the first ``end`` rows of ``values`` (None stays None)."""
+    return None if values is None else values[:end]
 
 
 def _resolved(

@@ -40,9 +40,11 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from fmu_model import ModelParameters, ModelStructure
+from fmu_model.environment import Windage
 from fmu_model.replay import replay
 from identifier.output_error.records import RefineSettings
 from identifier.smoothing import SmoothedTrack
+from identifier.wind import known_acceleration
 from trials.logs import ManeuverLog
 
 # A replay whose speed exceeds this multiple of the logged maximum has diverged.
@@ -78,6 +80,9 @@ class LogData:
         Weight / σ of each quantity (k,), in the inverse of its unit.
     speed_limit_mps : float
         Speed above which the replay has diverged [m/s].
+    known_acceleration : numpy.ndarray or None
+        Accelerations of known loads (a measured wind's) at the samples (N, 3) [m/s²,
+        m/s², rad/s²], added to the model's in the replay; None: none.
 
     """
 
@@ -90,6 +95,7 @@ class LogData:
     target: np.ndarray
     scale: np.ndarray
     speed_limit_mps: float
+    known_acceleration: np.ndarray | None = None
 
     def head(self, end: int) -> LogData:
         """Return the log's first ``end`` samples."""
@@ -99,6 +105,9 @@ class LogData:
             rudder_rad=self.rudder_rad[:end],
             n_rps=self.n_rps[:end],
             target=self.target[: end - 1],
+            known_acceleration=(
+                None if self.known_acceleration is None else self.known_acceleration[:end]
+            ),
         )
 
 
@@ -108,6 +117,7 @@ def prepare_log(
     name: str,
     settings: RefineSettings,
     start: int = 0,
+    windage: Windage | None = None,
 ) -> LogData:
     """Residual data of a log from sample ``start`` on (initial state: smoothed there).
 
@@ -123,6 +133,9 @@ def prepare_log(
         The residual weights w_p, w_ψ, w_v.
     start : int
         Index of the first replayed sample.
+    windage : Windage, optional
+        The vessel's windage: the load of the log's measured wind enters the replay
+        (``identifier.wind``); None: no wind load.
 
     Returns
     -------
@@ -159,6 +172,7 @@ def prepare_log(
     )
     floor = np.array([1e-3, 1e-3, 1e-5, 1e-2, 1e-2, 1e-5])
     speed = float(np.max(np.hypot(track.u_mps, track.v_mps)))
+    known = known_acceleration(log, windage)
     return LogData(
         name=name,
         time_s=np.array(log.time_s[k:]),
@@ -178,6 +192,7 @@ def prepare_log(
         target=np.column_stack(columns),
         scale=np.asarray(scale),
         speed_limit_mps=DIVERGENCE_SPEED_FACTOR * max(speed, 0.1),
+        known_acceleration=None if known is None else known[k:],
     )
 
 
@@ -225,6 +240,7 @@ def _log_residuals(
         inputs=settings.inputs,
         max_step_s=settings.max_step_s,
         speed_limit_mps=d.speed_limit_mps,
+        extra_acceleration=d.known_acceleration,
     )
     observed = [sim[:, 1:, 3], sim[:, 1:, 4], sim[:, 1:, 5]]
     if d.target.shape[1] > 3:

@@ -186,7 +186,8 @@ def _coefficient_objective(
     for i, (log, track) in enumerate(zip(logs, tracks, strict=True)):
         k, state = execute_state(params, log, track, settings=settings)
         name = log.path or f"log {i + 1}"
-        data.append(replace(prepare_log(log, track, name, settings, start=k), x0=state))
+        prepared = prepare_log(log, track, name, settings, start=k, windage=params.windage)
+        data.append(replace(prepared, x0=state))
     return Objective(
         structure=params.structure,
         length_m=params.length_m,

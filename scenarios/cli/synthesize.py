@@ -17,7 +17,7 @@ from typing import Any
 from fmu_model import argtypes
 from scenarios.cli.common import make_bars
 from scenarios.sea import SeaEnvironment
-from scenarios.synthesize import MANEUVERS, synthesize_logs
+from scenarios.synthesize import MANEUVERS, synthesize_logs, write_windage
 
 __all__ = ["add_synthesize_command", "check_synthesize_usage", "run_synthesize_command"]
 
@@ -28,6 +28,8 @@ MAX_WIND_MPS = 40.0
 the ship's own speed added, stays within the log's 100 m/s)."""
 MAX_GUST_STD_MPS = 5.0
 """Largest ``--gust-std-mps`` [m/s]."""
+MAX_DIRECTION_DEG = 360.0
+"""Largest |``--current-to-deg``|, |``--wind-from-deg``| [deg]."""
 _SECONDS_PER_HOUR = 3600.0
 
 
@@ -66,7 +68,7 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
     )
     sea.add_argument(
         "--current-to-deg",
-        type=argtypes.within(-360.0, 360.0, "deg"),
+        type=argtypes.within(-MAX_DIRECTION_DEG, MAX_DIRECTION_DEG, "deg"),
         metavar="D",
         help="direction the current sets towards, clockwise from North [deg]",
     )
@@ -90,7 +92,7 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
     )
     sea.add_argument(
         "--wind-from-deg",
-        type=argtypes.within(-360.0, 360.0, "deg"),
+        type=argtypes.within(-MAX_DIRECTION_DEG, MAX_DIRECTION_DEG, "deg"),
         metavar="D",
         help="direction the true wind comes from, clockwise from North [deg]",
     )
@@ -169,6 +171,8 @@ def run_synthesize_command(args: argparse.Namespace) -> int:
         )
     finally:
         bar.close()
+    if args.wind_mps:  # what `identifier fit --windage` needs to take the wind out
+        paths.append(write_windage(args.output, args.vessel, args.scale))
     for path in paths:
         print(path)
     return 0

@@ -1,0 +1,188 @@
+"""Identification at sea: calm-water predictions from logs sailed in current and wind (issue 14).
+
+    python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
+        [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--out benchmarks/environment.md]
+
+For every condition (a uniform current of each speed towards each direction, crossed with
+each true wind speed from ``--wind-from-deg``) and every noise draw d, the KVLCC2 reference
+ship (``scenarios.synthesize``, full scale, 1 Hz, 1 m / 0.1° noise) sails zig-zag 10/10 and
+20/20 in it (noise seeds 10·d + 1, 10·d + 2, as ``benchmarks/fidelity.py --draws``), with its
+logger recording the relative wind and the speed through the water. Two fits:
+
+* ``default``: ``identify`` with the default settings (the current estimated, constant) and
+  the ship's windage (``--windage``), so the measured wind's load is taken out;
+* ``--current none``: the same, but the water taken as still (today's behaviour for a user
+  who does not model the sea; the windage is still given).
+
+Each fit predicts the calm-water standard manoeuvres (35° turn both sides, zig-zags 10/10 and
+20/20) through the same driver as ``benchmarks/fidelity.py``; the table shows, per draw, the
+largest difference of a turning index [percentage points] and of an overshoot [deg] from
+what the default procedure gives from the calm-water logs of the same draw, and the error of
+the current estimate (speed [m/s], direction [deg]). Issue 14's bar: within 1 point and
+0.5°, and the current within 0.05 m/s and 5°, in every draw.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from fidelity import SEEDS, Indices, index_errors, indices
+
+from identifier.identify import FitSettings, IdentificationResult, identify
+from scenarios.kvlcc2 import kvlcc2_windage
+from scenarios.sea import SeaEnvironment
+from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
+from trials.logs import ManeuverLog
+from trials.run import ModelPlant
+
+TRAINING = ("zigzag-10", "zigzag-20")
+TURNING_KEYS = ("adv", "trf", "TD", "TD port")
+OVERSHOOT_KEYS = ("10/10 OS1", "10/10 OS2", "20/20 OS1", "20/20 OS2")
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One sea state of the grid: current (towards) and true wind (from), SI units."""
+
+    current_mps: float
+    current_to_deg: float
+    wind_mps: float
+    wind_from_deg: float
+
+    def environment(self) -> SeaEnvironment | None:
+        """Return the reference ship's environment; None for calm water."""
+        if self.current_mps == 0.0 and self.wind_mps == 0.0:
+            return None
+        return SeaEnvironment(
+            current_speed_mps=self.current_mps,
+            current_to_rad=math.radians(self.current_to_deg),
+            wind_speed_mps=self.wind_mps,
+            wind_from_rad=math.radians(self.wind_from_deg),
+        )
+
+    def label(self) -> str:
+        """Table cell, e.g. ``0.5 m/s → 45°, wind 10 m/s``."""
+        current = (
+            f"{self.current_mps:g} m/s → {self.current_to_deg:g}°" if self.current_mps else "none"
+        )
+        wind = f"{self.wind_mps:g} m/s from {self.wind_from_deg:g}°" if self.wind_mps else "none"
+        return f"current {current}, wind {wind}"
+
+
+def training_logs(condition: Condition, draw: int) -> list[ManeuverLog]:
+    """Sail the zig-zags of draw ``draw`` in ``condition``; return their logs."""
+    ship = reference_ship("kvlcc2", "full", condition.environment())
+    return [
+        synthesize_log(ship, MANEUVERS[name](), seed=10 * draw + SEEDS[name]) for name in TRAINING
+    ]
+
+
+def worst_differences(predicted: Indices, calm: Indices, truth: Indices) -> tuple[float, float]:
+    """Largest |difference| from the calm-log prediction: turning [points], overshoots [deg]."""
+    p = index_errors(predicted, truth)
+    c = index_errors(calm, truth)
+    both = {k: (pk, ck) for k in p if (pk := p[k]) is not None and (ck := c[k]) is not None}
+    turning = [abs(a - b) for k, (a, b) in both.items() if k in TURNING_KEYS]
+    overshoot = [abs(a - b) for k, (a, b) in both.items() if k in OVERSHOOT_KEYS]
+    if len(turning) < len(TURNING_KEYS) or len(overshoot) < len(OVERSHOOT_KEYS):
+        return math.inf, math.inf
+    return max(turning), max(overshoot)
+
+
+def current_error(result: IdentificationResult, condition: Condition) -> tuple[float, float]:
+    """Error of the current estimate: |ĉ − c| [m/s] and direction [deg] (nan without one)."""
+    if result.current is None:
+        return math.nan, math.nan
+    true_n = condition.current_mps * math.cos(math.radians(condition.current_to_deg))
+    true_e = condition.current_mps * math.sin(math.radians(condition.current_to_deg))
+    speed = math.hypot(result.current.north_mps - true_n, result.current.east_mps - true_e)
+    if condition.current_mps == 0.0:
+        return speed, math.nan
+    angle = math.degrees(result.current.to_rad) - condition.current_to_deg
+    return speed, (angle + 180.0) % 360.0 - 180.0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the grid; print and write the table."""
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    parser.add_argument("--current-mps", type=float, action="append", dest="currents")
+    parser.add_argument("--current-to-deg", type=float, action="append", dest="directions")
+    parser.add_argument("--wind-mps", type=float, action="append", dest="winds")
+    parser.add_argument("--wind-from-deg", type=float, default=90.0)
+    parser.add_argument("--draws", type=int, default=5)
+    parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
+    parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
+    args = parser.parse_args(argv)
+    currents = args.currents or [0.0, 0.25, 0.5, 1.0]
+    directions = args.directions or [0.0, 90.0, 180.0, 270.0]
+    winds = args.winds or [0.0, 10.0, 15.0]
+    conditions = [
+        Condition(c, d, w, args.wind_from_deg)
+        for c in currents
+        for d in (directions if c else [0.0])
+        for w in winds
+        if c or w
+    ]
+    ship: TruthShip = reference_ship("kvlcc2", "full")
+    truth = indices(ship.plant, ship, args.dt_s)
+    windage = kvlcc2_windage("full")
+    lines = [
+        "# Identification at sea (benchmarks/environment.py)",
+        "",
+        "Zig-zag 10/10 + 20/20 of the KVLCC2 reference sailed in a uniform current and a "
+        "true wind; calm-water predictions (35° turn both sides, both zig-zags) compared "
+        "with what the default procedure gives from the calm-water logs of the same noise "
+        "draw. Columns: largest difference of a turning index [points] and of an overshoot "
+        "[deg]; error of the current estimate [m/s, deg]; fit time [s].",
+        "",
+        "| condition | draw | calm fit s | default: turn Δ | OS Δ | current err m/s | dir err ° "
+        "| s | --current none: turn Δ | OS Δ |",
+        "|" + "---|" * 10,
+    ]
+    print("\n".join(lines), flush=True)
+    calm: dict[int, tuple[Indices, float]] = {}
+    for draw in range(args.draws):
+        start = time.perf_counter()
+        calm_fit = identify(training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw), FitSettings())
+        calm[draw] = (indices(ModelPlant(calm_fit.params), ship, args.dt_s),
+                      time.perf_counter() - start)  # fmt: skip
+    for condition in conditions:
+        for draw in range(args.draws):
+            logs = training_logs(condition, draw)
+            start = time.perf_counter()
+            sea = identify(logs, FitSettings(windage=windage))
+            seconds = time.perf_counter() - start
+            still = identify(logs, FitSettings(windage=windage, current="none"))
+            sea_turn, sea_os = worst_differences(
+                indices(ModelPlant(sea.params), ship, args.dt_s), calm[draw][0], truth
+            )
+            still_turn, still_os = worst_differences(
+                indices(ModelPlant(still.params), ship, args.dt_s), calm[draw][0], truth
+            )
+            speed_err, angle_err = current_error(sea, condition)
+            row = [
+                condition.label(),
+                str(draw),
+                f"{calm[draw][1]:.0f}",
+                f"{sea_turn:.1f}",
+                f"{sea_os:.2f}",
+                f"{speed_err:.3f}",
+                "" if math.isnan(angle_err) else f"{angle_err:+.1f}",
+                f"{seconds:.0f}",
+                f"{still_turn:.1f}",
+                f"{still_os:.2f}",
+            ]
+            lines.append("| " + " | ".join(row) + " |")
+            print(lines[-1], flush=True)
+            Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,175 @@
+"""A uniform current in identification: through the water, not over the ground.
+
+A trial at sea is logged over the ground, but the hull forces act on the velocities
+through the water. With a uniform current c = (c_N, c_E) [m/s] (the direction it sets
+towards) the kinematics are
+
+    ẋ = u cos ψ − v sin ψ + c_N,   ẏ = u sin ψ + v cos ψ + c_E,
+
+with u, v through the water, and the smoothed velocities over the ground are those
+plus the current's body components (:func:`identifier.ekf.body_current`). Fitted as if
+the water were still, the current goes into the hull coefficients: 0.5 m/s setting
+across a KVLCC2's zig-zags turns the predicted 35° turn's tactical diameter by +22 %.
+
+The current is estimated with the coefficients (``identifier.identify``): c enters the
+augmented EKF as two more states (:func:`identifier.ekf.ekf_identify`), and the
+equation-error fit that starts the EKF is written on the velocities through the water
+for the current so far. The two alternate until the current settles
+(:data:`CURRENT_TOLERANCE_MPS`): the equation-error start, fitted on ground velocities,
+would otherwise hold the EKF's coefficients, and with them the current, near the
+still-water answer. The model family's shape is chosen again once for the settled
+current (:data:`SHAPE_PASSES`). Once the current is known, the logs and their smoothed
+tracks are moved into the water frame (:func:`water_frame`), and everything downstream
+(the output-error refinement, its guards) sees a ship in still water.
+
+What separates a current from the hull: a turn of 360° or more shows it as the drift of
+the circle; a straight approach shows its cross component as a drift angle the
+symmetric hull does not have; its along-course component looks like the ship's own
+speed and is told apart only by the heading changes of the manoeuvres and by how the
+hull's response scales with the speed through the water. Zig-zags alone (heading
+±35°) separate it less well (:data:`MIN_HEADING_SPAN_RAD`, warned about).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from identifier.ekf import EkfSegment, body_current
+from identifier.smoothing import SmoothedTrack
+from trials.logs import ManeuverLog
+
+CURRENT_MODES = ("none", "constant", "drifting")
+"""``--current``: none (still water), a constant current, a drifting one (random walk)."""
+
+CURRENT_PRIOR_STD_MPS = 1.0
+"""Prior standard deviation of each current component [m/s]: 2 kn, an open-sea current
+beyond the ordinary."""
+
+DRIFTING_RANDOM_WALK_MPS = 0.2
+"""Random walk of each component of a drifting current in an hour [m/s] (a tidal current
+turns by about 1 kn in a few hours)."""
+
+CURRENT_TOLERANCE_MPS = 1e-3
+"""The alternation stops when no component changes by more than this [m/s]."""
+
+MAX_CURRENT_ITERATIONS = 15
+"""Most EKF passes of one alternation (each a fraction of a second for a few logs)."""
+
+SHAPE_PASSES = 2
+"""Shape choices: on the ground velocities, then once more for the settled current."""
+
+MIN_HEADING_SPAN_RAD = math.radians(90.0)
+"""Below this range of headings over all logs the along-course current is barely told
+apart from the ship's own speed (warning)."""
+
+
+@dataclass(frozen=True)
+class CurrentEstimate:
+    """The estimated uniform current.
+
+    Attributes
+    ----------
+    north_mps, east_mps : float
+        Current velocity (it sets towards) [m/s]; for a drifting current, at the end of
+        the last log.
+    covariance : numpy.ndarray
+        Its covariance (2, 2) [m²/s²], from the EKF.
+    mode : str
+        ``"constant"`` or ``"drifting"``.
+    iterations : int
+        EKF passes of the alternation.
+
+    """
+
+    north_mps: float
+    east_mps: float
+    covariance: np.ndarray
+    mode: str
+    iterations: int
+
+    @property
+    def vector(self) -> np.ndarray:
+        """(c_N, c_E) [m/s]."""
+        return np.array([self.north_mps, self.east_mps])
+
+    @property
+    def speed_mps(self) -> float:
+        """Current speed [m/s]."""
+        return math.hypot(self.north_mps, self.east_mps)
+
+    @property
+    def to_rad(self) -> float:
+        """Direction it sets towards, clockwise from North, in [0, 2π) [rad]."""
+        return math.atan2(self.east_mps, self.north_mps) % (2.0 * math.pi)
+
+    @property
+    def std_mps(self) -> tuple[float, float]:
+        """Standard deviations of (c_N, c_E) [m/s]."""
+        return (math.sqrt(self.covariance[0, 0]), math.sqrt(self.covariance[1, 1]))
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the ``identification.environment`` record of params.json (units in keys)."""
+        std_n, std_e = self.std_mps
+        return {
+            "current": self.mode,
+            "current_north_mps": self.north_mps,
+            "current_east_mps": self.east_mps,
+            "current_north_std_mps": std_n,
+            "current_east_std_mps": std_e,
+            "current_speed_mps": self.speed_mps,
+            "current_to_deg": math.degrees(self.to_rad),
+            "current_covariance_m2ps2": self.covariance.tolist(),
+            "iterations": self.iterations,
+        }
+
+
+def water_segments(
+    segments: Sequence[EkfSegment],
+    tracks: Sequence[SmoothedTrack],
+    current_ne: np.ndarray,
+) -> list[EkfSegment]:
+    """Return the segments with their smoothed (u, v) through the water.
+
+    u_w = u − c_u(ψ), v_w = v − c_v(ψ) with the current's body components at the smoothed
+    heading ψ of every sample; r, the logged track and the inputs are unchanged.
+    """
+    out = []
+    for seg, track in zip(segments, tracks, strict=True):
+        c_u, c_v = body_current(current_ne, np.asarray(track.heading_rad))
+        velocities = seg.velocities.copy()
+        velocities[:, 0] -= c_u
+        velocities[:, 1] -= c_v
+        out.append(replace(seg, velocities=velocities))
+    return out
+
+
+def water_frame(
+    log: ManeuverLog, track: SmoothedTrack, current_ne: np.ndarray
+) -> tuple[ManeuverLog, SmoothedTrack]:
+    """Return a log and its smoothed track as seen from the water moving at ``current_ne``.
+
+    Positions become x − c_N (t − t₀), y − c_E (t − t₀) (t₀ the first sample), the
+    smoothed North and East rates lose c_N, c_E; heading, rudder, rpm, noise levels and
+    variances are unchanged (the current is taken as known).
+    """
+    elapsed = log.time_s - log.time_s[0]
+    c_n, c_e = float(current_ne[0]), float(current_ne[1])
+    states = track.states.copy()
+    states[0, :, 0] -= c_n * elapsed
+    states[0, :, 1] -= c_n
+    states[1, :, 0] -= c_e * elapsed
+    states[1, :, 1] -= c_e
+    moved = replace(log, x_m=log.x_m - c_n * elapsed, y_m=log.y_m - c_e * elapsed)
+    return moved, replace(track, states=states)
+
+
+def heading_span_rad(tracks: Sequence[SmoothedTrack]) -> float:
+    """Range of the smoothed headings of all logs about their circular mean [rad] (< 2π)."""
+    headings = np.concatenate([np.asarray(t.heading_rad) for t in tracks])
+    mean = math.atan2(float(np.mean(np.sin(headings))), float(np.mean(np.cos(headings))))
+    deviation = np.angle(np.exp(1j * (headings - mean)))
+    return float(np.ptp(deviation))
