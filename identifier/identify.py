@@ -182,6 +182,7 @@ class IdentificationResult:
     settings: FitSettings
     refinement: RefinementResult | None = None  # both fits with method "output-error"
     current: CurrentEstimate | None = None  # unless settings.current == "none"
+    notes: tuple[str, ...] = ()  # what was done to the data (glitches rejected)
 
     @property
     def not_identifiable(self) -> tuple[str, ...]:
@@ -429,6 +430,36 @@ def _check_track(track: SmoothedTrack, name: str) -> None:
         )
 
 
+def _deglitched(
+    log: ManeuverLog, track: SmoothedTrack, name: str, notes: list[str], warnings: list[str]
+) -> ManeuverLog:
+    """Return the log with the samples the smoother's gate rejected replaced by its track.
+
+    The EKF and the output error measure the logged track itself: a GNSS jump the
+    smoother rejected (``identifier.smoothing``, innovation gate) must not reach them.
+    Adds a note of the counts, and a warning for every re-acquisition (a step in the
+    fixes the smoother believed).
+    """
+    if track.rejected_position_samples or track.rejected_heading_samples:
+        notes.append(
+            f"{name}: {track.rejected_position_samples} position fixes and "
+            f"{track.rejected_heading_samples} headings rejected as glitches (innovation gate)"
+        )
+    for what, samples in (
+        ("position", track.position_reacquired),
+        ("heading", track.heading_reacquired),
+    ):
+        for k in samples:
+            warnings.append(
+                f"{name}: {what} re-acquired after a jump at t = {float(log.time_s[k]):.1f} s "
+                "(a step in the fixes; split the log there if it is not a receiver offset)"
+            )
+    if not (track.rejected_position_samples or track.rejected_heading_samples):
+        return log
+    x_m, y_m, heading_rad = track.deglitched(log.x_m, log.y_m, log.heading_rad)
+    return replace(log, x_m=x_m, y_m=y_m, heading_rad=heading_rad)
+
+
 def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
     """Reject logs in which the rudder never leaves midship (nothing to identify)."""
     if any(np.max(np.abs(log.rudder_rad)) > EXECUTE_RUDDER_RAD for log in logs):
@@ -500,9 +531,11 @@ def _identify(
 ) -> IdentificationResult:
     """:func:`identify` after the checks of its arguments."""
     warnings: list[str] = []
+    notes: list[str] = []
     tracks: list[SmoothedTrack] = []
     segments: list[EkfSegment] = []
-    for i, log in enumerate(logs):
+    given, cleaned = logs, []
+    for i, log in enumerate(given):
         name = _log_name(log, i)
         _check_sampling(log, name)
         track = smooth_track(
@@ -514,6 +547,8 @@ def _identify(
             heading_noise_rad=settings.heading_noise_rad,
         )
         _check_track(track, name)
+        log = _deglitched(log, track, name, notes, warnings)
+        cleaned.append(log)
         if track.position_noise_m > MAX_POSITION_NOISE_M:
             warnings.append(
                 f"{name}: position noise {track.position_noise_m:.1f} m is unusually high"
@@ -543,6 +578,7 @@ def _identify(
         if progress is not None:
             progress(log.n_samples)
 
+    logs = cleaned  # from here on, the glitches are the smoother's estimates
     _check_rudder(logs)
     with_wind = [_log_name(log, i) for i, log in enumerate(logs) if has_wind(log)]
     if with_wind and settings.windage is None:
@@ -658,12 +694,13 @@ def _identify(
     params = replace(params, identification={**params.identification, "estimates": estimates})
     return IdentificationResult(
         params=params,
-        logs=tuple(logs),
+        logs=tuple(given),
         tracks=tuple(tracks),
         equation_error=ls,
         ekf=ekf,
         coefficients=reports,
         warnings=tuple(warnings),
+        notes=tuple(notes),
         settings=settings,
         refinement=refinement,
         current=current,

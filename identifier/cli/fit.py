@@ -177,6 +177,9 @@ def _fit(args: argparse.Namespace) -> int:
     save_params(args.output, result.params)
     for warning in result.warnings:
         print(f"warning: {warning}", file=sys.stderr)
+    if not args.quiet:
+        for note in result.notes:
+            print(f"note: {note}", file=sys.stderr)
     if args.plot:
         from identifier.plots import write_plots
 

@@ -20,7 +20,9 @@ One job per module:
 What happens to a recording
 ---------------------------
 1. Every sensor stream is read with its own sample times: position fixes (latitude,
-   longitude), heading, rudder angle and propeller speed.
+   longitude), heading, rudder angle and propeller speed; from NMEA also, when the
+   recording has them, the apparent wind (MWV) and the speed through the water (VHW,
+   VBW).
 2. The fixes are projected into a local tangent plane whose origin is the first
    valid fix (:class:`TangentPlane`): x North [m], y East [m]. Headings are turned
    from true North to the plane's x axis (meridian convergence, below 0.1 deg within
@@ -45,6 +47,10 @@ What happens to a recording
    Positions are never extrapolated.
 6. Pieces with fewer than ``min_samples`` samples are dropped with a note; the rest
    become logs, numbered in time order.
+7. The optional streams (wind, speed through the water) do not split the recording:
+   a log gets their columns (``wind_speed_mps``, ``wind_angle_deg``, ``stw_mps``),
+   resampled like the others, when the stream covers it without a gap longer than
+   ``max_gap_s``; otherwise it has none (noted).
 
 Metadata of the logs
 --------------------

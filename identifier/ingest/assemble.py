@@ -6,6 +6,12 @@ x axis, cuts every stream at its gaps, keeps the pieces where all streams are pr
 resamples each piece onto its time base (the fixes, or a ``rate_hz`` grid), widened by
 at most one time-base sample at each end, and writes the metadata of every log (steps
 2 to 6 of :mod:`identifier.ingest`).
+
+The optional streams (apparent wind speed and angle, speed through the water) do not
+cut the recording: a log gets their columns when the stream covers it without a gap
+longer than ``max_gap_s`` (with the same one-sample widening at the ends), resampled
+like the others (the wind angle on the unwrapped angle, then back into [0, 2π));
+otherwise the log has no such column and a note says so.
 """
 
 from __future__ import annotations
@@ -24,17 +30,27 @@ from identifier.ingest.recording import (
     HEADING,
     RPM,
     RUDDER,
+    STW,
+    WIND_ANGLE,
+    WIND_SPEED,
     ConversionResult,
     FloatArray,
     Options,
     Recording,
 )
 from trials.errors import LogFormatError
-from trials.logs import ManeuverLog
+from trials.logs import MAX_STW_MPS, MAX_WIND_SPEED_MPS, ManeuverLog
 
 __all__ = ["assemble"]
 
 _SAME_TIME_S: Final = 1e-9  # closer time stamps are one instant (round-off of sensor times)
+
+# The optional streams: ManeuverLog field and the bounds of the log's column.
+_OPTIONAL_FIELDS: Final = {
+    WIND_SPEED: ("wind_speed_mps", 0.0, MAX_WIND_SPEED_MPS),
+    WIND_ANGLE: ("wind_angle_rad", -math.inf, math.inf),
+    STW: ("stw_mps", 0.0, MAX_STW_MPS),
+}
 
 
 def _coverage(
@@ -216,6 +232,14 @@ def assemble(recording: Recording, options: Options) -> ConversionResult:
     streams = {name: (t - t0, v) for name, (t, v) in recording.streams.items()}
     heading_t, heading = streams[HEADING]
     streams[HEADING] = (heading_t, np.unwrap(heading))
+    optional = {name: (t - t0, v) for name, (t, v) in recording.optional.items()}
+    if WIND_ANGLE in optional:
+        angle_t, angle = optional[WIND_ANGLE]
+        optional[WIND_ANGLE] = (angle_t, np.unwrap(angle))
+    reach = {
+        name: _stretch(_coverage(times, options.max_gap_s)[0], times, fix_t, options)
+        for name, (times, _) in optional.items()
+    }
 
     pieces, gaps = _coverage(fix_t, options.max_gap_s)
     all_gaps = list(gaps)
@@ -247,12 +271,27 @@ def assemble(recording: Recording, options: Options) -> ConversionResult:
         instant = recording.epoch + dt.timedelta(seconds=t0)
         time_origin = instant.isoformat(timespec="milliseconds").replace("+00:00", "Z")
     logs = []
-    extrapolated = dict.fromkeys(streams, 0.0)
+    extrapolated = dict.fromkeys([*streams, *optional], 0.0)
     for k, time in enumerate(kept, start=1):
         sampled = {}
         for name, (times, values) in streams.items():
             sampled[name], farthest = _resample(time, times, values, options.max_gap_s)
             extrapolated[name] = max(extrapolated[name], farthest)
+        columns: dict[str, FloatArray] = {}
+        for name, (times, values) in optional.items():
+            start, end = float(time[0]), float(time[-1])
+            if not any(low <= start and end <= high for low, high in reach[name]):
+                notes.append(
+                    f"{name} does not cover t = {start:.1f} to {end:.1f} s (log {k}) without "
+                    f"a gap of more than max_gap_s = {options.max_gap_s:g} s: left out of it"
+                )
+                continue
+            resampled, farthest = _resample(time, times, values, options.max_gap_s)
+            extrapolated[name] = max(extrapolated[name], farthest)
+            field, low, high = _OPTIONAL_FIELDS[name]
+            if name == WIND_ANGLE:
+                resampled = np.mod(resampled, 2.0 * np.pi)
+            columns[field] = np.clip(resampled, low, high)  # an extrapolation stays in bounds
         heading = sampled[HEADING] + np.interp(time, fix_t, north)
         heading -= 2.0 * np.pi * np.floor(heading[0] / (2.0 * np.pi))  # start in [0, 2π)
         piece = f"piece {k} of {len(kept)}"
@@ -268,6 +307,9 @@ def assemble(recording: Recording, options: Options) -> ConversionResult:
                 rudder_rad=sampled[RUDDER],
                 n_rps=sampled[RPM],
                 metadata=metadata,
+                wind_speed_mps=columns.get("wind_speed_mps"),
+                wind_angle_rad=columns.get("wind_angle_rad"),
+                stw_mps=columns.get("stw_mps"),
             )
         )
     if any(extrapolated.values()):

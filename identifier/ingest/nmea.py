@@ -17,17 +17,41 @@ HDT   true heading [deg], ``T``                                    always
 THS   true heading [deg], mode indicator                           mode ``A``
 RSA   starboard (or single) rudder sensor [deg], its status        status ``A``
 RPM   source ``S`` (shaft), shaft number, speed [rpm], status      status ``A``
+MWV   wind angle [deg], reference ``R``, wind speed, unit, status  status ``A``,
+                                                                   reference ``R``
+VHW   speed through the water [kn], ``N`` (else [km/h], ``K``)     always
+VBW   longitudinal water speed [kn], its status                    status ``A``
 ===== ============================================================ ===============
 
 .. [#] and a mode indicator (NMEA 2.3) other than ``N``.
+
+MWV, VHW and VBW are optional: a log gets the columns ``wind_speed_mps``,
+``wind_angle_deg`` (MWV) and ``stw_mps`` (VHW or VBW) when the recording has such
+sentences and they cover the log (see :mod:`identifier.ingest.assemble`).
+
+- **Wind.** Only the relative (apparent) wind goes into the log, as the anemometer
+  measures it: MWV with reference ``R``. Its angle is from the bow, clockwise, the
+  direction the wind comes *from*: 0 from ahead, 90 from the starboard beam, 270 from
+  the port beam, so positive from starboard as the log's ``wind_angle_deg``; it is
+  kept in [0, 360). The speed unit is ``N`` (knots, 1852 m per hour), ``M`` (m/s),
+  ``K`` (km/h) or ``S`` (statute miles per hour), at most 100 m/s. MWV with reference
+  ``T`` (a "true" or theoretical wind, computed by the instrument from the ship's
+  motion) is ignored and counted in the notes, as is status ``V``.
+- **Speed through the water.** VHW's speed in knots, or in km/h when the knots field
+  is empty (its headings are not used: HDT/THS give the heading); VBW's longitudinal
+  water speed in knots with status ``A`` (astern, a negative one, is ignored and
+  noted; the transverse speed and the ground speeds are not used). At most 50 m/s.
+  When both sentence types (or several talkers) are present, the one with the most
+  valid samples is used, as for the other streams.
 
 - **Checksums.** A sentence whose checksum does not match is skipped and counted in
   :attr:`~identifier.ingest.ConversionResult.checksum_failures`. A sentence without
   a checksum is skipped (a line cut short would otherwise give a wrong number) unless
   ``require_checksum=False``. Lines that are not NMEA sentences, sentences with a
   malformed field (``4807.0x8``, a minute of 61, a heading of 400 deg, a propeller
-  speed beyond ±6000 rpm or the floating-point range, ...) and non-ASCII lines are
-  skipped and counted in :attr:`~identifier.ingest.ConversionResult.skipped_lines`.
+  speed beyond ±6000 rpm, a wind speed beyond 100 m/s, a water speed beyond 50 m/s,
+  a number beyond the floating-point range, ...) and non-ASCII lines are skipped and
+  counted in :attr:`~identifier.ingest.ConversionResult.skipped_lines`.
   Neither is fatal. Other sentence types (GSV, VTG, AIS ``!`` lines, proprietary
   ``$P...`` sentences) are ignored and only counted in the notes.
 - **Time.** GGA, RMC and ZDA carry the UTC time of day; RMC and ZDA also the date.
@@ -36,14 +60,14 @@ RPM   source ``S`` (shaft), shaft number, speed [rpm], status      status ``A``
   time of day more than 12 hours before the previous one means midnight has passed
   (rollover), and a GGA-only stretch across midnight stays continuous. Without any
   date the time origin is unknown and ``time_origin_utc`` is left out. Heading,
-  rudder and RPM sentences have no time of their own: each gets a time interpolated
-  linearly over the line number between the two time-stamped sentences around it
-  (a serial multiplexer writes at a steady rate). Sentences before the first or
-  after the last time-stamped sentence are dropped (noted). Time stamps must
-  increase: the longest increasing sequence of them is used, so that a repeated
-  time (the GGA and RMC of one fix) or a few wrong ones (a clock step, a bad time
-  with a valid checksum) cost only those sentences (noted), not the rest of the
-  file.
+  rudder, RPM, wind and water-speed sentences have no time of their own: each gets a
+  time interpolated linearly over the line number between the two time-stamped
+  sentences around it (a serial multiplexer writes at a steady rate). Sentences
+  before the first or after the last time-stamped sentence are dropped (noted).
+  Time stamps must increase: the longest increasing sequence of them is used, so
+  that a repeated time (the GGA and RMC of one fix) or a few wrong ones (a clock
+  step, a bad time with a valid checksum) cost only those sentences (noted), not the
+  rest of the file.
 - **Dates.** An RMC date has a two-digit year: its century is the one nearest to the
   previous date in the file (RMC, else ZDA), so that a recording goes on from 2099 into
   2100; the first without a previous date is in 2000-2099. Where RMC dates are present
@@ -55,11 +79,11 @@ RPM   source ``S`` (shaft), shaft number, speed [rpm], status      status ``A``
   difference of the UTC clock times (noted); ``time_origin_utc`` stays the UTC time of
   the first fix.
 - **Several sources.** When fixes come from several talkers (e.g. ``GP`` and
-  ``GN``), or heading, rudder or RPM from several talkers or sentence types, the one
-  with the most valid samples is used and the others are noted. RPM: shaft
-  sentences only (source ``S``; engine sentences are noted and ignored), and the
-  single shaft present, or the one chosen with ``shaft``; NMEA numbers a single or
-  centre-line shaft 0, odd numbers to starboard, even to port.
+  ``GN``), or heading, rudder, RPM, wind or water speed from several talkers or
+  sentence types, the one with the most valid samples is used and the others are
+  noted. RPM: shaft sentences only (source ``S``; engine sentences are noted and
+  ignored), and the single shaft present, or the one chosen with ``shaft``; NMEA
+  numbers a single or centre-line shaft 0, odd numbers to starboard, even to port.
 - **Rudder sign.** RSA is "negative = bow turns to port", so positive turns to
   starboard as in this project: the default ``rudder_positive="starboard"`` keeps the
   sign, ``"port"`` flips it (a sensor installed the other way round).
@@ -85,10 +109,14 @@ from identifier.ingest.recording import (
     RPM,
     RUDDER,
     SECONDS_PER_MINUTE,
+    STW,
+    WIND_ANGLE,
+    WIND_SPEED,
     FloatArray,
     Recording,
 )
 from trials.errors import LogFormatError
+from trials.logs import MAX_STW_MPS, MAX_WIND_SPEED_MPS
 
 __all__ = ["read_nmea"]
 
@@ -102,6 +130,13 @@ _LATITUDE: Final = re.compile(r"(\d{2})(\d{2}(?:\.\d*)?)", re.ASCII)
 _LONGITUDE: Final = re.compile(r"(\d{3})(\d{2}(?:\.\d*)?)", re.ASCII)
 _DATE: Final = re.compile(r"(\d{2})(\d{2})(\d{2})", re.ASCII)
 _CHECKSUM_TAIL: Final = re.compile(r"\*[0-9A-Fa-f]{2}\Z", re.ASCII)
+
+_KNOT_MPS: Final = 1852.0 / 3600.0
+_KMH_MPS: Final = 1.0 / 3.6
+_MPH_MPS: Final = 0.44704  # statute mile (1609.344 m) per hour
+_WIND_UNITS: Final = {"N": _KNOT_MPS, "M": 1.0, "K": _KMH_MPS, "S": _MPH_MPS}
+"""MWV wind speed units → m/s."""
+_OPTIONAL: Final = (WIND_SPEED, WIND_ANGLE, STW)
 
 
 class _MalformedError(Exception):
@@ -122,7 +157,7 @@ class _Timed:
 
 @dataclass(frozen=True)
 class _Sample:
-    """A sensor reading without its own time: heading, rudder or RPM."""
+    """A sensor reading without its own time: heading, rudder, RPM, wind, water speed."""
 
     line: int
     source: str  # talker + type (+ shaft), e.g. "HEHDT"
@@ -225,7 +260,14 @@ class _NmeaReader:
         self.timed: list[_Timed] = []
         self.last_date: dt.date | None = None  # of the last RMC (or ZDA) with a date
         self.last_rmc_date: dt.date | None = None
-        self.samples: dict[str, list[_Sample]] = {HEADING: [], RUDDER: [], RPM: []}
+        self.samples: dict[str, list[_Sample]] = {
+            HEADING: [],
+            RUDDER: [],
+            RPM: [],
+            WIND_SPEED: [],
+            WIND_ANGLE: [],
+            STW: [],
+        }
 
     def feed(self, number: int, raw: bytes) -> None:
         """Consume line ``number`` (1-based)."""
@@ -288,6 +330,9 @@ class _NmeaReader:
             "THS": self.ths,
             "RSA": self.rsa,
             "RPM": self.rpm,
+            "MWV": self.mwv,
+            "VHW": self.vhw,
+            "VBW": self.vbw,
         }
         handler = handlers.get(kind)
         if handler is None:
@@ -391,6 +436,56 @@ class _NmeaReader:
             n_rps = speed / SECONDS_PER_MINUTE
             self.samples[RPM].append(_Sample(number, f"{talker}RPM shaft {int(shaft)}", n_rps))
 
+    def mwv(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--MWV,x.x,a,x.x,a,A`` (angle [deg], reference R/T, speed, unit, status)."""
+        reference, unit, status = get("reference", 1), get("wind_speed_units", 3), get("status", 4)
+        if reference not in ("R", "T") or status not in ("A", "V"):
+            raise _MalformedError
+        if status != "A":
+            self.tally["MWV wind readings with status V (ignored)"] += 1
+            return
+        if reference != "R":
+            self.tally["MWV true (theoretical) wind readings, reference T (ignored)"] += 1
+            return
+        if unit not in _WIND_UNITS:
+            raise _MalformedError
+        angle = _decimal(get("wind_angle", 0), 0.0, 360.0)
+        speed = _decimal(get("wind_speed", 2), 0.0, MAX_WIND_SPEED_MPS / _WIND_UNITS[unit])
+        source = f"{talker}MWV"
+        self.samples[WIND_SPEED].append(_Sample(number, source, speed * _WIND_UNITS[unit]))
+        self.samples[WIND_ANGLE].append(_Sample(number, source, math.radians(angle % 360.0)))
+
+    def vhw(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--VHW,x.x,T,x.x,M,x.x,N,x.x,K`` (headings; water speed [kn], [km/h])."""
+        knots, kmh = get("water_speed_knots", 4), get("water_speed_km", 6)
+        if knots:
+            if get("knots", 5) != "N":
+                raise _MalformedError
+            speed = _decimal(knots, 0.0, MAX_STW_MPS / _KNOT_MPS) * _KNOT_MPS
+        elif kmh:
+            if get("kilometers", 7) != "K":
+                raise _MalformedError
+            speed = _decimal(kmh, 0.0, MAX_STW_MPS / _KMH_MPS) * _KMH_MPS
+        else:
+            self.tally["VHW sentences without a water speed"] += 1
+            return
+        self.samples[STW].append(_Sample(number, f"{talker}VHW", speed))
+
+    def vbw(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--VBW,x.x,x.x,A,x.x,x.x,A`` (water speeds [kn], status; ground speeds)."""
+        status = get("data_validity_water_spd", 2)
+        if status not in ("A", "V"):
+            raise _MalformedError
+        if status != "A":
+            self.tally["VBW water speeds with status V (ignored)"] += 1
+            return
+        limit = MAX_STW_MPS / _KNOT_MPS
+        speed = _decimal(get("lon_water_spd", 0), -limit, limit) * _KNOT_MPS
+        if speed < 0.0:
+            self.tally["VBW water speeds astern, negative (ignored)"] += 1
+            return
+        self.samples[STW].append(_Sample(number, f"{talker}VBW", speed))
+
 
 def read_nmea(
     path: str, raw: bytes, rudder_sign: float, shaft: int | None, require_checksum: bool
@@ -480,7 +575,10 @@ def read_nmea(
     lines = np.array(anchor_lines, dtype=np.float64)
     clock = np.array(anchor_times, dtype=np.float64)
     streams: dict[str, tuple[FloatArray, FloatArray]] = {}
+    optional: dict[str, tuple[FloatArray, FloatArray]] = {}
     for name, samples in reader.samples.items():
+        if name in _OPTIONAL and not samples:
+            continue
         chosen = _choose_samples(name, samples, shaft, path, notes)
         line = np.array([s.line for s in chosen], dtype=np.float64)
         inside = (line > lines[0]) & (line < lines[-1])
@@ -490,7 +588,11 @@ def read_nmea(
                 f"(dropped): {np.count_nonzero(~inside)}"
             )
         values = np.array([s.value for s in chosen], dtype=np.float64)
-        streams[name] = (np.interp(line[inside], lines, clock), values[inside])
+        stream = (np.interp(line[inside], lines, clock), values[inside])
+        if name not in _OPTIONAL:
+            streams[name] = stream
+        elif stream[0].size:
+            optional[name] = stream
 
     for what, count in sorted(reader.tally.items()):
         notes.append(f"{what}: {count}")
@@ -509,11 +611,15 @@ def read_nmea(
             HEADING: "HDT or THS (mode A) sentences",
             RUDDER: "RSA sentences with status A",
             RPM: "RPM sentences of a shaft (source S) with status A",
+            WIND_SPEED: "MWV sentences with reference R and status A",
+            WIND_ANGLE: "MWV sentences with reference R and status A",
+            STW: "VHW sentences, or VBW sentences with status A",
         },
         epoch=epoch,
         skipped_lines=reader.skipped,
         checksum_failures=reader.checksum_failures,
         notes=notes,
+        optional=optional,
     )
 
 

@@ -29,6 +29,9 @@ __all__ = [
     "RPM",
     "RUDDER",
     "SECONDS_PER_MINUTE",
+    "STW",
+    "WIND_ANGLE",
+    "WIND_SPEED",
     "ConversionResult",
     "FloatArray",
     "HeadingUnit",
@@ -60,6 +63,10 @@ HEADING: Final = "heading"
 RUDDER: Final = "rudder angle"
 RPM: Final = "propeller speed"
 FIXES: Final = "position fixes"
+# Optional streams: a log gets their columns when they cover it (see assemble).
+WIND_SPEED: Final = "wind speed"
+WIND_ANGLE: Final = "wind angle"
+STW: Final = "speed through the water"
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,6 +204,11 @@ class Recording:
         and :data:`RPM` ([rev/s]): sample times [s] and values (SI units).
     sources : dict of str to str
         Per stream, what would have provided it (for the message when it is empty).
+    optional : dict of str to (numpy.ndarray, numpy.ndarray)
+        Streams a log may lack, each only when the input has samples of it:
+        :data:`WIND_SPEED` (apparent, [m/s]), :data:`WIND_ANGLE` (apparent, from the
+        bow, positive from starboard, [rad] in [0, 2π)) and :data:`STW` ([m/s]):
+        sample times [s] and values.
     epoch : datetime.datetime or None
         UTC instant of time 0 of ``fix_t`` and the streams; None when unknown.
     skipped_lines, checksum_failures : int
@@ -217,3 +229,4 @@ class Recording:
     skipped_lines: int = 0
     checksum_failures: int = 0
     notes: list[str] = field(default_factory=list)
+    optional: dict[str, tuple[FloatArray, FloatArray]] = field(default_factory=dict)
