@@ -14,7 +14,8 @@ across a KVLCC2's zig-zags turns the predicted 35° turn's tactical diameter by 
 The current is estimated with the coefficients (``identifier.identify``): c enters the
 augmented EKF as two more states (:func:`identifier.ekf.ekf_identify`), and the
 equation-error fit that starts the EKF is written on the velocities through the water
-for the current so far. The two alternate until the current settles
+for the current so far, starting from what the straight approaches show
+(:func:`initial_current`). The two alternate until the current settles
 (:data:`CURRENT_TOLERANCE_MPS`): the equation-error start, fitted on ground velocities,
 would otherwise hold the EKF's coefficients, and with them the current, near the
 still-water answer. The model family's shape is chosen again once for the settled
@@ -40,6 +41,7 @@ import numpy as np
 
 from identifier.ekf import EkfSegment, body_current
 from identifier.smoothing import SmoothedTrack
+from trials.conditions import execute_index
 from trials.logs import ManeuverLog
 
 CURRENT_MODES = ("none", "constant", "drifting")
@@ -125,6 +127,33 @@ class CurrentEstimate:
             "current_covariance_m2ps2": self.covariance.tolist(),
             "iterations": self.iterations,
         }
+
+
+def initial_current(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]) -> np.ndarray:
+    """Return the current (North, East) the logs' approaches show [m/s]: the alternation's start.
+
+    On a straight approach with the rudder amidships a (nearly) symmetric hull sails
+    without drift, v ≈ 0 through the water, so the smoothed sway velocity over the ground
+    is the current's cross component there: −c_N sin ψ + c_E cos ψ = v_g. A speed log
+    adds the along component: c_N cos ψ + c_E sin ψ = u_g − stw. Least squares over the
+    approach samples of every log (before execute); with all approaches on one heading
+    and no speed log the along component is not seen, and the minimum-norm solution
+    leaves it 0 for the EKF to find. Without an approach: (0, 0).
+    """
+    rows, rhs = [], []
+    for log, track in zip(logs, tracks, strict=True):
+        end = execute_index(log)
+        heading = np.asarray(track.heading_rad)[:end]
+        sin_psi, cos_psi = np.sin(heading), np.cos(heading)
+        rows.append(np.column_stack([-sin_psi, cos_psi]))
+        rhs.append(np.asarray(track.v_mps)[:end])
+        if log.stw_mps is not None:
+            rows.append(np.column_stack([cos_psi, sin_psi]))
+            rhs.append(np.asarray(track.u_mps)[:end] - log.stw_mps[:end])
+    a, b = np.concatenate(rows), np.concatenate(rhs)
+    if b.size < 2:
+        return np.zeros(2)
+    return np.linalg.lstsq(a, b, rcond=1e-3)[0]
 
 
 def water_segments(

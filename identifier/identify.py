@@ -43,6 +43,7 @@ from identifier.current import (
     SHAPE_PASSES,
     CurrentEstimate,
     heading_span_rad,
+    initial_current,
     water_frame,
     water_segments,
 )
@@ -303,7 +304,7 @@ def _estimate_current(
     the settled current. A last EKF pass (with progress, and the random walk of a
     drifting current) gives the estimate.
     """
-    current = np.zeros(2)
+    current = initial_current(logs, tracks)
     iterations = 0
     for _ in range(SHAPE_PASSES):
         water = water_segments(segments, tracks, current)

@@ -16,7 +16,7 @@ import pytest
 from fmu_model import simulate
 from fmu_model.environment import Windage, apparent_wind
 from identifier.cli import main
-from identifier.current import heading_span_rad, water_frame, water_segments
+from identifier.current import heading_span_rad, initial_current, water_frame, water_segments
 from identifier.ekf import body_current
 from identifier.identify import IdentificationResult, identify
 from identifier.smoothing import smooth_track
@@ -145,6 +145,20 @@ def test_velocities_through_the_water_and_the_water_frame(calm_logs: list[Maneuv
     assert np.allclose(water.velocities[:, 0], calm_track.u_mps, atol=1e-6)
     assert np.allclose(water.velocities[:, 1], calm_track.v_mps, atol=1e-6)
     assert heading_span_rad([calm_track]) > math.radians(350.0)  # a turning circle
+
+
+def test_the_approach_shows_the_cross_current(calm_logs: list[ManeuverLog]) -> None:
+    """The alternation starts from the straight approaches: their drift is c's cross part."""
+    log = _with_current(calm_logs[1], CURRENT_NE)  # a zig-zag, approach heading North
+    track = smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
+    start = initial_current([log], [track])
+    # Heading North: the cross component is c_E; the along one is not seen (minimum norm).
+    assert start[1] == pytest.approx(CURRENT_NE[1], abs=0.02)
+    assert start[0] == pytest.approx(0.0, abs=1e-3)
+    # With a speed log (speed through the water) the along component is seen too.
+    stw = np.hypot(track.u_mps, track.v_mps) - CURRENT_NE[0]
+    logged = replace(log, stw_mps=np.maximum(stw, 0.0))
+    assert initial_current([logged], [track]) == pytest.approx(CURRENT_NE, abs=0.02)
 
 
 # --------------------------------------------------------------------------- wind
