@@ -130,7 +130,9 @@ def estimates(
     logs: dict[str, ManeuverLog], model: str, train: Sequence[str]
 ) -> dict[str, ModelParameters]:
     """Identify ``model`` on the ``train`` runs; the EKF's estimate and the default kept one."""
-    result = identify([logs[r] for r in train], FitSettings(model=model), length_m=LENGTH_M)
+    # A towing tank: still water, no current to estimate.
+    settings = FitSettings(model=model, current="none")
+    result = identify([logs[r] for r in train], settings, length_m=LENGTH_M)
     refinement = result.refinement
     assert refinement is not None
     ekf = refinement.initial.params.with_vector(result.ekf.theta)

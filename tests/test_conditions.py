@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from identifier.identify import identify
+from identifier.identify import FitSettings, identify
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from trials.conditions import (
     SailedAgain,
@@ -149,7 +149,9 @@ def test_logs_are_classified_by_their_rudder() -> None:
 @pytest.fixture(scope="module")
 def fit_on_the_10_10_pair(hsva: dict[str, ManeuverLog]) -> dict[str, SailedAgain]:
     """The default fit of the two 10/10 runs, every run sailed again in its condition."""
-    result = identify([hsva["hsva_zz10_stbd"], hsva["hsva_zz10_port"]], length_m=7.0)
+    # A towing tank: still water (README "Identification at sea": --current none for tanks).
+    still_water = FitSettings(current="none")
+    result = identify([hsva["hsva_zz10_stbd"], hsva["hsva_zz10_port"]], still_water, length_m=7.0)
     return {run: sail_again(ModelPlant(result.params), log) for run, log in hsva.items()}
 
 

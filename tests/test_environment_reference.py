@@ -8,6 +8,7 @@ reduce to; the gusts against their stated standard deviation and correlation tim
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fmu_model.environment import Windage
 from scenarios import synthesize
 from scenarios.cli import PROG, main
 from scenarios.kvlcc2 import (
@@ -399,7 +401,9 @@ def test_synthesize_cli_at_sea_writes_the_columns_and_the_source(
     ]  # fmt: skip
     assert main([*common, *sea, "-o", str(tmp_path / "sea")]) == 0
     path = tmp_path / "sea" / "zigzag-10.csv"
-    assert capsys.readouterr().out.split() == [str(path)]
+    windage = tmp_path / "sea" / "windage.json"  # for `identifier fit --windage`
+    assert capsys.readouterr().out.split() == [str(path), str(windage)]
+    assert Windage.from_dict(json.loads(windage.read_text())) == kvlcc2_windage("model")
     lines = path.read_text().splitlines()
     header = next(line for line in lines if not line.startswith("#"))
     assert header == ",".join((*LOG_COLUMNS, "wind_speed_mps", "wind_angle_deg", "stw_mps"))
