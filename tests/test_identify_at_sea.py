@@ -100,6 +100,21 @@ def test_coefficients_in_a_current_are_the_ships(
     assert biased, "ignoring a 0.3 m/s current should bias the sway/yaw coefficients"
 
 
+def test_a_drifting_current_follows_a_change(calm_logs: list[ManeuverLog]) -> None:
+    """--current drifting: the last log is sailed in a current 0.2 m/s stronger to the East."""
+    later = CURRENT_NE + np.array([0.0, 0.2])
+    logs = [_with_current(log, CURRENT_NE) for log in calm_logs[:2]]
+    logs.append(_with_current(calm_logs[2], later))
+    drifting = identify(logs, replace(SEED, current="drifting"))
+    constant = identify(logs, SEED)
+    assert drifting.current is not None and constant.current is not None
+    assert drifting.current.mode == "drifting"
+    # The drifting estimate (at the end of the last log) is nearer the later current.
+    assert np.linalg.norm(drifting.current.vector - later) < np.linalg.norm(
+        constant.current.vector - later
+    )
+
+
 def test_calm_logs_give_no_current(calm_logs: list[ManeuverLog]) -> None:
     result = identify(calm_logs, SEED)
     assert result.current is not None
