@@ -20,6 +20,7 @@ import pytest
 
 from fmu_model import ModelParameters, load_params
 from identifier.batch import ManifestError, read_vessels, run_batch
+from identifier.batch.records import DONE_FORMAT, DONE_VERSION, settings_record, up_to_date
 from identifier.cli import main
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
@@ -100,6 +101,7 @@ def test_batch_runs_isolates_failures_and_resumes(
         out,
         scheduler=cluster_address,
         method="ekf",
+        current="none",  # still-water logs (and half the EKF passes)
         progress=lambda v: seen.append(v.name),
     )
     assert [(v.name, v.status) for v in summary.vessels] == [
@@ -119,6 +121,8 @@ def test_batch_runs_isolates_failures_and_resumes(
         with zipfile.ZipFile(out / name / f"{name}.fmu") as fmu:
             assert "modelDescription.xml" in fmu.namelist()
         done = json.loads((out / name / "done.json").read_text())
+        assert done["settings"]["current"] == "none"
+        assert params.identification["environment"] == {"current": "none"}
         assert [i["sha256"] for i in done["inputs"]] == [
             i["sha256"] for i in params.identification["logs"]
         ]
@@ -142,7 +146,7 @@ def test_batch_runs_isolates_failures_and_resumes(
     # failure is retried and reported as one line on stderr, exit status 1.
     before = _mtimes(out)
     argv = ["batch", str(manifest), "--out", str(out), "--scheduler", cluster_address]
-    status = main([*argv, "--quiet", "--method", "ekf"])
+    status = main([*argv, "--quiet", "--method", "ekf", "--current", "none"])
     assert status == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: gamma: ") and "column 'rpm'" in err[0]
@@ -155,7 +159,7 @@ def test_batch_runs_isolates_failures_and_resumes(
 
     # An interrupted batch (alpha's completion record missing) resumes alpha only.
     (out / "alpha" / "done.json").unlink()
-    summary = run_batch(manifest, out, scheduler=cluster_address, method="ekf")
+    summary = run_batch(manifest, out, scheduler=cluster_address, method="ekf", current="none")
     assert [v.status for v in summary.vessels] == ["ok", "skipped", "failed"]
     assert summary.n_identified == 1
     assert (out / "beta" / "params.json").stat().st_mtime_ns == before["beta/params.json"]
@@ -165,7 +169,9 @@ def test_batch_runs_isolates_failures_and_resumes(
     log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), seed=99)
     write_log(tmp_path / "in" / "beta" / "zigzag-10.csv", log)
     write_log(tmp_path / "in" / "gamma" / "zigzag-10.csv", log)
-    summary = run_batch(manifest, out, scheduler=cluster_address, method="ekf", build_fmu=False)
+    summary = run_batch(
+        manifest, out, scheduler=cluster_address, method="ekf", current="none", build_fmu=False
+    )
     assert [v.status for v in summary.vessels] == ["skipped", "ok", "ok"]
     assert summary.ok
     assert not (out / "gamma" / "error.txt").exists()
@@ -336,3 +342,23 @@ def test_killed_batch_leaves_no_worker_process(
         if batch.poll() is None:
             batch.kill()
             batch.wait()
+
+
+def test_a_vessel_done_with_another_current_runs_again(tmp_path: Path) -> None:
+    (tmp_path / "params.json").write_text("{}")
+    inputs = [("a.csv", "0" * 64)]
+    done = {
+        "format": DONE_FORMAT,
+        "version": DONE_VERSION,
+        "inputs": [{"path": "a.csv", "sha256": "0" * 64}],
+        "settings": settings_record("shi2009", "ekf", 100.0, False, "none"),
+    }
+    (tmp_path / "done.json").write_text(json.dumps(done))
+    same = settings_record("shi2009", "ekf", 100.0, False, "none")
+    assert up_to_date(tmp_path, "v", inputs, same) == done
+    other = settings_record("shi2009", "ekf", 100.0, False, "constant")
+    assert up_to_date(tmp_path, "v", inputs, other) is None
+    # A record from before the current was a setting: run again.
+    del done["settings"]["current"]
+    (tmp_path / "done.json").write_text(json.dumps(done))
+    assert up_to_date(tmp_path, "v", inputs, other) is None

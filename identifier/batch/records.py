@@ -42,10 +42,16 @@ DONE_VERSION = 1
 
 
 def settings_record(
-    model: str, method: str, length_m: float | None, build_fmu: bool
+    model: str, method: str, length_m: float | None, build_fmu: bool, current: str = "constant"
 ) -> dict[str, Any]:
-    """Return the ``settings`` of ``done.json``: model, method, length [m] (or None), FMU built."""
-    return {"model": model, "method": method, "length_m": length_m, "fmu": build_fmu}
+    """Return the ``settings`` of ``done.json``: model, method, current, length [m], FMU built."""
+    return {
+        "model": model,
+        "method": method,
+        "current": current,
+        "length_m": length_m,
+        "fmu": build_fmu,
+    }
 
 
 def up_to_date(
@@ -60,6 +66,7 @@ def up_to_date(
             and [(i["path"], i["sha256"]) for i in done["inputs"]] == inputs
             and done["settings"]["model"] == settings["model"]
             and done["settings"]["method"] == settings["method"]
+            and done["settings"]["current"] == settings["current"]
             and done["settings"]["length_m"] == settings["length_m"]
             and (done["settings"]["fmu"] or not settings["fmu"])
             and (directory / "params.json").is_file()
@@ -167,7 +174,9 @@ def record_outcome(
         "version": DONE_VERSION,
         "vessel": spec.name,
         "inputs": [{"path": p, "sha256": h} for p, h in outcome.inputs],
-        "settings": settings_record(job.model, job.method, job.length_m, job.build_fmu),
+        "settings": settings_record(
+            job.model, job.method, job.length_m, job.build_fmu, job.current
+        ),
         "outputs": {
             "params": "params.json",
             "fmu": f"{spec.name}.fmu" if job.build_fmu else None,

@@ -41,6 +41,7 @@ from identifier.batch.records import (
 )
 from identifier.batch.summary import BatchSummary, VesselResult, write_summary
 from identifier.batch.task import VesselJob, describe_error, identify_vessel, sha256_of
+from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS
 
 __all__ = ["run_batch"]
@@ -139,6 +140,7 @@ def run_batch(
     model: str | None = None,
     method: str = METHODS[0],
     build_fmu: bool = True,
+    current: str = CURRENT_MODES[1],
     progress: Callable[[VesselResult], None] | None = None,
 ) -> BatchSummary:
     """Identify every vessel of a manifest or directory, one Dask task per vessel.
@@ -161,6 +163,9 @@ def run_batch(
         (default :data:`fmu_model.DEFAULT_MODEL`).
     method : str
         Identification procedure of every vessel (``identifier.identify.METHODS``).
+    current : str
+        Current estimated with every vessel's coefficients (``identifier.current``):
+        ``"constant"`` (default), ``"drifting"`` or ``"none"``.
     build_fmu : bool
         Build ``<vessel>.fmu`` as well as ``params.json``.
     progress : callable, optional
@@ -176,7 +181,7 @@ def run_batch(
     ManifestError
         Invalid manifest or directory (nothing is run).
     ValueError
-        Unknown ``model`` or ``method``, or ``n_workers`` below 1.
+        Unknown ``model``, ``method`` or ``current``, or ``n_workers`` below 1.
 
     """
     start = time.perf_counter()
@@ -185,6 +190,8 @@ def run_batch(
         raise ValueError(f"unknown model {default_model!r} (known: {', '.join(model_names())})")
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
+    if current not in CURRENT_MODES:
+        raise ValueError(f"unknown current {current!r} (known: {', '.join(CURRENT_MODES)})")
     if n_workers < 1:
         raise ValueError(f"n_workers must be at least 1, got {n_workers}")
     out = Path(out_dir)
@@ -212,7 +219,7 @@ def run_batch(
             directory,
             spec.name,
             inputs,
-            settings_record(vessel_model, method, spec.length_m, build_fmu),
+            settings_record(vessel_model, method, spec.length_m, build_fmu, current),
         )
         if done is not None:
             report(result_from_done(directory, done))
@@ -220,7 +227,13 @@ def run_batch(
         with contextlib.suppress(FileNotFoundError):
             (directory / "done.json").unlink()
         job = VesselJob(
-            spec.name, tuple(p for p, _ in inputs), spec.length_m, vessel_model, method, build_fmu
+            spec.name,
+            tuple(p for p, _ in inputs),
+            spec.length_m,
+            vessel_model,
+            method,
+            build_fmu,
+            current,
         )
         pending.append((spec, job))
 

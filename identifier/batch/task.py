@@ -42,6 +42,8 @@ class VesselJob:
         Model structure.
     method : str
         Identification procedure (``identifier.identify.METHODS``).
+    current : str
+        Current estimated with the coefficients (``identifier.current.CURRENT_MODES``).
     build_fmu : bool
         Build the native FMU as well.
 
@@ -53,6 +55,7 @@ class VesselJob:
     model: str
     method: str
     build_fmu: bool
+    current: str = "constant"
 
 
 @dataclass(frozen=True)
@@ -145,7 +148,9 @@ def identify_vessel(job: VesselJob) -> VesselOutcome:
             inputs.append((path, sha256_of(Path(path))))
         outcome = replace(outcome, n_samples=sum(log.n_samples for log in logs))
         result = identify(
-            logs, FitSettings(model=job.model, method=job.method), length_m=job.length_m
+            logs,
+            FitSettings(model=job.model, method=job.method, current=job.current),
+            length_m=job.length_m,
         )
         identification = dict(result.params.identification)
         identification["logs"] = [{"path": p, "sha256": h} for p, h in inputs]

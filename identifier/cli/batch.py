@@ -14,6 +14,7 @@ from fmu_model import DEFAULT_MODEL, argtypes, model_names
 from identifier.batch import ManifestError, VesselResult, format_failures, run_batch
 from identifier.batch.task import describe_error
 from identifier.cli.common import error
+from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS
 from trials.errors import one_line
 
@@ -44,6 +45,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         default=METHODS[0],
         help="identification procedure (default: output-error; ekf: the seed paper)",
     )
+    batch.add_argument(
+        "--current",
+        choices=CURRENT_MODES,
+        default=CURRENT_MODES[1],
+        help="uniform current estimated with each vessel's coefficients: constant (default), "
+        "drifting or none (still water)",
+    )
     batch.add_argument("--no-fmu", action="store_true", help="write params.json only")
     batch.add_argument("--quiet", action="store_true", help="no per-vessel lines on stdout")
     return batch
@@ -68,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
             n_workers=args.workers,
             model=args.model,
             method=args.method,
+            current=args.current,
             build_fmu=not args.no_fmu,
             progress=show,
         )
