@@ -62,7 +62,7 @@ MAX_CURRENT_ITERATIONS = 15
 """Most EKF passes of one alternation (each a fraction of a second for a few logs)."""
 
 SHAPE_PASSES = 2
-"""Shape choices: on the ground velocities, then once more for the settled current."""
+"""Shape choices: for the starting current, then once more for the settled one."""
 
 MIN_HEADING_SPAN_RAD = math.radians(90.0)
 """Below this range of headings over all logs the along-course current is barely told

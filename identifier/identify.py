@@ -299,10 +299,11 @@ def _estimate_current(
     """Estimate current and coefficients together (``identifier.current``).
 
     The equation-error start is fitted on the velocities through the water for the
-    current so far, the EKF estimates the current with the coefficients from it, until
-    the current settles; the shape is chosen on the ground velocities and once more for
-    the settled current. A last EKF pass (with progress, and the random walk of a
-    drifting current) gives the estimate.
+    current so far (from what the approaches show, ``initial_current``), the EKF
+    estimates the current with the coefficients from it, until the current settles; the
+    shape is chosen for the starting current and once more for the settled one. A last
+    EKF pass (with progress, and the random walk of a drifting current) gives the
+    estimate. The passes before it report no progress.
     """
     current = initial_current(logs, tracks)
     iterations = 0
