@@ -340,6 +340,14 @@ def params_from_json_dict(doc: Any, path: str | None = None) -> ModelParameters:
 
 def load_params(path: str | os.PathLike[str]) -> ModelParameters:
     """Read and validate a params.json file (see :func:`params_from_json_dict`)."""
+    return params_from_json_dict(read_json(path), str(path))
+
+
+def read_json(path: str | os.PathLike[str]) -> Any:
+    """Return the JSON document of a file; :class:`ParamsFormatError` (one line) if it is none.
+
+    The message names the file (and the line of a JSON syntax error).
+    """
     name = str(path)
     try:
         text = Path(path).read_text(encoding="utf-8")
@@ -353,7 +361,7 @@ def load_params(path: str | os.PathLike[str]) -> ModelParameters:
         raise ParamsFormatError(f"{name}:{exc.lineno}", f"invalid JSON: {exc.msg}") from None
     except (ValueError, RecursionError) as exc:  # e.g. huge integers, absurd nesting
         raise ParamsFormatError(name, f"invalid JSON: {str(exc).splitlines()[0]}") from None
-    return params_from_json_dict(doc, name)
+    return doc
 
 
 def save_params(path: str | os.PathLike[str], params: ModelParameters) -> None:

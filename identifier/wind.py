@@ -15,14 +15,12 @@ FMU with the same windage adds it back.
 
 from __future__ import annotations
 
-import json
 from dataclasses import fields
-from pathlib import Path
 
 import numpy as np
 
 from fmu_model.environment import Windage, wind_accelerations
-from fmu_model.params import ParamsFormatError
+from fmu_model.params import ParamsFormatError, read_json
 from trials.logs import ManeuverLog
 
 WINDAGE_KEYS = "{" + ", ".join(f.name for f in fields(Windage)) + "}"
@@ -55,18 +53,7 @@ def read_windage(path: str) -> Windage:
         One line naming the file (and the JSON line) and what is wrong.
 
     """
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ParamsFormatError(path, "file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ParamsFormatError(path, f"cannot read: {exc}") from None
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ParamsFormatError(f"{path}:{exc.lineno}", f"invalid JSON: {exc.msg}") from None
-    except (ValueError, RecursionError) as exc:
-        raise ParamsFormatError(path, f"invalid JSON: {exc}") from None
+    doc = read_json(path)
     try:
         return Windage.from_dict(doc)
     except (TypeError, ValueError) as exc:
