@@ -59,6 +59,9 @@ from trials.logs import ManeuverLog
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
 MAX_SAMPLE_INTERVAL_S = 5.0
+# A sample interval below this fraction of the median one is a wrong time stamp (the
+# constant-acceleration model's T² and T⁵ underflow or dwarf everything else).
+MIN_SAMPLE_INTERVAL_FRACTION = 1e-6
 # Plausibility of the track. No ship sails faster than this over ground [m/s] (about 97
 # kn; the fastest high-speed craft make 30-40 m/s): a faster track has wrong units of
 # time or position.
@@ -334,12 +337,22 @@ def _estimate_current(
 
 
 def _check_sampling(log: ManeuverLog, name: str) -> None:
-    interval = float(np.median(np.diff(log.time_s)))
+    steps = np.diff(log.time_s)
+    interval = float(np.median(steps))
     if interval > MAX_SAMPLE_INTERVAL_S:
         raise IdentificationError(
             f"median sampling interval {interval:g} s is too coarse to resolve manoeuvring "
             f"(expected at most {MAX_SAMPLE_INTERVAL_S:g} s)",
             log=name,
+        )
+    k = int(np.argmin(steps))
+    if steps[k] < MIN_SAMPLE_INTERVAL_FRACTION * interval:
+        raise IdentificationError(
+            f"samples {k} and {k + 1} are {float(steps[k]):.3g} s apart, expected at least "
+            f"{MIN_SAMPLE_INTERVAL_FRACTION:g} of the median interval ({interval:g} s): a "
+            "wrong time stamp (the smoother's motion model cannot span it)",
+            log=name,
+            sample=k + 1,
         )
 
 

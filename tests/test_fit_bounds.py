@@ -432,3 +432,13 @@ def test_a_valid_fit_prints_nothing_but_its_result(
     assert read_log(log).n_samples == 373
     assert all(line.startswith("warning: not identifiable") for line in err.splitlines()), err
     assert out.exists()
+
+
+def test_a_time_stamp_a_hair_after_the_previous_is_a_data_error(zigzag_text: str) -> None:
+    """1e-308 s between two samples (found by the property test): one line, no traceback."""
+    log = parse_log(zigzag_text)
+    time_s = log.time_s.copy()
+    time_s[1] = time_s[0] + 1e-308
+    bad = ManeuverLog(time_s, log.x_m, log.y_m, log.heading_rad, log.rudder_rad, log.n_rps)
+    with pytest.raises(IdentificationError, match=r"samples 0 and 1 are 1e-308 s apart"):
+        identify([bad], FitSettings(model="shi2009", method="ekf", current="none"), length_m=100.0)

@@ -13,8 +13,7 @@ import argparse
 import math
 from typing import Any
 
-from fmu_model import argtypes
-from scenarios.cli.synthesize import MAX_CURRENT_MPS, MAX_DIRECTION_DEG, MAX_WIND_MPS
+from scenarios.cli.synthesize import add_current_and_wind_options
 from scenarios.sea import SeaEnvironment
 
 __all__ = ["add_sea_arguments", "check_sea_usage", "sea_environment"]
@@ -33,30 +32,7 @@ def add_sea_arguments(parser: argparse.ArgumentParser, *, correction: bool = Fal
         "a uniform steady current and a steady wind over ground; the FMU gets them through "
         "its environment inputs (its windage from params.json carries the wind load)",
     )
-    sea.add_argument(
-        "--current-mps",
-        type=argtypes.within(0.0, MAX_CURRENT_MPS, "m/s"),
-        metavar="C",
-        help="current speed over ground [m/s] (needs --current-to-deg)",
-    )
-    sea.add_argument(
-        "--current-to-deg",
-        type=argtypes.within(-MAX_DIRECTION_DEG, MAX_DIRECTION_DEG, "deg"),
-        metavar="D",
-        help="direction the current sets towards, clockwise from North [deg]",
-    )
-    sea.add_argument(
-        "--wind-mps",
-        type=argtypes.within(0.0, MAX_WIND_MPS, "m/s"),
-        metavar="W",
-        help="true wind speed over ground [m/s] (needs --wind-from-deg)",
-    )
-    sea.add_argument(
-        "--wind-from-deg",
-        type=argtypes.within(-MAX_DIRECTION_DEG, MAX_DIRECTION_DEG, "deg"),
-        metavar="D",
-        help="direction the true wind comes from, clockwise from North [deg]",
-    )
+    add_current_and_wind_options(sea)
     if correction:
         sea.add_argument(
             "--no-current-correction",

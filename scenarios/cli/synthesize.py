@@ -60,18 +60,7 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
         "a uniform current and a wind, at the ship's scale (docs/kvlcc2_environment.md); "
         "the logs then carry stw_mps and, with a wind, wind_speed_mps and wind_angle_deg",
     )
-    sea.add_argument(
-        "--current-mps",
-        type=argtypes.within(0.0, MAX_CURRENT_MPS, "m/s"),
-        metavar="C",
-        help="current speed over ground [m/s] (needs --current-to-deg)",
-    )
-    sea.add_argument(
-        "--current-to-deg",
-        type=argtypes.within(-MAX_DIRECTION_DEG, MAX_DIRECTION_DEG, "deg"),
-        metavar="D",
-        help="direction the current sets towards, clockwise from North [deg]",
-    )
+    add_current_and_wind_options(sea)
     sea.add_argument(
         "--current-change-mps-per-h",
         type=argtypes.within(-MAX_CURRENT_MPS, MAX_CURRENT_MPS, "m/s per hour"),
@@ -83,18 +72,6 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
         type=argtypes.within(-360.0, 360.0, "deg per hour"),
         metavar="R",
         help="linear change of the current direction, clockwise positive [deg per hour]",
-    )
-    sea.add_argument(
-        "--wind-mps",
-        type=argtypes.within(0.0, MAX_WIND_MPS, "m/s"),
-        metavar="W",
-        help="mean true wind speed over ground [m/s] (needs --wind-from-deg)",
-    )
-    sea.add_argument(
-        "--wind-from-deg",
-        type=argtypes.within(-MAX_DIRECTION_DEG, MAX_DIRECTION_DEG, "deg"),
-        metavar="D",
-        help="direction the true wind comes from, clockwise from North [deg]",
     )
     sea.add_argument(
         "--gust-std-mps",
@@ -119,6 +96,38 @@ _NEEDS = (
     ("gust_std_mps", "wind_mps"),
     ("gust_time_s", "gust_std_mps"),
 )
+
+
+def add_current_and_wind_options(group: Any) -> None:
+    """Add --current-mps, --current-to-deg, --wind-mps, --wind-from-deg to an argument group.
+
+    Steady, uniform, over ground; the bounds of this module. Shared by ``synthesize`` and
+    the scenario commands at sea (``scenarios.cli.sea``).
+    """
+    group.add_argument(
+        "--current-mps",
+        type=argtypes.within(0.0, MAX_CURRENT_MPS, "m/s"),
+        metavar="C",
+        help="current speed over ground [m/s] (needs --current-to-deg)",
+    )
+    group.add_argument(
+        "--current-to-deg",
+        type=argtypes.within(-MAX_DIRECTION_DEG, MAX_DIRECTION_DEG, "deg"),
+        metavar="D",
+        help="direction the current sets towards, clockwise from North [deg]",
+    )
+    group.add_argument(
+        "--wind-mps",
+        type=argtypes.within(0.0, MAX_WIND_MPS, "m/s"),
+        metavar="W",
+        help="(mean) true wind speed over ground [m/s] (needs --wind-from-deg)",
+    )
+    group.add_argument(
+        "--wind-from-deg",
+        type=argtypes.within(-MAX_DIRECTION_DEG, MAX_DIRECTION_DEG, "deg"),
+        metavar="D",
+        help="direction the true wind comes from, clockwise from North [deg]",
+    )
 
 
 def _option(name: str) -> str:
