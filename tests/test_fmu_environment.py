@@ -30,8 +30,8 @@ import pytest
 import sympy as sp
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Model, FMU2Slave
-from fmpy.fmi3 import FMU3Model, FMU3Slave
+from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi3 import FMU3Slave
 
 import fmu_model.export_native as export_native
 from fmu_model import (
@@ -68,6 +68,7 @@ from fmu_model.pythonfmu_slave import WINDAGE_NAMES as SLAVE_WINDAGE_NAMES
 from fmu_model.simulate import rk4_step
 from fmu_model.structure import apparent_wind_terms, wind_ahead, wind_starboard, wind_terms
 from tests.fmi_logging import LogRecorder
+from tests.test_fmu_kinds import model_exchange_instance
 from tests.test_fmu_native import make_params
 
 STATES = ("u", "v", "r", "x", "y", "psi")
@@ -565,27 +566,6 @@ def test_current_from_another_fmu_in_libcosim_equals_the_python_model(
     assert np.ptp(current[:, 1]) > math.radians(70.0)  # the current did veer
 
 
-def _model_exchange(fmu: Path, version: str, tmp_path: Path) -> Any:
-    """An instance in continuous-time mode."""
-    folder = extract(str(fmu), str(tmp_path / "unzipped"))
-    md = read_model_description(folder)
-    cls = FMU2Model if version == "2" else FMU3Model
-    token = {"guid": md.guid} if version == "2" else {"guid": md.instantiationToken}
-    model = cls(unzipDirectory=folder, modelIdentifier=md.modelExchange.modelIdentifier, **token)
-    model.instantiate()
-    if version == "2":
-        model.setupExperiment(startTime=0.0)
-        model.enterInitializationMode()
-        model.exitInitializationMode()
-        model.newDiscreteStates()
-    else:
-        model.enterInitializationMode(startTime=0.0)
-        model.exitInitializationMode()
-        model.updateDiscreteStates()
-    model.enterContinuousTimeMode()
-    return model
-
-
 @pytest.mark.parametrize("version", ["2", "3"])
 def test_directional_derivatives_by_the_environment_equal_finite_differences(
     params: ModelParameters, fmus: dict[str, Path], version: str, tmp_path: Path
@@ -596,7 +576,7 @@ def test_directional_derivatives_by_the_environment_equal_finite_differences(
     derivatives = [vr[f"der({n})"] for n in STATES]
     ground = [vr[n] for n in GROUND_NAMES]
     unknowns, knowns = derivatives + states + ground, states + inputs
-    model = _model_exchange(fmus[f"native{version}"], version, tmp_path)
+    model = model_exchange_instance(fmus[f"native{version}"], version, tmp_path)
     set_inputs = model.setReal if version == "2" else model.setFloat64
     get = model.getReal if version == "2" else model.getFloat64
     point = [4.0, 0.4, -0.02, 100.0, -50.0, 0.7]

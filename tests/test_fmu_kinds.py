@@ -321,8 +321,8 @@ def test_model_exchange_sails_the_turn_and_zigzag_of_the_python_model(
 # --- directional and adjoint derivatives against finite differences --------------------
 
 
-def _model_exchange(fmu: Path, version: str, tmp_path: Path) -> Any:
-    """An instance in continuous-time mode, turning and drifting."""
+def model_exchange_instance(fmu: Path, version: str, tmp_path: Path) -> Any:
+    """An FMI 2 or 3 model-exchange instance of ``fmu`` in continuous-time mode."""
     folder = extract(str(fmu), str(tmp_path / "unzipped"))
     md = read_model_description(folder)
     cls = FMU2Model if version == "2" else FMU3Model
@@ -360,7 +360,7 @@ def test_directional_derivatives_equal_finite_differences(
     inputs = [vr["rudder_angle"], vr["propeller_rpm"]]
     derivatives = [vr[f"der({n})"] for n in STATES]
     point = [4.0, 0.4, -0.02, 100.0, -50.0, 0.7]
-    model = _model_exchange(build(version, "both"), version, tmp_path)
+    model = model_exchange_instance(build(version, "both"), version, tmp_path)
     try:
         model.setContinuousStates((ctypes.c_double * 6)(*point), 6)
         _set(model, version, inputs, [0.3, 100.0])
