@@ -93,19 +93,6 @@ static void logger(fmi3InstanceEnvironment env, fmi3Status status, fmi3String ca
     }
 }
 
-static int load_symbol(void *library, const char *name, void *function_pointer, size_t size)
-{
-    void *symbol = dlsym(library, name);
-    if (symbol == NULL) {
-        fprintf(stderr, "missing symbol %s\n", name);
-        return 0;
-    }
-    memcpy(function_pointer, &symbol, size); /* object to function pointer, POSIX style */
-    return 1;
-}
-
-#define LOAD(field, name) ok &= load_symbol(library, name, &api->field, sizeof api->field)
-
 static int load_api(void *library, Api *api)
 {
     int ok = 1;

@@ -1,6 +1,7 @@
 /*
  * manoeuvre.h - what the two C hosts share: host.c (FMI 2.0) and host3.c (FMI 3.0).
  *
+ * - Loading an FMI function from the FMU's shared library (load_symbol, LOAD).
  * - Reading the FMU's modelDescription.xml from the path of its shared library
  *   (<root>/binaries/<platform>/<id>.so): an attribute of the root element (guid,
  *   instantiationToken) and the value reference of a variable by name, so that a host
@@ -21,10 +22,25 @@
 #ifndef SHIP_HOST_MANOEUVRE_H
 #define SHIP_HOST_MANOEUVRE_H
 
+#include <dlfcn.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Load symbol `name` of `library` into the function pointer at `function_pointer`. */
+static int load_symbol(void *library, const char *name, void *function_pointer, size_t size)
+{
+    void *symbol = dlsym(library, name);
+    if (symbol == NULL) {
+        fprintf(stderr, "missing symbol %s\n", name);
+        return 0;
+    }
+    memcpy(function_pointer, &symbol, size); /* object to function pointer, POSIX style */
+    return 1;
+}
+
+#define LOAD(field, name) ok &= load_symbol(library, name, &api->field, sizeof api->field)
 
 #ifndef PI
 #define PI 3.14159265358979323846
