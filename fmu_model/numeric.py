@@ -13,15 +13,13 @@ All functions broadcast over trailing sample dimensions.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cache, cached_property
+from functools import cache
 from typing import Any
 
 import numpy as np
 import sympy as sp
-from sympy.printing.pycode import PythonCodePrinter
 
 from fmu_model.structure import (
     INPUT_SYMBOLS,
@@ -30,7 +28,6 @@ from fmu_model.structure import (
     VELOCITY_SYMBOLS,
     L,
     ModelStructure,
-    psi,
 )
 from fmu_model.variants import ModelFamily
 
@@ -61,26 +58,6 @@ class NumericModel:
     def n_coefficients(self) -> int:
         """Number of coefficients p."""
         return self.structure.n_coefficients
-
-    @cached_property
-    def kernels(self) -> tuple[Any, Any, Any, Any]:
-        """Numba-compiled fillers for hot loops, generated from the symbolic structure.
-
-        ``phi(u, v, r, δ, n, L, out)`` fills out (p,) with the regressors;
-        ``grad(u, v, r, δ, n, L, out)`` fills out (3p,) with ∂φ_i/∂(u, v, r) row-major;
-        ``kin(u, v, r, ψ, out)`` fills (3,) with the kinematics (ẋ, ẏ, ψ̇);
-        ``kin_grad(u, v, r, ψ, out)`` fills (18,) with ∂(ẋ, ẏ, ψ̇)/∂(u, v, r, x, y, ψ).
-        """
-        regressors = [t.regressor for t in self.structure.terms]
-        gradients = [sp.diff(e, s) for e in regressors for s in VELOCITY_SYMBOLS]
-        kin_args = (*VELOCITY_SYMBOLS, psi)
-        kin_grad = [sp.diff(e, s) for e in KINEMATICS for s in STATE_SYMBOLS]
-        return (
-            _jit_filler("phi", regressors, _ARGS),
-            _jit_filler("grad", gradients, _ARGS),
-            _jit_filler("kin", list(KINEMATICS), kin_args),
-            _jit_filler("kin_grad", kin_grad, kin_args),
-        )
 
     def regressors(
         self, u: Any, v: Any, r: Any, rudder_rad: Any, n_rps: Any, length_m: float
@@ -140,20 +117,6 @@ class NumericModel:
             np.shape(state)[1:], np.shape(theta)[1:], np.shape(rudder_rad), np.shape(n_rps)
         )
         return _stack(self._rhs(*state, rudder_rad, n_rps, length_m, theta), shape)
-
-
-def _jit_filler(name: str, exprs: list[sp.Expr], args: tuple[sp.Symbol, ...]) -> Any:
-    """Compile ``def name(*args, out)`` filling ``out[i] = exprs[i]`` with numba."""
-    temporaries, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_t"))
-    printer = PythonCodePrinter({"fully_qualified_modules": True})
-    lines = [f"def {name}({', '.join(str(a) for a in args)}, out):"]
-    lines += [f"    {sym} = {printer.doprint(expr)}" for sym, expr in temporaries]
-    lines += [f"    out[{i}] = {printer.doprint(expr)}" for i, expr in enumerate(reduced)]
-    import numba  # only the identifier's hot loops need it, not the FMU runtime
-
-    namespace: dict[str, Any] = {"math": math}
-    exec(compile("\n".join(lines), f"<fmu_model {name}>", "exec"), namespace)
-    return numba.njit(cache=False)(namespace[name])
 
 
 def _weight(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:

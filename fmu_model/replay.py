@@ -3,7 +3,8 @@
 Output-error identification and cross-validation simulate the model over the rudder and
 propeller speed of a log thousands of times, for many coefficient vectors at once. Here
 :func:`fmu_model.integrate.rk4_into` is compiled with numba and driven by the regressor
-kernels generated from the symbolic structure (``NumericModel.kernels``), so that a
+kernels generated from the symbolic structure (``fmu_model.kernels``, compiled once per
+structure and cached on disk), so that a
 replay is the same RK4 as ``fmu_model.simulate`` (bit for bit with held inputs) at the
 speed of compiled code. numba is imported here only: the FMU runtime never needs it.
 """
@@ -11,56 +12,48 @@ speed of compiled code. numba is imported here only: the FMU runtime never needs
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numba
 import numpy as np
 
 from fmu_model.integrate import n_substeps, rk4_into
-from fmu_model.numeric import numeric_model
+from fmu_model.kernels import Binding, kernel_module
 from fmu_model.structure import ModelStructure
 
 # How the inputs behave between log samples (see ``replay``).
 INPUT_MODES = ("linear", "hold")
 
-_rk4 = numba.njit(cache=False)(rk4_into)
+# Compiled, and cached on disk, as bound to a structure's kernels (_REPLAY_BINDINGS):
+# inlined there, the kernels are static calls, not run-time values (which numba cannot
+# cache).
+_rk4 = numba.njit(cache=False, inline="always")(rk4_into)
 _substeps = numba.njit(cache=False)(n_substeps)
-_DERIVATIVES: dict[str, tuple[ModelStructure, Any]] = {}
 
 
-def _derivative_kernel(structure: ModelStructure) -> Any:
-    """Return the compiled ṡ = (M (θ ⊙ φ(s, δ, n)), kinematics) of ``structure`` (cached).
+@numba.njit(cache=False, inline="always")  # bound to a structure's kernels: _REPLAY_BINDINGS
+def _derivative(phi_fn, kin_fn, s, context, inputs, out):  # fmt: skip
+    """ṡ = (M (θ ⊙ φ(s, δ, n)) + a, kinematics) of the structure of ``phi_fn``, ``kin_fn``.
 
-    Signature ``f(state, context, inputs, out)`` of ``rk4_into`` with context
-    (equation index, θ, L [m], φ scratch (p,), kinematics scratch (3,)) and inputs
-    (δ [rad], n [rev/s], a_u [m/s²], a_v [m/s²], a_r [rad/s²]): a known acceleration (of
-    a measured wind load) is added to the model's.
+    Bound to a structure's kernels, this is ``f(state, context, inputs, out)`` of
+    ``rk4_into``, with context (equation index, θ, L [m], φ scratch (p,), kinematics
+    scratch (3,)) and inputs (δ [rad], n [rev/s], a_u [m/s²], a_v [m/s²], a_r [rad/s²]):
+    a known acceleration a (of a measured wind load) is added to the model's.
     """
-    cached = _DERIVATIVES.get(structure.name)
-    if cached is not None and cached[0] == structure:
-        return cached[1]
-    phi_fn, _, kin_fn, _ = numeric_model(structure).kernels
-
-    @numba.njit(cache=False)
-    def derivative(s, context, inputs, out):
-        eq_index, theta, length, phi, kin = context
-        rudder, n_rps, a_u, a_v, a_r = inputs
-        phi_fn(s[0], s[1], s[2], rudder, n_rps, length, phi)
-        kin_fn(s[0], s[1], s[2], s[5], kin)
-        out[0] = a_u
-        out[1] = a_v
-        out[2] = a_r
-        for i in range(theta.size):
-            out[eq_index[i]] += theta[i] * phi[i]
-        out[3] = kin[0]
-        out[4] = kin[1]
-        out[5] = kin[2]
-
-    _DERIVATIVES[structure.name] = (structure, derivative)
-    return derivative
+    eq_index, theta, length, phi, kin = context
+    rudder, n_rps, a_u, a_v, a_r = inputs
+    phi_fn(s[0], s[1], s[2], rudder, n_rps, length, phi)
+    kin_fn(s[0], s[1], s[2], s[5], kin)
+    out[0] = a_u
+    out[1] = a_v
+    out[2] = a_r
+    for i in range(theta.size):
+        out[eq_index[i]] += theta[i] * phi[i]
+    out[3] = kin[0]
+    out[4] = kin[1]
+    out[5] = kin[2]
 
 
-@numba.njit(cache=False)
+@numba.njit(cache=False, inline="always")  # bound to a structure's kernels: _REPLAY_BINDINGS
 def _replay_batch(
     derivative, eq_index, length, max_step, linear, t, rudder, n_rps, extra, x0s, thetas,
     speed_limit, out,
@@ -127,6 +120,13 @@ def _replay_batch(
                     out[b, k + 1, c] = s[c]
 
 
+_REPLAY_BINDINGS = (
+    Binding("derivative", _derivative, ("phi", "kin")),
+    Binding("replay_batch", _replay_batch, ("derivative",)),
+)
+"""The replay bound to a structure's kernels (``fmu_model.kernels``)."""
+
+
 def replay(
     structure: ModelStructure,
     thetas: np.ndarray,
@@ -191,8 +191,7 @@ def replay(
     x0s = np.array(np.broadcast_to(x0_arr, (n_batch, 6)), order="C")
     t = np.array(time_s, dtype=float, order="C")
     out = np.empty((batch.shape[0], t.size, 6))
-    _replay_batch(
-        _derivative_kernel(structure),
+    kernel_module(structure, _REPLAY_BINDINGS).replay_batch(
         np.array(structure.equation_index, dtype=np.int64),
         float(length_m),
         math.inf if max_step_s is None else float(max_step_s),

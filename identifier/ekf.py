@@ -20,9 +20,10 @@ Two measurement choices, both with H selecting three states:
   coefficients, and the measurement noise really is white, so the covariance is honest.
 
 ∂f/∂s and ∂f/∂θ are the analytic Jacobians generated from ``fmu_model``'s structure
-(``NumericModel.kernels``). Only the six motion rows of Φ differ from the identity, so
-the prediction updates only those rows and columns of P, and the update needs only a
-3 × 3 innovation covariance (explicit Cholesky).
+(``fmu_model.kernels``, compiled once per structure and cached on disk). Only the six
+motion rows of Φ differ from the identity, so the prediction updates only those rows and
+columns of P, and the update needs only a 3 × 3 innovation covariance (explicit
+Cholesky).
 
 Several logs are processed in one identification: the motion states restart at each
 log's first (smoothed) sample, θ and its covariance carry over.
@@ -37,6 +38,7 @@ import numba
 import numpy as np
 
 from fmu_model import ModelStructure, numeric_model
+from fmu_model.kernels import Binding, kernel_module
 from trials.errors import IdentificationError
 
 MEASUREMENTS = ("track", "velocities")
@@ -212,7 +214,7 @@ def ekf_identify(
     if settings.measurements not in MEASUREMENTS:
         raise ValueError(f"measurements must be one of {MEASUREMENTS}")
     model = numeric_model(structure)
-    phi_fn, grad_fn, kin_fn, kin_grad_fn = model.kernels
+    ekf_pass = kernel_module(structure, (_EKF_PASS,)).ekf_pass
     eq_index = np.asarray(model.structure.equation_index, dtype=np.int64)
     p = model.n_coefficients
     theta = np.array(theta0, dtype=float)
@@ -274,8 +276,8 @@ def ekf_identify(
         square_sums = np.zeros(2)
         track = np.ascontiguousarray(seg.track, dtype=float)
         try:
-            status, sample = _ekf_pass(
-                phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length_m,
+            status, sample = ekf_pass(
+                eq_index, length_m,
                 settings.max_substep_s, offset,
                 np.ascontiguousarray(seg.time_s, dtype=float),
                 track if offset == 3 else np.ascontiguousarray(y, dtype=float),
@@ -347,7 +349,9 @@ _STATUS_MESSAGES = {
 }
 
 
-@numba.njit(cache=False)  # first-class function arguments defeat the on-disk cache
+# Compiled, and cached on disk, as bound to a structure's kernels (_EKF_PASS): inlined
+# there, the kernels are static calls, not run-time values (which numba cannot cache).
+@numba.njit(cache=False, inline="always")
 def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length, max_substep, offset,
     t, y, r_var, rudder, n_rps, known, x, P, q_state, q_theta, variance_limit, stride, track,
@@ -517,6 +521,10 @@ def _ekf_pass(
             for c in range(6):
                 states[r, c] = x[c]
     return _OK, 0
+
+
+_EKF_PASS = Binding("ekf_pass", _ekf_pass, ("phi", "grad", "kin", "kin_grad"))
+""":func:`_ekf_pass` bound to a structure's kernels (``fmu_model.kernels``)."""
 
 
 @numba.njit(cache=True)

@@ -199,21 +199,12 @@ class NormalEquations:
         theta = np.zeros(p)
         cov = np.zeros((p, p))
         residual_std = np.zeros(3)
-        rms = np.sqrt(np.maximum(np.diag(self.gram), 0.0) / max(m, 1))
+        rms = self._rms()
         eq_index = np.asarray(equation_index)
         fitted_squares = np.zeros(3)
         vif = np.ones(p)
         for j in range(3):
-            cols = np.flatnonzero(eq_index == j)
-            scale = np.where(rms[cols] > 0.0, rms[cols], 1.0)
-            xtx = self.gram[np.ix_(cols, cols)] / np.outer(scale, scale)
-            xta = self.cross[cols, j] / scale
-            A = xtx + _RIDGE * m * np.eye(cols.size)
-            beta = np.linalg.solve(A, xta)
-            fit_squares = float(beta @ xtx @ beta)
-            residual = max(float(self.acc_squares[j] - 2.0 * beta @ xta + fit_squares), 0.0)
-            dof = max(m - cols.size, 1)
-            sigma2 = residual / dof
+            cols, scale, A, beta, fit_squares, sigma2 = self._equation(j, eq_index, rms)
             theta[cols] = beta / scale
             cov[np.ix_(cols, cols)] = sigma2 * np.linalg.inv(A) / np.outer(scale, scale)
             residual_std[j] = np.sqrt(sigma2)
@@ -223,6 +214,30 @@ class NormalEquations:
         term_rms = np.abs(theta) * rms
         contribution = term_rms / np.where(signal[eq_index] > 0.0, signal[eq_index], 1.0)
         return EquationErrorFit(theta, cov, residual_std, rms, contribution, vif, rows=m)
+
+    def residual_std(self, equation_index: Sequence[int]) -> np.ndarray:
+        """Residual standard deviations σ_j of :meth:`solve` alone (3,), without the rest."""
+        rms = self._rms()
+        eq_index = np.asarray(equation_index)
+        return np.sqrt([self._equation(j, eq_index, rms)[5] for j in range(3)])
+
+    def _rms(self) -> np.ndarray:
+        return np.sqrt(np.maximum(np.diag(self.gram), 0.0) / max(self.rows, 1))
+
+    def _equation(
+        self, j: int, eq_index: np.ndarray, rms: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float]:
+        """Columns, their scale D, A, β, ‖Xβ‖² and σ² of equation j (:meth:`solve`)."""
+        m = self.rows
+        cols = np.flatnonzero(eq_index == j)
+        scale = np.where(rms[cols] > 0.0, rms[cols], 1.0)
+        xtx = self.gram[np.ix_(cols, cols)] / np.outer(scale, scale)
+        xta = self.cross[cols, j] / scale
+        A = xtx + _RIDGE * m * np.eye(cols.size)
+        beta = np.linalg.solve(A, xta)
+        fit_squares = float(beta @ xtx @ beta)
+        residual = max(float(self.acc_squares[j] - 2.0 * beta @ xta + fit_squares), 0.0)
+        return cols, scale, A, beta, fit_squares, residual / max(m - cols.size, 1)
 
 
 def equation_error_fit(
@@ -238,10 +253,10 @@ def equation_error_fit(
     return replace(fit, sample_interval_s=regression_interval_s(segments, length_m))
 
 
-def fit_regression(
+def regression_residual_std(
     phi: np.ndarray, acc: np.ndarray, equation_index: Sequence[int]
-) -> EquationErrorFit:
-    """Solve acc_j ≈ Σ_{i in equation j} θ_i φ_i for regressors in memory.
+) -> np.ndarray:
+    """Residual σ_j (3,) of acc_j ≈ Σ_{i in equation j} θ_i φ_i, regressors in memory.
 
     Parameters
     ----------
@@ -255,4 +270,4 @@ def fit_regression(
     """
     sums = NormalEquations(phi.shape[0])
     sums.add(phi, acc)
-    return sums.solve(equation_index)
+    return sums.residual_std(equation_index)

@@ -42,7 +42,11 @@ from fmu_model import ModelStructure
 from fmu_model.numeric import family_regressors
 from fmu_model.variants import ModelFamily, ShapeConstant
 from identifier.ekf import EkfSegment
-from identifier.equation_error import fit_regression, regression_interval_s, regression_samples
+from identifier.equation_error import (
+    regression_interval_s,
+    regression_residual_std,
+    regression_samples,
+)
 
 #: Most regression rows J is evaluated on (module docstring).
 SHAPE_MAX_ROWS = 10_000
@@ -151,8 +155,8 @@ def _select_shape(
         phi = phi_fn(*samples, length_m, *values)
         if not np.all(np.isfinite(phi)):
             return math.inf
-        fit = fit_regression(phi, acc, equation_index)
-        return float(np.sum(fit.residual_std**2 * acc.shape[1] / signal))
+        residual_std = regression_residual_std(phi, acc, equation_index)
+        return float(np.sum(residual_std**2 * acc.shape[1] / signal))
 
     def full(free_values: Sequence[float]) -> list[float]:
         values = [fixed.get(name, math.nan) for name in names]

@@ -24,7 +24,7 @@ a rudder moving at 2–5°/s is a ramp, and holding it lags the truth by half a 
 the true seed ship replays its 10/10 zig-zag to 0.1° heading RMS with it, 0.45°
 without) or held (``"hold"``: bit-for-bit ``fmu_model.simulate(method="rk4")``). It
 runs in numba on the regressor kernels generated from the model structure
-(``NumericModel.kernels``), batched over coefficient vectors; the Jacobian is a batched
+(``fmu_model.kernels``), batched over coefficient vectors; the Jacobian is a batched
 forward difference in z.
 """
 

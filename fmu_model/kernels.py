@@ -1,0 +1,249 @@
+"""Compiled kernels of a model structure, generated once and cached on disk.
+
+The identifier's hot loops (the augmented EKF, ``identifier.ekf``; the batched RK4
+replay, ``fmu_model.replay``) are numba functions written once for every structure:
+they take the structure's regressor kernels (``phi``, ``grad``, ``kin``, ``kin_grad``,
+generated from its symbolic terms) as their leading arguments. numba cannot cache a
+function whose signature holds other functions, so every new process compiled them
+again: 5–9 s for the EKF alone, for every shape a model family tries, on every run.
+
+Here the kernels of one structure and thin wrappers that bind them to those loops are
+written as a Python module to a cache directory, and imported; every function in it is
+``numba.njit(cache=True)``, so numba keeps the machine code beside it and the next
+process loads it instead of compiling. The module's name carries a hash of its text, of
+numba's version and of the source of the packages it calls into, so a changed loop, a
+changed structure or another numba never meets a stale file. The modules are written
+atomically (another process may be writing the same one).
+
+The directory is ``$SHIPID_KERNEL_CACHE``, else ``$XDG_CACHE_HOME/shipid/kernels``
+(``~/.cache/shipid/kernels``), else a directory in the system's temporary directory
+when that is not writable.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import inspect
+import os
+import sys
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+from fmu_model.structure import (
+    INPUT_SYMBOLS,
+    KINEMATICS,
+    STATE_SYMBOLS,
+    VELOCITY_SYMBOLS,
+    L,
+    ModelStructure,
+    psi,
+)
+
+CACHE_ENV = "SHIPID_KERNEL_CACHE"
+"""Environment variable naming the kernel cache directory (module docstring)."""
+
+_ARGS = (*VELOCITY_SYMBOLS, *INPUT_SYMBOLS, L)
+
+
+@dataclass(frozen=True)
+class Binding:
+    """A wrapper of the generated module: ``name(*args) = target(*bound, *args)``.
+
+    Attributes
+    ----------
+    name : str
+        Name of the wrapper in the generated module.
+    target : Any
+        A numba dispatcher defined at the top level of a module of this project, whose
+        leading arguments are functions of the generated module.
+    bound : tuple of str
+        Names in the generated module passed as those leading arguments: the kernels
+        (``phi``, ``grad``, ``kin``, ``kin_grad``; :func:`kernel_module`) or an earlier
+        binding.
+
+    """
+
+    name: str
+    target: Any
+    bound: tuple[str, ...]
+
+
+def _filler(name: str, exprs: Sequence[sp.Expr], args: Sequence[sp.Symbol]) -> str:
+    """Return the source of ``def name(*args, out)`` filling ``out[i] = exprs[i]``."""
+    temporaries, reduced = sp.cse(list(exprs), symbols=sp.numbered_symbols("_t"))
+    printer = PythonCodePrinter({"fully_qualified_modules": True})
+    lines = ["@numba.njit(cache=True)", f"def {name}({', '.join(str(a) for a in args)}, out):"]
+    lines += [f"    {sym} = {printer.doprint(expr)}" for sym, expr in temporaries]
+    lines += [f"    out[{i}] = {printer.doprint(expr)}" for i, expr in enumerate(reduced)]
+    return "\n".join(lines)
+
+
+def _kernel_sources(structure: ModelStructure) -> list[str]:
+    """Return the sources of the four kernels of ``structure`` (:func:`kernel_source`)."""
+    regressors = [t.regressor for t in structure.terms]
+    gradients = [sp.diff(e, s) for e in regressors for s in VELOCITY_SYMBOLS]
+    kin_args = (*VELOCITY_SYMBOLS, psi)
+    kin_grad = [sp.diff(e, s) for e in KINEMATICS for s in STATE_SYMBOLS]
+    return [
+        _filler("phi", regressors, _ARGS),
+        _filler("grad", gradients, _ARGS),
+        _filler("kin", list(KINEMATICS), kin_args),
+        _filler("kin_grad", kin_grad, kin_args),
+    ]
+
+
+def _binding_source(binding: Binding) -> str:
+    """Return the source of the wrapper ``binding.name``.
+
+    Its parameters are spelt out: numba passes the kernels of a ``*args`` call on as
+    first-class functions, which it cannot cache.
+    """
+    module = binding.target.__module__
+    alias = f"_{binding.name}_target"
+    parameters = list(inspect.signature(binding.target.py_func).parameters)
+    if len(parameters) < len(binding.bound):
+        raise ValueError(f"{binding.target.__name__} has fewer parameters than bound names")
+    free = ", ".join(parameters[len(binding.bound) :])
+    passed = ", ".join([*binding.bound, *parameters[len(binding.bound) :]])
+    return "\n".join(
+        [
+            f"from {module} import {binding.target.__name__} as {alias}",
+            "",
+            "",
+            "@numba.njit(cache=True)",
+            f"def {binding.name}({free}):",
+            f"    return {alias}({passed})",
+        ]
+    )
+
+
+@cache
+def _package_stamp(package: str) -> str:
+    """sha256 of the text of every module of ``package`` (its source files, sorted)."""
+    spec = importlib.util.find_spec(package)
+    if spec is None or not spec.submodule_search_locations:
+        raise ValueError(f"{package!r} is not a package")
+    digest = hashlib.sha256()
+    for root in spec.submodule_search_locations:
+        for path in sorted(Path(root).rglob("*.py")):
+            digest.update(path.relative_to(root).as_posix().encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def cache_directory() -> Path:
+    """Return the directory of the generated kernel modules (module docstring), created."""
+    configured = os.environ.get(CACHE_ENV)
+    if configured:
+        candidates = [Path(configured)]
+    else:
+        xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        user = os.environ.get("USER") or str(os.getuid() if hasattr(os, "getuid") else "user")
+        candidates = [
+            Path(xdg) / "shipid" / "kernels",
+            Path(tempfile.gettempdir()) / f"shipid-kernels-{user}",
+        ]
+    for directory in candidates:
+        try:
+            directory.mkdir(parents=True, exist_ok=True)
+        except OSError:
+            continue
+        if os.access(directory, os.W_OK):
+            return directory
+    raise OSError(f"no writable kernel cache directory among {[str(c) for c in candidates]}")
+
+
+def kernel_source(structure: ModelStructure, bindings: Sequence[Binding]) -> str:
+    """Text of the generated module of ``structure`` with ``bindings`` (module docstring).
+
+    Its kernels, for the structure's regressors φ(u, v, r, δ, n, L):
+    ``phi(u, v, r, δ, n, L, out)`` fills out (p,) with φ; ``grad(u, v, r, δ, n, L,
+    out)`` fills out (3p,) with ∂φ_i/∂(u, v, r) row-major; ``kin(u, v, r, ψ, out)``
+    fills (3,) with the kinematics (ẋ, ẏ, ψ̇); ``kin_grad(u, v, r, ψ, out)`` fills (18,)
+    with ∂(ẋ, ẏ, ψ̇)/∂(u, v, r, x, y, ψ).
+    """
+    import numba  # only the identifier's hot loops need it, not the FMU runtime
+
+    packages = sorted({"fmu_model", *(b.target.__module__.split(".")[0] for b in bindings)})
+    stamps = ", ".join(f"{p} {_package_stamp(p)[:16]}" for p in packages)
+    header = [
+        f'"""Compiled kernels of {structure.name}: generated by fmu_model.kernels, do not edit.',
+        "",
+        f"numba {numba.__version__}; sources {stamps}.",
+        '"""',
+        "",
+        "import math  # noqa: F401 (the kernels' text may call it)",
+        "",
+        "import numba",
+    ]
+    return (
+        "\n\n\n".join(
+            ["\n".join(header)]
+            + _kernel_sources(structure)
+            + [_binding_source(b) for b in bindings]
+        )
+        + "\n"
+    )
+
+
+def kernel_module(structure: ModelStructure, bindings: Sequence[Binding] = ()) -> ModuleType:
+    """Import (writing it first if new) the generated kernel module of ``structure``.
+
+    Parameters
+    ----------
+    structure : ModelStructure
+        The model structure whose kernels the module holds (see :func:`kernel_source`).
+    bindings : sequence of Binding
+        Wrappers binding the kernels to compiled loops, in order (a binding may bind an
+        earlier one).
+
+    Returns
+    -------
+    ModuleType
+        The module: attributes ``phi``, ``grad``, ``kin``, ``kin_grad`` and one per
+        binding, numba dispatchers cached on disk.
+
+    """
+    key = (structure.name, tuple(bindings))
+    loaded = _LOADED.get(key)
+    if loaded is not None and loaded[0] == structure:
+        return loaded[1]
+    text = kernel_source(structure, bindings)
+    digest = hashlib.sha256(text.encode()).hexdigest()[:20]
+    name = f"shipid_kernels_{digest}"
+    module = sys.modules.get(name)
+    if module is None:
+        module = _import(name, text)
+    _LOADED[key] = (structure, module)
+    return module
+
+
+_LOADED: dict[tuple[str, tuple[Binding, ...]], tuple[ModelStructure, ModuleType]] = {}
+
+
+def _import(name: str, text: str) -> ModuleType:
+    """Import the module ``name`` of ``text`` from the cache directory (writing it first)."""
+    directory = cache_directory()
+    path = directory / f"{name}.py"
+    if not path.is_file():
+        # Written under a temporary name and renamed: another process may be writing
+        # the same module, and no process may import half of it.
+        handle, temporary = tempfile.mkstemp(dir=directory, suffix=".tmp")
+        with os.fdopen(handle, "w", encoding="utf-8") as file:
+            file.write(text)
+        os.replace(temporary, path)
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None  # a .py file always has one
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module

@@ -1,0 +1,133 @@
+"""Compiled kernels cached on disk (fmu_model.kernels): reused, never stale, same numbers."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fmu_model import get_model, numeric_model
+from fmu_model.kernels import CACHE_ENV, Binding, cache_directory, kernel_module, kernel_source
+from fmu_model.replay import _REPLAY_BINDINGS
+from identifier.ekf import _EKF_PASS
+
+# One EKF identification and one replay in a fresh interpreter: its numbers, and whether
+# numba compiled the bound loops or loaded them from the cache directory.
+_CHILD = """
+import json
+from fmu_model import get_model
+from fmu_model.kernels import kernel_module
+from fmu_model.replay import _REPLAY_BINDINGS
+from identifier.ekf import _EKF_PASS
+from identifier.identify import FitSettings, identify
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+
+log = synthesize_log(reference_ship("kvlcc2", "full"), MANEUVERS["zigzag-10"](), seed=0)
+result = identify([log], FitSettings(model="shi2009", current="none"))
+structure = get_model("shi2009")
+ekf = kernel_module(structure, (_EKF_PASS,)).ekf_pass.stats
+batch = kernel_module(structure, _REPLAY_BINDINGS).replay_batch.stats
+print(json.dumps({
+    "ekf": result.ekf.theta.tolist(),
+    "kept": result.params.coefficients.tolist(),
+    "hits": sum(ekf.cache_hits.values()) + sum(batch.cache_hits.values()),
+    "misses": sum(ekf.cache_misses.values()) + sum(batch.cache_misses.values()),
+}))
+"""
+
+
+def _run_child(cache: Path) -> dict[str, object]:
+    env = {**os.environ, CACHE_ENV: str(cache)}
+    child = subprocess.run(
+        [sys.executable, "-c", _CHILD],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=900,
+        check=True,
+    )
+    return json.loads(child.stdout.strip().splitlines()[-1])
+
+
+def test_second_process_loads_the_compiled_loops_and_gets_the_same_numbers(
+    tmp_path: Path,
+) -> None:
+    """The EKF and the replay of an identification: compiled once, then loaded."""
+    first = _run_child(tmp_path)
+    second = _run_child(tmp_path)
+    assert first["misses"] == 2 and first["hits"] == 0  # compiled, EKF and replay
+    assert second["hits"] == 2 and second["misses"] == 0  # both loaded from the cache
+    assert first["ekf"] == second["ekf"]  # bit for bit: the same machine code
+    assert first["kept"] == second["kept"]
+    written = sorted(p.name for p in tmp_path.glob("shipid_kernels_*.py"))
+    assert len(written) == 2  # one module per structure and set of bindings
+
+
+def test_module_name_follows_its_text(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """Another structure or other bindings are another module; the same are the same one."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    seed, other = get_model("shi2009"), get_model("prime-cubic")
+    text = kernel_source(seed, (_EKF_PASS,))
+    assert text == kernel_source(seed, (_EKF_PASS,))
+    assert text != kernel_source(other, (_EKF_PASS,))
+    assert text != kernel_source(seed, _REPLAY_BINDINGS)
+    assert "from identifier.ekf import _ekf_pass" in text
+    module = kernel_module(seed, (_EKF_PASS,))
+    assert kernel_module(seed, (_EKF_PASS,)) is module
+    assert Path(module.__file__ or "").read_text(encoding="utf-8") == text
+    assert Path(module.__file__ or "").parent == tmp_path
+    # The wrapper spells out the loop's parameters after the bound kernels.
+    assert "def ekf_pass(eq_index, length, max_substep, offset," in text
+    assert "return _ekf_pass_target(phi, grad, kin, kin_grad, eq_index," in text
+
+
+def test_kernels_fill_the_symbolic_regressors(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """``phi`` of the generated module equals the symbolic structure's regressors."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    structure = get_model("prime-cubic")
+    module = kernel_module(structure)
+    out = np.empty(structure.n_coefficients)
+    module.phi(5.0, -0.3, 0.01, 0.2, 1.5, 100.0, out)
+    expected = numeric_model(structure).regressors(5.0, -0.3, 0.01, 0.2, 1.5, 100.0)
+    np.testing.assert_allclose(out, expected, rtol=1e-14, atol=1e-300)
+
+
+def test_binding_needs_the_bound_parameters() -> None:
+    binding = Binding("too_many", _EKF_PASS.target, tuple(f"k{i}" for i in range(40)))
+    with pytest.raises(ValueError, match="fewer parameters than bound names"):
+        kernel_source(get_model("shi2009"), (binding,))
+
+
+def test_cache_directory_falls_back_when_the_user_cache_is_not_writable(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    blocked = tmp_path / "file"
+    blocked.write_text("not a directory")
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocked))  # mkdir below a file fails
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", None)  # re-read TMPDIR
+    directory = cache_directory()
+    assert directory.parent == tmp_path / "tmp"
+    assert directory.name.startswith("shipid-kernels-")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    assert cache_directory() == tmp_path / "cache" / "shipid" / "kernels"
+
+
+def test_configured_directory_that_cannot_be_made_is_an_error(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    blocked = tmp_path / "file"
+    blocked.write_text("not a directory")
+    monkeypatch.setenv(CACHE_ENV, str(blocked / "kernels"))
+    with pytest.raises(OSError, match="no writable kernel cache directory"):
+        cache_directory()
