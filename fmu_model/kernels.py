@@ -22,13 +22,15 @@ when that is not writable.
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import importlib.util
 import inspect
 import os
 import sys
 import tempfile
-from collections.abc import Sequence
+import textwrap
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -56,24 +58,25 @@ _ARGS = (*VELOCITY_SYMBOLS, *INPUT_SYMBOLS, L)
 
 @dataclass(frozen=True)
 class Binding:
-    """A wrapper of the generated module: ``name(*args) = target(*bound, *args)``.
+    """A function of the generated module: ``name(*args) = template(*bound, *args)``.
 
     Attributes
     ----------
     name : str
-        Name of the wrapper in the generated module.
-    target : Any
-        A numba dispatcher defined at the top level of a module of this project, whose
-        leading arguments are functions of the generated module.
+        Name of the function in the generated module.
+    template : Callable
+        A plain Python function in numba's subset, defined at the top level of a module,
+        whose leading parameters are functions: its source is compiled in the generated
+        module with those parameters bound (``_binding_sources``).
     bound : tuple of str
-        Names in the generated module passed as those leading arguments: the kernels
-        (``phi``, ``grad``, ``kin``, ``kin_grad``; :func:`kernel_module`) or an earlier
-        binding.
+        Names in the generated module the leading parameters are bound to: the kernels
+        (``phi``, ``grad``, ``kin``, ``kin_grad``; :func:`kernel_source`) or an earlier
+        binding's function.
 
     """
 
     name: str
-    target: Any
+    template: Callable[..., Any]
     bound: tuple[str, ...]
 
 
@@ -101,29 +104,44 @@ def _kernel_sources(structure: ModelStructure) -> list[str]:
     ]
 
 
-def _binding_source(binding: Binding) -> str:
-    """Return the source of the wrapper ``binding.name``.
+def _binding_sources(bindings: Sequence[Binding]) -> list[str]:
+    """Return the sources of the bound functions (and the imports and names they use).
 
-    Its parameters are spelt out: numba passes the kernels of a ``*args`` call on as
-    first-class functions, which it cannot cache.
+    Each is its template's own definition (``inspect.getsource``) renamed, with the
+    leading parameters removed: each removed parameter becomes a name of the generated
+    module for what it is bound to, and the template module's globals the body uses are
+    imported. numba then sees the kernels as globals (static calls) and can cache the
+    function; passed as arguments they would be run-time values, which it cannot cache.
     """
-    module = binding.target.__module__
-    alias = f"_{binding.name}_target"
-    parameters = list(inspect.signature(binding.target.py_func).parameters)
-    if len(parameters) < len(binding.bound):
-        raise ValueError(f"{binding.target.__name__} has fewer parameters than bound names")
-    free = ", ".join(parameters[len(binding.bound) :])
-    passed = ", ".join([*binding.bound, *parameters[len(binding.bound) :]])
-    return "\n".join(
-        [
-            f"from {module} import {binding.target.__name__} as {alias}",
-            "",
-            "",
-            "@numba.njit(cache=True)",
-            f"def {binding.name}({free}):",
-            f"    return {alias}({passed})",
-        ]
-    )
+    aliases: dict[str, str] = {}
+    imports: dict[str, set[str]] = {}
+    functions = []
+    for binding in bindings:
+        template = binding.template
+        tree = ast.parse(textwrap.dedent(inspect.getsource(template)))
+        node = tree.body[0]
+        if not isinstance(node, ast.FunctionDef) or len(node.args.args) < len(binding.bound):
+            raise ValueError(
+                f"{template.__name__} is not a function of at least {len(binding.bound)} "
+                "parameters (the bound names)"
+            )
+        leading = [a.arg for a in node.args.args[: len(binding.bound)]]
+        for parameter, bound in zip(leading, binding.bound, strict=True):
+            if aliases.setdefault(parameter, bound) != bound:
+                raise ValueError(f"parameter {parameter!r} is bound to two names")
+        node.args.args = node.args.args[len(binding.bound) :]
+        node.name = binding.name
+        node.decorator_list = []
+        names = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
+        module = sys.modules[template.__module__]
+        used = {n for n in names - set(leading) if n in vars(module)}
+        imports.setdefault(template.__module__, set()).update(used)
+        functions.append("@numba.njit(cache=True)\n" + ast.unparse(node))
+    lines = [f"from {m} import {', '.join(sorted(n))}" for m, n in imports.items() if n]
+    # After the kernels in the module's text (kernel_source): an alias names a kernel, or
+    # a function numba resolves when it compiles, at the first call.
+    lines += [f"{p} = {b}" for p, b in aliases.items() if p != b]
+    return ["\n".join(lines), *functions] if lines else functions
 
 
 @cache
@@ -173,7 +191,7 @@ def kernel_source(structure: ModelStructure, bindings: Sequence[Binding]) -> str
     """
     import numba  # only the identifier's hot loops need it, not the FMU runtime
 
-    packages = sorted({"fmu_model", *(b.target.__module__.split(".")[0] for b in bindings)})
+    packages = sorted({"fmu_model", *(b.template.__module__.split(".")[0] for b in bindings)})
     stamps = ", ".join(f"{p} {_package_stamp(p)[:16]}" for p in packages)
     header = [
         f'"""Compiled kernels of {structure.name}: generated by fmu_model.kernels, do not edit.',
@@ -186,11 +204,7 @@ def kernel_source(structure: ModelStructure, bindings: Sequence[Binding]) -> str
         "import numba",
     ]
     return (
-        "\n\n\n".join(
-            ["\n".join(header)]
-            + _kernel_sources(structure)
-            + [_binding_source(b) for b in bindings]
-        )
+        "\n\n\n".join(["\n".join(header), *_kernel_sources(structure), *_binding_sources(bindings)])
         + "\n"
     )
 

@@ -23,14 +23,14 @@ from fmu_model.structure import ModelStructure
 # How the inputs behave between log samples (see ``replay``).
 INPUT_MODES = ("linear", "hold")
 
-# Compiled, and cached on disk, as bound to a structure's kernels (_REPLAY_BINDINGS):
-# inlined there, the kernels are static calls, not run-time values (which numba cannot
-# cache).
+# Inlined into the replay compiled per structure (_REPLAY_BINDINGS): the derivative it
+# calls is then a static call, not a run-time value (which numba cannot cache).
 _rk4 = numba.njit(cache=False, inline="always")(rk4_into)
 _substeps = numba.njit(cache=False)(n_substeps)
 
 
-@numba.njit(cache=False, inline="always")  # bound to a structure's kernels: _REPLAY_BINDINGS
+# Templates in numba's subset: compiled, and cached on disk, per structure with its
+# kernels bound (_REPLAY_BINDINGS, fmu_model.kernels).
 def _derivative(phi_fn, kin_fn, s, context, inputs, out):  # fmt: skip
     """ṡ = (M (θ ⊙ φ(s, δ, n)) + a, kinematics) of the structure of ``phi_fn``, ``kin_fn``.
 
@@ -53,7 +53,6 @@ def _derivative(phi_fn, kin_fn, s, context, inputs, out):  # fmt: skip
     out[5] = kin[2]
 
 
-@numba.njit(cache=False, inline="always")  # bound to a structure's kernels: _REPLAY_BINDINGS
 def _replay_batch(
     derivative, eq_index, length, max_step, linear, t, rudder, n_rps, extra, x0s, thetas,
     speed_limit, out,

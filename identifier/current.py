@@ -18,10 +18,12 @@ for the current so far, starting from what the straight approaches show
 (:func:`initial_current`). The two alternate until the current settles
 (:data:`CURRENT_TOLERANCE_MPS`): the equation-error start, fitted on ground velocities,
 would otherwise hold the EKF's coefficients, and with them the current, near the
-still-water answer. The model family's shape is chosen again once for the settled
-current (:data:`SHAPE_PASSES`). Once the current is known, the logs and their smoothed
-tracks are moved into the water frame (:func:`water_frame`), and everything downstream
-(the output-error refinement, its guards) sees a ship in still water.
+still-water answer. On long logs the alternation's EKF passes run on windows of the
+data (:data:`ALTERNATION_MAX_SAMPLES`); the last pass sees every sample. The model
+family's shape is chosen again once for the settled current (:data:`SHAPE_PASSES`).
+Once the current is known, the logs and their smoothed tracks are moved into the water
+frame (:func:`water_frame`), and everything downstream (the output-error refinement,
+its guards) sees a ship in still water.
 
 What separates a current from the hull: a turn of 360° or more shows it as the drift of
 the circle; a straight approach shows its cross component as a drift angle the
@@ -60,6 +62,17 @@ CURRENT_TOLERANCE_MPS = 1e-3
 
 MAX_CURRENT_ITERATIONS = 15
 """Most EKF passes of one alternation (each a fraction of a second for a few logs)."""
+
+ALTERNATION_MAX_SAMPLES = 50_000
+"""The alternation's EKF passes see at most about this many samples, in
+:data:`ALTERNATION_WINDOWS` windows spread over the logs (``identifier.ekf.sample_windows``):
+they only settle the start; the last pass, the estimate, sees every sample. A day-long
+log at 10 Hz has 864,000; the manoeuvres of a trial at 1 Hz, a few thousand."""
+
+ALTERNATION_WINDOWS = 4
+"""Windows of the alternation's samples on long logs (:data:`ALTERNATION_MAX_SAMPLES`):
+few and long (12,500 samples: 21 min at 10 Hz, a KVLCC2 zig-zag or turn), as short
+windows of a log of zig-zags alone do not separate the current from the hull."""
 
 SHAPE_PASSES = 2
 """Shape choices: for the starting current, then once more for the settled one."""

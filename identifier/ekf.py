@@ -92,6 +92,54 @@ class EkfSegment:
             return np.zeros((self.time_s.size, 3))
         return np.ascontiguousarray(self.known_acceleration, dtype=float)
 
+    def window(self, start: int, stop: int) -> EkfSegment:
+        """Return samples ``start`` to ``stop`` (exclusive) as a segment of their own.
+
+        Its first (x, y, ψ) is the logged one at ``start`` (the smoothed one only at 0).
+        """
+        if not 0 <= start < stop <= self.time_s.size:
+            raise ValueError(f"window {start}:{stop} outside the segment's {self.time_s.size}")
+        part = slice(start, stop)
+        return EkfSegment(
+            name=self.name,
+            time_s=self.time_s[part],
+            velocities=self.velocities[part],
+            velocity_std=self.velocity_std[part],
+            track=self.track[part],
+            track_std=self.track_std,
+            initial_track=self.initial_track if start == 0 else self.track[start].copy(),
+            rudder_rad=self.rudder_rad[part],
+            n_rps=self.n_rps[part],
+            known_acceleration=None
+            if self.known_acceleration is None
+            else self.known_acceleration[part],
+        )
+
+
+def sample_windows(
+    segments: Sequence[EkfSegment], max_samples: int, windows: int
+) -> list[EkfSegment]:
+    """Return at most about ``max_samples`` samples of ``segments`` in evenly spread windows.
+
+    The segments as they are when they hold no more; else ``windows`` windows of equal
+    length, their starts spread evenly over all the samples (each within one segment),
+    so that a long log's every part has its say. For work that only has to settle a
+    start (``identifier.identify``: the current's alternation), not for the estimate.
+    """
+    sizes = [seg.time_s.size for seg in segments]
+    total = sum(sizes)
+    if total <= max_samples:
+        return list(segments)
+    length = max(max_samples // windows, 2)
+    ends = np.cumsum(sizes)
+    result = []
+    for start in np.linspace(0, total - length, windows).astype(int):
+        i = int(np.searchsorted(ends, start, side="right"))
+        local = int(start - (ends[i] - sizes[i]))
+        local = min(local, max(sizes[i] - length, 0))
+        result.append(segments[i].window(local, min(local + length, sizes[i])))
+    return result
+
 
 @dataclass(frozen=True)
 class EkfSettings:
@@ -349,9 +397,8 @@ _STATUS_MESSAGES = {
 }
 
 
-# Compiled, and cached on disk, as bound to a structure's kernels (_EKF_PASS): inlined
-# there, the kernels are static calls, not run-time values (which numba cannot cache).
-@numba.njit(cache=False, inline="always")
+# A template in numba's subset: compiled, and cached on disk, per structure with its
+# kernels bound (_EKF_PASS, fmu_model.kernels).
 def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length, max_substep, offset,
     t, y, r_var, rudder, n_rps, known, x, P, q_state, q_theta, variance_limit, stride, track,

@@ -34,6 +34,8 @@ from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
 from fmu_model.variants import parse_family
 from identifier.current import (
+    ALTERNATION_MAX_SAMPLES,
+    ALTERNATION_WINDOWS,
     CURRENT_MODES,
     CURRENT_PRIOR_STD_MPS,
     CURRENT_TOLERANCE_MPS,
@@ -47,7 +49,7 @@ from identifier.current import (
     water_frame,
     water_segments,
 )
-from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify
+from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify, sample_windows
 from identifier.equation_error import EquationErrorFit, equation_error_fit
 from identifier.output_error import RefinementResult, refine_output_error
 from identifier.shape import ShapeSelection, select_shape
@@ -305,17 +307,19 @@ def _estimate_current(
     current so far (from what the approaches show, ``initial_current``), the EKF
     estimates the current with the coefficients from it, until the current settles; the
     shape is chosen for the starting current and once more for the settled one. A last
-    EKF pass (with progress, and the random walk of a drifting current) gives the
-    estimate. The passes before it report no progress.
+    EKF pass over every sample (with progress, and the random walk of a drifting
+    current) gives the estimate. The passes before it (on windows of long logs,
+    ``ALTERNATION_MAX_SAMPLES``) report no progress.
     """
     current = initial_current(logs, tracks)
     iterations = 0
+    settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
     for _ in range(SHAPE_PASSES):
         water = water_segments(segments, tracks, current)
         speed_mps, n_rps = _nominal(logs, water)
         shape, structure, ls = _structure_and_start(settings, water, length_m, speed_mps, n_rps)
         for _ in range(MAX_CURRENT_ITERATIONS):
-            ekf = _run_ekf(settings, structure, ls, segments, length_m, None, current)
+            ekf = _run_ekf(settings, structure, ls, settling, length_m, None, current)
             assert ekf.current is not None  # estimated: current_ne was given
             change = float(np.max(np.abs(ekf.current - current)))
             current = ekf.current

@@ -77,14 +77,14 @@ def test_module_name_follows_its_text(monkeypatch: pytest.MonkeyPatch, tmp_path:
     assert text == kernel_source(seed, (_EKF_PASS,))
     assert text != kernel_source(other, (_EKF_PASS,))
     assert text != kernel_source(seed, _REPLAY_BINDINGS)
-    assert "from identifier.ekf import _ekf_pass" in text
     module = kernel_module(seed, (_EKF_PASS,))
     assert kernel_module(seed, (_EKF_PASS,)) is module
     assert Path(module.__file__ or "").read_text(encoding="utf-8") == text
     assert Path(module.__file__ or "").parent == tmp_path
-    # The wrapper spells out the loop's parameters after the bound kernels.
+    # The template's own body, its kernel parameters bound to the module's kernels.
     assert "def ekf_pass(eq_index, length, max_substep, offset," in text
-    assert "return _ekf_pass_target(phi, grad, kin, kin_grad, eq_index," in text
+    assert "phi_fn = phi\ngrad_fn = grad\nkin_fn = kin\nkin_grad_fn = kin_grad\n" in text
+    assert "from identifier.ekf import _EXPLODED, _NONFINITE, _NOT_PD, _OK," in text
 
 
 def test_kernels_fill_the_symbolic_regressors(
@@ -100,10 +100,14 @@ def test_kernels_fill_the_symbolic_regressors(
     np.testing.assert_allclose(out, expected, rtol=1e-14, atol=1e-300)
 
 
-def test_binding_needs_the_bound_parameters() -> None:
-    binding = Binding("too_many", _EKF_PASS.target, tuple(f"k{i}" for i in range(40)))
-    with pytest.raises(ValueError, match="fewer parameters than bound names"):
-        kernel_source(get_model("shi2009"), (binding,))
+def test_binding_needs_the_bound_parameters_bound_once() -> None:
+    structure = get_model("shi2009")
+    too_many = Binding("too_many", _EKF_PASS.template, tuple(f"k{i}" for i in range(40)))
+    with pytest.raises(ValueError, match="not a function of at least 40 parameters"):
+        kernel_source(structure, (too_many,))
+    twice = Binding("again", _EKF_PASS.template, ("kin", "grad", "phi", "kin_grad"))
+    with pytest.raises(ValueError, match="parameter 'phi_fn' is bound to two names"):
+        kernel_source(structure, (_EKF_PASS, twice))
 
 
 def test_cache_directory_falls_back_when_the_user_cache_is_not_writable(

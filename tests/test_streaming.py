@@ -13,7 +13,8 @@ import pytest
 
 from fmu_model import ModelParameters, get_model, numeric_model
 from identifier import equation_error, smoothing
-from identifier.ekf import EkfSegment, EkfSettings, ekf_identify
+from identifier import identify as identify_module
+from identifier.ekf import EkfSegment, EkfSettings, ekf_identify, sample_windows
 from identifier.equation_error import (
     NormalEquations,
     decimation,
@@ -169,3 +170,46 @@ def test_same_coefficients_as_the_in_memory_path_within_a_tenth_sigma(
     deviation = np.abs(result.params.coefficients - np.array(reference["theta"])) / std
     assert np.max(deviation) <= 0.1, dict(zip(reference["names"], deviation.round(3), strict=True))
     assert result.ekf.theta_history.shape[0] <= EkfSettings().max_history_rows
+
+
+def test_sample_windows_are_spread_over_every_log_and_start_on_the_logged_track() -> None:
+    whole = _segment(_seed_log())
+    n = whole.time_s.size
+    first, second = whole.window(0, n // 3), whole.window(n // 3, n)
+    assert sample_windows([first, second], n, 4) == [first, second]  # fits: as it is
+    windows = sample_windows([first, second], 100, 5)
+    assert [w.time_s.size for w in windows] == [20] * 5
+    starts = [float(w.time_s[0]) for w in windows]
+    assert starts[0] == whole.time_s[0] and starts == sorted(starts)
+    assert float(windows[-1].time_s[-1]) == whole.time_s[-1]  # the last one ends the data
+    gaps = np.diff([np.searchsorted(whole.time_s, t) for t in starts])
+    assert np.ptp(gaps) <= 1  # evenly spread over all the samples
+    for w in windows:
+        k = int(np.searchsorted(whole.time_s, w.time_s[0]))
+        np.testing.assert_array_equal(w.velocities, whole.velocities[k : k + 20])
+        np.testing.assert_array_equal(w.rudder_rad, whole.rudder_rad[k : k + 20])
+        expected = whole.initial_track if k == 0 else whole.track[k]
+        np.testing.assert_array_equal(w.initial_track, expected)
+        assert (w.time_s[0] < second.time_s[0]) == (w.time_s[-1] < second.time_s[0])
+    with pytest.raises(ValueError, match="outside the segment"):
+        whole.window(5, n + 1)
+
+
+def test_current_settled_on_windows_gives_the_estimate_of_every_sample(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The alternation on two windows of a third each: the last pass sees every sample."""
+    log = _seed_log()
+    drift = 0.3 * (log.time_s - log.time_s[0])  # 0.3 m/s north-east
+    log = ManeuverLog(**{**log.__dict__, "x_m": log.x_m + drift, "y_m": log.y_m + drift})
+    settings = FitSettings(model="shi2009", method="ekf")
+    full = identify([log], settings)
+    monkeypatch.setattr(identify_module, "ALTERNATION_MAX_SAMPLES", 2 * log.n_samples // 3)
+    monkeypatch.setattr(identify_module, "ALTERNATION_WINDOWS", 2)
+    windowed = identify([log], settings)
+    assert full.current is not None and windowed.current is not None
+    sigma = np.sqrt(np.diag(full.current.covariance))
+    np.testing.assert_allclose(full.current.vector, [0.3, 0.3], atol=3 * sigma.max() + 0.01)
+    assert np.all(np.abs(windowed.current.vector - full.current.vector) <= 0.5 * sigma)
+    std = np.sqrt(np.diag(full.ekf.covariance))
+    assert np.max(np.abs(windowed.ekf.theta - full.ekf.theta) / std) <= 0.5
