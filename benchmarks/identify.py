@@ -24,6 +24,11 @@ turning circle 35°, zig-zag 10/10 and 20/20, about 3,200 samples at 1 Hz and 32
   manoeuvres repeated end to end, each copy turned and moved to continue from the
   previous copy's last pose.
 
+Every end-to-end run is made twice, each in a fresh process, with a kernel cache
+(``fmu_model.kernels``) that starts empty: the first run compiles the model's EKF and
+replay (what the first identification of a new structure costs), the second loads them
+(every later run).
+
 ``--method`` picks the procedure of the end-to-end runs (default: the ``FitSettings``
 default); a run not finished after ``--timeout-s`` is stopped and reported as such.
 """
@@ -38,12 +43,14 @@ import os
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 
 import numpy as np
 
 from fmu_model import get_model
+from fmu_model.kernels import CACHE_ENV
 from identifier.ekf import EkfSegment, EkfSettings, ekf_identify
 from identifier.equation_error import equation_error_fit
 from identifier.identify import FitSettings, identify
@@ -230,13 +237,17 @@ def large_identification(
 
 
 def _child(
-    rate_hz: float, n_samples: int, method: str | None, timeout_s: float
+    rate_hz: float, n_samples: int, method: str | None, timeout_s: float, cache: str
 ) -> dict[str, float | str] | None:
-    """Run :func:`large_identification` in a fresh interpreter; None when it timed out."""
+    """Run :func:`large_identification` in a fresh interpreter; None when it timed out.
+
+    ``cache`` is the kernel cache directory of the child (``fmu_model.kernels``).
+    """
     command = [sys.executable, __file__, "--child", "--rate-hz", str(rate_hz)]
     command += ["--samples", str(n_samples)] + ([] if method is None else ["--method", method])
+    env = {**os.environ, CACHE_ENV: cache}
     try:
-        child = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s)
+        child = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s, env=env)
     except subprocess.TimeoutExpired:
         return None
     if child.returncode != 0:
@@ -257,18 +268,28 @@ def _describe(run: dict[str, float | str]) -> str:
 def end_to_end(
     rates_hz: Sequence[float], n_samples: int, method: str | None, timeout_s: float
 ) -> None:
-    """Print end-to-end identification of ``n_samples`` (0: the three logs) per rate."""
-    seconds = {}
+    """Print end-to-end identification of ``n_samples`` (0: the three logs) per rate.
+
+    Each twice with one new kernel cache: compiling, then loading (module docstring).
+    """
+    seconds: dict[tuple[float, str], float] = {}
     for rate_hz in rates_hz:
-        run = _child(rate_hz, n_samples, method, timeout_s)
-        if run is None:
-            print(f"  {rate_hz:g} Hz: NOT FINISHED after {timeout_s:g} s")
-            continue
-        seconds[rate_hz] = float(run["seconds"])
-        samples, hours = int(run["samples"]), float(run["hours"])
-        print(f"  {rate_hz:g} Hz, {samples:,} samples ({hours:.1f} h): {_describe(run)}")
-    if 1.0 in seconds and 10.0 in seconds:
-        print(f"  10 Hz / 1 Hz time: {seconds[10.0] / seconds[1.0]:.2f}")
+        with tempfile.TemporaryDirectory(prefix="kernels-") as cache:
+            for label in ("compiles", "cached"):
+                run = _child(rate_hz, n_samples, method, timeout_s, cache)
+                if run is None:
+                    print(f"  {rate_hz:g} Hz ({label}): NOT FINISHED after {timeout_s:g} s")
+                    continue
+                seconds[rate_hz, label] = float(run["seconds"])
+                samples, hours = int(run["samples"]), float(run["hours"])
+                print(
+                    f"  {rate_hz:g} Hz, {samples:,} samples ({hours:.1f} h), kernels {label}: "
+                    f"{_describe(run)}"
+                )
+    for label in ("compiles", "cached"):
+        if (1.0, label) in seconds and (10.0, label) in seconds:
+            ratio = seconds[10.0, label] / seconds[1.0, label]
+            print(f"  10 Hz / 1 Hz time, kernels {label}: {ratio:.2f}")
 
 
 def throughput(rate_hz: float) -> float | None:

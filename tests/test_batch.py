@@ -93,7 +93,7 @@ def test_batch_runs_isolates_failures_and_resumes(
 ) -> None:
     manifest = _manifest(tmp_path / "in")
     out = tmp_path / "out"
-    seen: list[str] = []
+    seen: list[tuple[str, int, int]] = []
 
     # First run: two vessels identified with params.json and FMU, one failure recorded.
     summary = run_batch(
@@ -102,14 +102,15 @@ def test_batch_runs_isolates_failures_and_resumes(
         scheduler=cluster_address,
         method="ekf",
         current="none",  # still-water logs (and half the EKF passes)
-        progress=lambda v: seen.append(v.name),
+        progress=lambda v, done, total: seen.append((v.name, done, total)),
     )
     assert [(v.name, v.status) for v in summary.vessels] == [
         ("alpha", "ok"),
         ("beta", "ok"),
         ("gamma", "failed"),
     ]
-    assert sorted(seen) == ["alpha", "beta", "gamma"]
+    assert sorted(name for name, _, _ in seen) == ["alpha", "beta", "gamma"]
+    assert [(done, total) for _, done, total in seen] == [(1, 3), (2, 3), (3, 3)]
     assert summary.n_identified == 2 and not summary.ok
     for name in ("alpha", "beta"):
         params = load_params(out / name / "params.json")

@@ -139,6 +139,9 @@ def test_batch_survives_a_killed_worker_and_retries_its_vessel(
     assert workers[names[victim_address]].wait(timeout=10) == -9
     lines = stdout.decode().splitlines()
     assert sorted(line.split(":")[0] for line in lines if ": ok (" in line) == sorted(VESSELS)
+    # The bar of vessels done (stderr) reached all of them.
+    n = len(VESSELS)
+    assert f"{n}/{n} [" in stderr.decode().replace("\r", "\n").splitlines()[-1]
     for name in VESSELS:
         done = json.loads((out / name / "done.json").read_text())
         assert done["inputs"] and (out / name / "params.json").is_file()

@@ -244,6 +244,27 @@ def test_cli_fit_with_max_substep_inf_writes_params(
     assert params.identification["settings"]["max_substep_s"] == "inf"
 
 
+def test_cli_fit_summary_prints_the_kept_estimate_and_the_rates(
+    log_files: list[Path], tmp_path: Path, capsys
+) -> None:
+    """The table is what params.json holds (the refined estimate, not the EKF's)."""
+    out = tmp_path / "params.json"
+    assert main(["fit", *map(str, log_files), "--model", "shi2009", "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    params = load_params(out)
+    assert params.identification["estimates"]["ekf"] != params.as_dict()  # refined: differs
+    rows = {line.split()[0]: line.split() for line in printed.splitlines() if line[:1] == " "}
+    for name, value, std in zip(params.names, params.coefficients, params.std, strict=True):
+        assert float(rows[name][1]) == pytest.approx(value, rel=1e-5)
+        assert float(rows[name][2]) == pytest.approx(std, rel=1e-2)
+    samples = sum(read_log(p).n_samples for p in log_files)
+    rows_line = next(line for line in printed.splitlines() if line.startswith("regression on"))
+    assert f"the EKF on all {samples:,} samples" in rows_line
+    regression_rows = int(rows_line.split()[2].replace(",", ""))
+    assert samples - 2 * len(log_files) - 10 < regression_rows <= samples  # 1 Hz: every sample
+    assert " rows at 1 s (about L/U/40)" in rows_line
+
+
 def test_cli_fit_on_an_nmea_recording_says_to_convert_it(tmp_path: Path, capsys) -> None:
     nmea = tmp_path / "zigzag-10.nmea"
     nmea.write_text("$HEHDT,340.100,T*29\n$IIRSA,-7.960,A,,V*5C\n")

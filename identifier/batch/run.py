@@ -141,7 +141,7 @@ def run_batch(
     method: str = METHODS[0],
     build_fmu: bool = True,
     current: str = CURRENT_MODES[1],
-    progress: Callable[[VesselResult], None] | None = None,
+    progress: Callable[[VesselResult, int, int], None] | None = None,
 ) -> BatchSummary:
     """Identify every vessel of a manifest or directory, one Dask task per vessel.
 
@@ -169,7 +169,9 @@ def run_batch(
     build_fmu : bool
         Build ``<vessel>.fmu`` as well as ``params.json``.
     progress : callable, optional
-        Called with each vessel's :class:`VesselResult` as soon as it is known.
+        Called as ``progress(result, done, total)`` with each vessel's
+        :class:`VesselResult` as soon as it is known, the number of vessels known so far
+        (this one included) and of all the vessels.
 
     Returns
     -------
@@ -202,7 +204,7 @@ def run_batch(
     def report(result: VesselResult) -> None:
         results[result.name] = result
         if progress is not None:
-            progress(result)
+            progress(result, len(results), len(specs))
 
     for spec in specs:
         directory = out / spec.name

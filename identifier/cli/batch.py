@@ -1,7 +1,8 @@
 """``python -m identifier batch MANIFEST.toml|DIR --out OUT``: identify many vessels.
 
-Runs :func:`identifier.batch.run_batch`; prints one line per vessel as it finishes,
-the failures on stderr, and exits 1 when any vessel failed.
+Runs :func:`identifier.batch.run_batch`; prints one line per vessel as it finishes and
+a bar of the vessels done (stderr), the failures on stderr, and exits 1 when any vessel
+failed.
 """
 
 from __future__ import annotations
@@ -9,6 +10,8 @@ from __future__ import annotations
 import argparse
 import sys
 from typing import Any
+
+from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, argtypes, model_names
 from identifier.batch import ManifestError, VesselResult, format_failures, run_batch
@@ -59,14 +62,19 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``python -m identifier batch`` for parsed ``args``; return the exit status."""
+    bars: list[tqdm[Any]] = []  # opened with the first vessel: an error before prints alone
 
-    def show(result: VesselResult) -> None:
+    def show(result: VesselResult, done: int, total: int) -> None:
+        if not bars:
+            bars.append(tqdm(total=total, unit="vessel", disable=args.quiet, file=sys.stderr))
+        bar = bars[0]
         if result.ok and not args.quiet:
-            print(
+            bar.write(
                 f"{result.name}: {result.status} ({result.n_logs} logs, "
                 f"{result.n_samples} samples, {result.seconds:.1f} s)",
-                flush=True,
+                file=sys.stdout,
             )
+        bar.update(done - bar.n)
 
     try:
         summary = run_batch(
@@ -84,6 +92,9 @@ def run(args: argparse.Namespace) -> int:
         return error(one_line(str(exc)))
     except OSError as exc:
         return error(describe_error(exc))
+    finally:
+        for bar in bars:
+            bar.close()
     for line in format_failures(summary):
         print(f"error: {line}", file=sys.stderr)
     if not args.quiet:

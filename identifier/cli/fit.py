@@ -7,6 +7,7 @@ import math
 import sys
 from typing import Any
 
+import numpy as np
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
@@ -123,14 +124,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _summary(result: IdentificationResult) -> str:
-    units = result.params.units()
+    """Return the kept estimate (value, σ) per coefficient, nominal point, current, rates."""
+    p = result.params
+    units = p.units()
+    kept = dict(zip(p.names, p.coefficients, strict=True))
+    sigma = np.full(len(p.names), math.nan) if p.std is None else p.std
+    std = dict(zip(p.names, sigma, strict=True))
     lines = [f"{'coef':>6} {'value':>14} {'std':>11} {'unit':>9}  identifiable"]
     for c in result.coefficients:
         lines.append(
-            f"{c.name:>6} {c.value:>14.6g} {c.std:>11.3g} {units[c.name]:>9}  "
+            f"{c.name:>6} {kept[c.name]:>14.6g} {std[c.name]:>11.3g} {units[c.name]:>9}  "
             + ("yes" if c.identifiable else "no")
         )
-    p = result.params
     lines.append(
         f"nominal: {p.nominal_speed_mps:.3f} m/s through the water at "
         f"{p.nominal_n_rps * 60.0:.1f} rpm; L = {p.length_m:g} m"
@@ -143,6 +148,13 @@ def _summary(result: IdentificationResult) -> str:
             f"{math.degrees(cur.to_rad):.1f} deg (North {cur.north_mps:+.3f} ± {std_n:.3f}, "
             f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s)"
         )
+    ls = result.equation_error
+    rates = f"regression on {ls.rows:,} rows at {ls.sample_interval_s:g} s (about L/U/40"
+    shape = p.identification.get("shape")
+    if shape is not None:
+        rates += f"; shape search on {shape['rows']:,} of them, {shape['evaluations']} shapes"
+    samples = sum(log.n_samples for log in result.logs)
+    lines.append(f"{rates}); the EKF on all {samples:,} samples")
     return "\n".join(lines)
 
 
