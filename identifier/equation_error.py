@@ -90,8 +90,17 @@ class EquationErrorFit:
 
 def decimation(segment: EkfSegment, length_m: float) -> int:
     """Return m, the step of the decimation to about 1/40 L/U (≥ 1; module docstring)."""
-    interval = float(np.median(np.diff(segment.time_s)))
-    speed = float(np.percentile(np.hypot(segment.velocities[:, 0], segment.velocities[:, 1]), 95))
+    speed = np.hypot(segment.velocities[:, 0], segment.velocities[:, 1])
+    return decimation_step(segment.time_s, speed, length_m)
+
+
+def decimation_step(time_s: np.ndarray, speed_mps: np.ndarray, length_m: float) -> int:
+    """Return m, the step of samples at ``time_s`` [s] to about 1/40 L/U (≥ 1).
+
+    U is the 95th percentile of ``speed_mps`` [m/s] (the approach, not the slowed turn).
+    """
+    interval = float(np.median(np.diff(time_s)))
+    speed = float(np.percentile(speed_mps, 95))
     target_s = REGRESSION_INTERVAL_L_OVER_U * length_m / speed if speed > 0.0 else interval
     return max(1, math.floor(target_s / interval * (1.0 + 1e-9)))
 

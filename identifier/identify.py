@@ -612,7 +612,6 @@ def _identify(
             settings, segments, length, nominal_speed_mps, nominal_n_rps
         )
         ekf = _run_ekf(settings, structure, ls, segments, length, progress)
-        water_logs, water_tracks = list(logs), tracks
     else:
         shape, structure, ls, ekf, current = _estimate_current(
             settings, segments, tracks, logs, length, progress
@@ -620,8 +619,6 @@ def _identify(
         nominal_speed_mps, nominal_n_rps = _nominal(
             logs, water_segments(segments, tracks, current.vector)
         )
-        moved = [water_frame(log, t, current.vector) for log, t in zip(logs, tracks, strict=True)]
-        water_logs, water_tracks = [m[0] for m in moved], [m[1] for m in moved]
         if heading_span_rad(tracks) < MIN_HEADING_SPAN_RAD:
             warnings.append(
                 f"the logs' headings span {math.degrees(heading_span_rad(tracks)):.0f} deg: "
@@ -696,6 +693,10 @@ def _identify(
         )
     elif settings.method == "output-error":
         equation_error = params.with_vector(ls.theta, ls_prior)
+        water_logs, water_tracks = list(logs), tracks
+        if current is not None:  # the refinement sees a ship in still water
+            moved = [water_frame(g, t, current.vector) for g, t in zip(logs, tracks, strict=True)]
+            water_logs, water_tracks = [m[0] for m in moved], [m[1] for m in moved]
         refinement = refine_output_error(
             params,
             water_logs,

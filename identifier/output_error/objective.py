@@ -118,6 +118,7 @@ def prepare_log(
     settings: RefineSettings,
     start: int = 0,
     windage: Windage | None = None,
+    step: int = 1,
 ) -> LogData:
     """Residual data of a log from sample ``start`` on (initial state: smoothed there).
 
@@ -136,6 +137,11 @@ def prepare_log(
     windage : Windage, optional
         The vessel's windage: the load of the log's measured wind enters the replay
         (``identifier.wind``); None: no wind load.
+    step : int
+        Every ``step``-th sample from ``start`` on is replayed and compared (the inputs
+        linear between them): a log sampled much faster than the ship manoeuvres costs
+        replay steps and gives no more information (``identifier.equation_error``'s
+        L/U/40, :func:`identifier.equation_error.decimation_step`).
 
     Returns
     -------
@@ -144,7 +150,8 @@ def prepare_log(
 
     """
     k = start
-    columns = [log.x_m[k + 1 :], log.y_m[k + 1 :], log.heading_rad[k + 1 :]]
+    rows = slice(k + step, None, step)  # the samples after the first replayed one
+    columns = [log.x_m[rows], log.y_m[rows], log.heading_rad[rows]]
     sigma_p = max(track.position_noise_m, 1e-3)
     sigma_h = max(track.heading_noise_rad, 1e-5)
     scale = [
@@ -158,7 +165,7 @@ def prepare_log(
             (track.v_mps, track.v_std_mps),
             (track.r_radps, track.r_std_radps),
         ):
-            columns.append(values[k + 1 :])
+            columns.append(values[rows])
             scale.append(settings.velocity_weight / max(float(np.median(std)), 1e-9))
     x0_std = np.array(
         [
@@ -175,9 +182,9 @@ def prepare_log(
     known = known_acceleration(log, windage)
     return LogData(
         name=name,
-        time_s=np.array(log.time_s[k:]),
-        rudder_rad=np.array(log.rudder_rad[k:]),
-        n_rps=np.array(log.n_rps[k:]),
+        time_s=np.array(log.time_s[k::step]),
+        rudder_rad=np.array(log.rudder_rad[k::step]),
+        n_rps=np.array(log.n_rps[k::step]),
         x0=np.array(
             [
                 track.u_mps[k],
@@ -192,7 +199,7 @@ def prepare_log(
         target=np.column_stack(columns),
         scale=np.asarray(scale),
         speed_limit_mps=DIVERGENCE_SPEED_FACTOR * max(speed, 0.1),
-        known_acceleration=None if known is None else known[k:],
+        known_acceleration=None if known is None else known[k::step],
     )
 
 
