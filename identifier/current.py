@@ -16,7 +16,7 @@ augmented EKF as two more states (:func:`identifier.ekf.ekf_identify`), and the
 equation-error fit that starts the EKF is written on the velocities through the water
 for the current so far, starting from what the straight approaches show
 (:func:`initial_current`). The two alternate until the current settles
-(:data:`CURRENT_TOLERANCE_MPS`): the equation-error start, fitted on ground velocities,
+(:func:`current_tolerance_mps`): the equation-error start, fitted on ground velocities,
 would otherwise hold the EKF's coefficients, and with them the current, near the
 still-water answer. On long logs the alternation's EKF passes run on windows of the
 data (:data:`ALTERNATION_MAX_SAMPLES`); the last pass sees every sample. The model
@@ -58,7 +58,12 @@ DRIFTING_RANDOM_WALK_MPS = 0.2
 turns by about 1 kn in a few hours)."""
 
 CURRENT_TOLERANCE_MPS = 1e-3
-"""The alternation stops when no component changes by more than this [m/s]."""
+"""The alternation stops when no component changes by more than this [m/s] or by more
+than :data:`CURRENT_TOLERANCE_SIGMAS` of the estimate's own standard deviation."""
+
+CURRENT_TOLERANCE_SIGMAS = 0.1
+"""... a change far inside the estimate's uncertainty is noise of the passes, not a
+current still moving (:func:`current_tolerance_mps`)."""
 
 MAX_CURRENT_ITERATIONS = 15
 """Most EKF passes of one alternation (each a fraction of a second for a few logs)."""
@@ -80,6 +85,16 @@ SHAPE_PASSES = 2
 MIN_HEADING_SPAN_RAD = math.radians(90.0)
 """Below this range of headings over all logs the along-course current is barely told
 apart from the ship's own speed (warning)."""
+
+
+def current_tolerance_mps(covariance: np.ndarray) -> float:
+    """Return the change of the current [m/s] below which the alternation has settled.
+
+    :data:`CURRENT_TOLERANCE_MPS`, or :data:`CURRENT_TOLERANCE_SIGMAS` of the larger
+    standard deviation of the estimate (``covariance``, (2, 2) [m²/s²]) when that is more.
+    """
+    std = float(np.sqrt(np.max(np.diag(covariance))))
+    return max(CURRENT_TOLERANCE_MPS, CURRENT_TOLERANCE_SIGMAS * std)
 
 
 @dataclass(frozen=True)

@@ -38,12 +38,12 @@ from identifier.current import (
     ALTERNATION_WINDOWS,
     CURRENT_MODES,
     CURRENT_PRIOR_STD_MPS,
-    CURRENT_TOLERANCE_MPS,
     DRIFTING_RANDOM_WALK_MPS,
     MAX_CURRENT_ITERATIONS,
     MIN_HEADING_SPAN_RAD,
     SHAPE_PASSES,
     CurrentEstimate,
+    current_tolerance_mps,
     heading_span_rad,
     initial_current,
     water_frame,
@@ -309,24 +309,38 @@ def _estimate_current(
     shape is chosen for the starting current and once more for the settled one. A last
     EKF pass over every sample (with progress, and the random walk of a drifting
     current) gives the estimate. The passes before it (on windows of long logs,
-    ``ALTERNATION_MAX_SAMPLES``) report no progress.
+    ``ALTERNATION_MAX_SAMPLES``) report no progress; when one of them diverges (a start
+    the filter cannot follow), the alternation stops at the last pass that converged.
     """
     current = initial_current(logs, tracks)
     iterations = 0
     settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
+    settled = None  # (shape, structure, start, current) of the last pass that converged
+    diverged = False
     for _ in range(SHAPE_PASSES):
         water = water_segments(segments, tracks, current)
         speed_mps, n_rps = _nominal(logs, water)
         shape, structure, ls = _structure_and_start(settings, water, length_m, speed_mps, n_rps)
         for _ in range(MAX_CURRENT_ITERATIONS):
-            ekf = _run_ekf(settings, structure, ls, settling, length_m, None, current)
-            assert ekf.current is not None  # estimated: current_ne was given
+            try:
+                ekf = _run_ekf(settings, structure, ls, settling, length_m, None, current)
+            except IdentificationError:
+                if settled is None:
+                    raise
+                diverged = True  # a start the EKF cannot follow: keep the last settled one
+                break
+            assert ekf.current is not None and ekf.current_covariance is not None
             change = float(np.max(np.abs(ekf.current - current)))
             current = ekf.current
             iterations += 1
             ls = equation_error_fit(structure, water_segments(segments, tracks, current), length_m)
-            if change < CURRENT_TOLERANCE_MPS:
+            settled = (shape, structure, ls, current)
+            if change < current_tolerance_mps(ekf.current_covariance):
                 break
+        if diverged:
+            break
+    assert settled is not None  # the first pass converged, or raised
+    shape, structure, ls, current = settled
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
     ekf = _run_ekf(settings, structure, ls, segments, length_m, progress, current, walk)
     assert ekf.current is not None and ekf.current_covariance is not None

@@ -9,14 +9,24 @@ import math
 import re
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from fmu_model import simulate
 from fmu_model.environment import Windage, apparent_wind
+from identifier import identify as identify_module
 from identifier.cli import main
-from identifier.current import heading_span_rad, initial_current, water_frame, water_segments
+from identifier.current import (
+    CURRENT_TOLERANCE_MPS,
+    CURRENT_TOLERANCE_SIGMAS,
+    current_tolerance_mps,
+    heading_span_rad,
+    initial_current,
+    water_frame,
+    water_segments,
+)
 from identifier.ekf import body_current
 from identifier.identify import IdentificationResult, identify
 from identifier.smoothing import smooth_track
@@ -24,6 +34,7 @@ from identifier.wind import known_acceleration, read_windage
 from scenarios.synthesize import MANEUVERS, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_identify import SEED, TRAINING, _ship, _truth
+from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, write_log
 
 CURRENT_NE = np.array([0.15, 0.26])  # 0.3 m/s towards 60 deg
@@ -112,6 +123,46 @@ def test_a_drifting_current_follows_a_change(calm_logs: list[ManeuverLog]) -> No
     # The drifting estimate (at the end of the last log) is nearer the later current.
     assert np.linalg.norm(drifting.current.vector - later) < np.linalg.norm(
         constant.current.vector - later
+    )
+
+
+def test_a_diverging_alternation_pass_keeps_the_last_settled_start(
+    calm_logs: list[ManeuverLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A pass of the current's alternation that diverges stops it; the first one raises.
+
+    (Seen on the batch benchmark's demo ship: a start one alternation pass moved the
+    current to made the next pass diverge, and the whole default fit failed.)
+    """
+    logs = [_with_current(log, CURRENT_NE) for log in calm_logs]
+    starts: list[np.ndarray | None] = []
+    run_ekf = identify_module._run_ekf
+
+    def third_pass_diverges(*args: Any, **kwargs: Any) -> Any:
+        starts.append(args[6] if len(args) > 6 else kwargs.get("current_ne"))
+        if len(starts) == 3:
+            raise IdentificationError("state or covariance became non-finite", log="x")
+        return run_ekf(*args, **kwargs)
+
+    monkeypatch.setattr(identify_module, "_run_ekf", third_pass_diverges)
+    result = identify(logs, SEED)
+    assert result.current is not None and result.current.iterations == 2
+    assert len(starts) == 4  # two settled passes, the diverged one, the last (estimate)
+    np.testing.assert_array_equal(starts[3], starts[2])  # from the last settled current
+    np.testing.assert_allclose(result.current.vector, CURRENT_NE, atol=0.05)
+
+    def first_pass_diverges(*args: Any, **kwargs: Any) -> Any:
+        raise IdentificationError("state or covariance became non-finite", log="x")
+
+    monkeypatch.setattr(identify_module, "_run_ekf", first_pass_diverges)
+    with pytest.raises(IdentificationError, match="non-finite"):
+        identify(logs, SEED)
+
+
+def test_alternation_tolerance_follows_the_estimate_uncertainty() -> None:
+    assert current_tolerance_mps(np.diag([1e-8, 1e-8])) == CURRENT_TOLERANCE_MPS
+    assert current_tolerance_mps(np.diag([0.04**2, 0.01**2])) == pytest.approx(
+        CURRENT_TOLERANCE_SIGMAS * 0.04
     )
 
 
