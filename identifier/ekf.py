@@ -87,9 +87,12 @@ class EkfSegment:
     known_acceleration: np.ndarray | None = None
 
     def known_acceleration_or_zero(self) -> np.ndarray:
-        """Return the known accelerations (N, 3), zeros when there are none."""
+        """Return the known accelerations (N, 3), or one row of zeros (1, 3) for none.
+
+        (The EKF pass reads its last row for every later sample, as it does ``r_var``'s.)
+        """
         if self.known_acceleration is None:
-            return np.zeros((self.time_s.size, 3))
+            return np.zeros((1, 3))
         return np.ascontiguousarray(self.known_acceleration, dtype=float)
 
     def window(self, start: int, stop: int) -> EkfSegment:
@@ -412,8 +415,9 @@ def _ekf_pass(
     variances of row k of ``r_var`` (its only row when it has one). The motion states
     and θ with its standard deviations after the updates at samples 0, stride, … go to
     ``states``, ``theta_hist`` and ``std_hist``; ``known`` (N, 3) are accelerations of
-    known loads added to the model's; ``square_sums`` accumulates the squared
-    filtered-minus-logged position [m²] and wrapped heading [rad²] over every sample.
+    known loads added to the model's (one row: the same for every sample);
+    ``square_sums`` accumulates the squared filtered-minus-logged position [m²] and
+    wrapped heading [rad²] over every sample.
     """
     p = eq_index.size
     m = 6 + q_theta.size
@@ -435,6 +439,7 @@ def _ekf_pass(
         std_hist[0, i] = np.sqrt(P[6 + i, 6 + i])
     _add_track_residual(x, track, 0, square_sums)
     last_row = r_var.shape[0] - 1
+    last_known = known.shape[0] - 1
     for k in range(t.size - 1):
         T = t[k + 1] - t[k]
         substeps = max(1, int(np.ceil(T / max_substep * (1.0 - 1e-12))))
@@ -457,7 +462,9 @@ def _ekf_pass(
             A[:, :] = 0.0
             f[:] = 0.0
             for c in range(3):  # known loads (a measured wind's), averaged as the inputs
-                f[c] = (1.0 - w) * known[k, c] + w * known[k + 1, c]
+                f[c] = (1.0 - w) * known[min(k, last_known), c] + w * known[
+                    min(k + 1, last_known), c
+                ]
             for i in range(p):
                 e = eq_index[i]
                 th = x[6 + i]

@@ -310,7 +310,8 @@ def _estimate_current(
     EKF pass over every sample (with progress, and the random walk of a drifting
     current) gives the estimate. The passes before it (on windows of long logs,
     ``ALTERNATION_MAX_SAMPLES``) report no progress; when one of them diverges (a start
-    the filter cannot follow), the alternation stops at the last pass that converged.
+    the filter cannot follow), the alternation stops and the last pass starts where the
+    last pass that converged started.
     """
     current = initial_current(logs, tracks)
     iterations = 0
@@ -327,20 +328,20 @@ def _estimate_current(
             except IdentificationError:
                 if settled is None:
                     raise
-                diverged = True  # a start the EKF cannot follow: keep the last settled one
+                diverged = True  # a start the EKF cannot follow: keep the last it followed
                 break
             assert ekf.current is not None and ekf.current_covariance is not None
+            settled = (shape, structure, ls, current)
             change = float(np.max(np.abs(ekf.current - current)))
             current = ekf.current
             iterations += 1
             ls = equation_error_fit(structure, water_segments(segments, tracks, current), length_m)
-            settled = (shape, structure, ls, current)
             if change < current_tolerance_mps(ekf.current_covariance):
                 break
         if diverged:
+            assert settled is not None  # set by the pass before, or the error was raised
+            shape, structure, ls, current = settled
             break
-    assert settled is not None  # the first pass converged, or raised
-    shape, structure, ls, current = settled
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
     ekf = _run_ekf(settings, structure, ls, segments, length_m, progress, current, walk)
     assert ekf.current is not None and ekf.current_covariance is not None

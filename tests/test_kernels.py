@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmu_model import get_model, numeric_model
+from fmu_model import get_model, kernels, numeric_model
 from fmu_model.kernels import CACHE_ENV, Binding, cache_directory, kernel_module, kernel_source
 from fmu_model.replay import _REPLAY_BINDINGS
 from identifier.ekf import _EKF_PASS
@@ -72,6 +72,10 @@ def test_second_process_loads_the_compiled_loops_and_gets_the_same_numbers(
 def test_module_name_follows_its_text(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     """Another structure or other bindings are another module; the same are the same one."""
     monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    # Not the module an earlier test of this process imported from another directory.
+    monkeypatch.setattr(kernels, "_LOADED", {})
+    for name in [n for n in sys.modules if n.startswith("shipid_kernels_")]:
+        monkeypatch.delitem(sys.modules, name)
     seed, other = get_model("shi2009"), get_model("prime-cubic")
     text = kernel_source(seed, (_EKF_PASS,))
     assert text == kernel_source(seed, (_EKF_PASS,))
