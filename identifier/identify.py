@@ -322,6 +322,7 @@ def _estimate_current(
         water = water_segments(segments, tracks, current)
         speed_mps, n_rps = _nominal(logs, water)
         shape, structure, ls = _structure_and_start(settings, water, length_m, speed_mps, n_rps)
+        del water  # N × 3 velocities: a long log's memory is bounded by what is held
         for _ in range(MAX_CURRENT_ITERATIONS):
             try:
                 ekf = _run_ekf(settings, structure, ls, settling, length_m, None, current)
