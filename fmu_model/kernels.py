@@ -55,6 +55,9 @@ CACHE_ENV = "SHIPID_KERNEL_CACHE"
 
 _ARGS = (*VELOCITY_SYMBOLS, *INPUT_SYMBOLS, L)
 
+KERNEL_NAMES = ("phi", "grad", "kin", "kin_grad")
+"""The kernels of every generated module, in order (:func:`kernel_source`)."""
+
 
 @dataclass(frozen=True)
 class Binding:
@@ -96,12 +99,9 @@ def _kernel_sources(structure: ModelStructure) -> list[str]:
     gradients = [sp.diff(e, s) for e in regressors for s in VELOCITY_SYMBOLS]
     kin_args = (*VELOCITY_SYMBOLS, psi)
     kin_grad = [sp.diff(e, s) for e in KINEMATICS for s in STATE_SYMBOLS]
-    return [
-        _filler("phi", regressors, _ARGS),
-        _filler("grad", gradients, _ARGS),
-        _filler("kin", list(KINEMATICS), kin_args),
-        _filler("kin_grad", kin_grad, kin_args),
-    ]
+    exprs = (regressors, gradients, list(KINEMATICS), kin_grad)
+    args = (_ARGS, _ARGS, kin_args, kin_args)
+    return [_filler(*spec) for spec in zip(KERNEL_NAMES, exprs, args, strict=True)]
 
 
 def _binding_sources(bindings: Sequence[Binding]) -> list[str]:
@@ -116,6 +116,7 @@ def _binding_sources(bindings: Sequence[Binding]) -> list[str]:
     aliases: dict[str, str] = {}
     imports: dict[str, set[str]] = {}
     functions = []
+    generated = {*KERNEL_NAMES, *(b.name for b in bindings)}
     for binding in bindings:
         template = binding.template
         tree = ast.parse(textwrap.dedent(inspect.getsource(template)))
@@ -135,6 +136,11 @@ def _binding_sources(bindings: Sequence[Binding]) -> list[str]:
         names = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
         module = sys.modules[template.__module__]
         used = {n for n in names - set(leading) if n in vars(module)}
+        if used & generated:
+            raise ValueError(
+                f"{template.__module__} has globals named as the generated module's "
+                f"functions: {sorted(used & generated)}"
+            )
         imports.setdefault(template.__module__, set()).update(used)
         functions.append("@numba.njit(cache=True)\n" + ast.unparse(node))
     lines = [f"from {m} import {', '.join(sorted(n))}" for m, n in imports.items() if n]

@@ -112,6 +112,10 @@ def test_binding_needs_the_bound_parameters_bound_once() -> None:
     twice = Binding("again", _EKF_PASS.template, ("kin", "grad", "phi", "kin_grad"))
     with pytest.raises(ValueError, match="parameter 'phi_fn' is bound to two names"):
         kernel_source(structure, (_EKF_PASS, twice))
+    # A binding named as a global its template uses would shadow it.
+    shadowing = Binding("_add_track_residual", _EKF_PASS.template, _EKF_PASS.bound)
+    with pytest.raises(ValueError, match=r"globals named as .*\['_add_track_residual'\]"):
+        kernel_source(structure, (shadowing,))
 
 
 def test_cache_directory_falls_back_when_the_user_cache_is_not_writable(
