@@ -4,9 +4,9 @@ Output-error identification and cross-validation simulate the model over the rud
 propeller speed of a log thousands of times, for many coefficient vectors at once. Here
 :func:`fmu_model.integrate.rk4_into` is compiled with numba and driven by the regressor
 kernels generated from the symbolic structure (``fmu_model.kernels``, compiled once per
-structure and cached on disk), so that a
-replay is the same RK4 as ``fmu_model.simulate`` (bit for bit with held inputs) at the
-speed of compiled code. numba is imported here only: the FMU runtime never needs it.
+structure and cached on disk), so that a replay is the same RK4 as
+``fmu_model.simulate`` (bit for bit with held inputs) at the speed of compiled code.
+numba is imported here only: the FMU runtime never needs it.
 """
 
 from __future__ import annotations
