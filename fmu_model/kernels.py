@@ -31,7 +31,7 @@ import sys
 import tempfile
 import textwrap
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 from types import ModuleType
@@ -81,6 +81,13 @@ class Binding:
     name: str
     template: Callable[..., Any]
     bound: tuple[str, ...]
+    source: str = field(init=False, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        # Read when the binding is made, at the template module's import: the file may
+        # change while a process runs (an upgrade), and ``inspect.getsource`` reads the
+        # file as it is then, at the line numbers of the code as it was.
+        object.__setattr__(self, "source", textwrap.dedent(inspect.getsource(self.template)))
 
 
 def _filler(name: str, exprs: Sequence[sp.Expr], args: Sequence[sp.Symbol]) -> str:
@@ -107,7 +114,7 @@ def _kernel_sources(structure: ModelStructure) -> list[str]:
 def _binding_sources(bindings: Sequence[Binding]) -> list[str]:
     """Return the sources of the bound functions (and the imports and names they use).
 
-    Each is its template's own definition (``inspect.getsource``) renamed, with the
+    Each is its template's own definition (``Binding.source``) renamed, with the
     leading parameters removed: each removed parameter becomes a name of the generated
     module for what it is bound to, and the template module's globals the body uses are
     imported. numba then sees the kernels as globals (static calls) and can cache the
@@ -119,7 +126,7 @@ def _binding_sources(bindings: Sequence[Binding]) -> list[str]:
     generated = {*KERNEL_NAMES, *(b.name for b in bindings)}
     for binding in bindings:
         template = binding.template
-        tree = ast.parse(textwrap.dedent(inspect.getsource(template)))
+        tree = ast.parse(binding.source)
         node = tree.body[0]
         if not isinstance(node, ast.FunctionDef) or len(node.args.args) < len(binding.bound):
             raise ValueError(

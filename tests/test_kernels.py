@@ -143,3 +143,27 @@ def test_configured_directory_that_cannot_be_made_is_an_error(
     monkeypatch.setenv(CACHE_ENV, str(blocked / "kernels"))
     with pytest.raises(OSError, match="no writable kernel cache directory"):
         cache_directory()
+
+
+def test_binding_keeps_the_source_of_its_import_when_the_file_changes(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """An upgrade that rewrites a template's file while a process runs changes nothing."""
+    package = tmp_path / "templatepkg"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "loops.py").write_text(
+        "def loop(phi_fn, x, out):\n    phi_fn(x, 0.0, 0.0, 0.0, 0.0, 1.0, out)\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    from templatepkg import loops  # type: ignore[import-not-found]
+
+    binding = Binding("bound_loop", loops.loop, ("phi",))
+    (package / "loops.py").write_text('"""Moved down."""\n\n\n' + "x = 1\n" * 5)
+    import linecache
+
+    linecache.clearcache()
+    text = kernel_source(get_model("shi2009"), (binding,))
+    assert "def bound_loop(x, out):\n    phi_fn(x, 0.0, 0.0, 0.0, 0.0, 1.0, out)" in text
+    for name in ("templatepkg", "templatepkg.loops"):
+        monkeypatch.delitem(sys.modules, name)
