@@ -10,7 +10,11 @@ again: 5–9 s for the EKF alone, for every shape a model family tries, on every
 Here the kernels of one structure and thin wrappers that bind them to those loops are
 written as a Python module to a cache directory, and imported; every function in it is
 ``numba.njit(cache=True)``, so numba keeps the machine code beside it and the next
-process loads it instead of compiling. The module's name carries a hash of its text, of
+process loads it instead of compiling. The structures of one family
+(``fmu_model.variants.ModelFamily``: the shapes the identifier tries) share one module:
+its kernels take the shape constants at run time, beside the ship length, in the
+``constants`` array of :func:`kernel_constants`; so a fit compiles one EKF for the
+family, not one for every shape it tries. The module's name carries a hash of its text, of
 numba's version and of the source of the packages it calls into, so a changed loop, a
 changed structure or another numba never meets a stale file. The modules are written
 atomically (another process may be writing the same one).
@@ -37,6 +41,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
@@ -49,11 +54,12 @@ from fmu_model.structure import (
     ModelStructure,
     psi,
 )
+from fmu_model.variants import parse_family
 
 CACHE_ENV = "SHIPID_KERNEL_CACHE"
 """Environment variable naming the kernel cache directory (module docstring)."""
 
-_ARGS = (*VELOCITY_SYMBOLS, *INPUT_SYMBOLS, L)
+_ARGS = (*VELOCITY_SYMBOLS, *INPUT_SYMBOLS)
 
 KERNEL_NAMES = ("phi", "grad", "kin", "kin_grad")
 """The kernels of every generated module, in order (:func:`kernel_source`)."""
@@ -90,25 +96,74 @@ class Binding:
         object.__setattr__(self, "source", textwrap.dedent(inspect.getsource(self.template)))
 
 
-def _filler(name: str, exprs: Sequence[sp.Expr], args: Sequence[sp.Symbol]) -> str:
-    """Return the source of ``def name(*args, out)`` filling ``out[i] = exprs[i]``."""
+@dataclass(frozen=True)
+class _KernelSpec:
+    """What a generated module's kernels compute: the regressors in the run-time constants.
+
+    ``constants`` are the symbols read from the kernels' ``constants`` array, in order:
+    the ship length L, then a family's shape constants.
+    """
+
+    name: str
+    regressors: tuple[sp.Expr, ...]
+    constants: tuple[sp.Symbol, ...]
+
+
+@cache
+def _kernel_spec(structure: ModelStructure) -> tuple[_KernelSpec, tuple[float, ...]]:
+    """Return the kernels of ``structure`` and its shape constants' values (module docstring).
+
+    A structure of a family (``family[c=v,…]``, as ``ModelFamily.structure`` builds it)
+    has its family's kernels and its shape as values; any other structure has kernels of
+    its own and no values.
+    """
+    try:
+        shaped = parse_family(structure.name)
+    except KeyError:  # a name of family form with a shape no family has
+        shaped = None
+    if shaped is not None:
+        family, shape = shaped
+        if len(shape) == len(family.shape) and family.structure(shape) == structure:
+            spec = _KernelSpec(
+                family.name,
+                tuple(t.regressor for t in family.terms),
+                (L, *(c.symbol for c in family.shape)),
+            )
+            return spec, tuple(float(shape[c.name]) for c in family.shape)
+    return _KernelSpec(structure.name, tuple(t.regressor for t in structure.terms), (L,)), ()
+
+
+def kernel_constants(structure: ModelStructure, length_m: float) -> np.ndarray:
+    """Return the ``constants`` argument of the kernels of ``structure``: (L [m], shape…)."""
+    return np.array([length_m, *_kernel_spec(structure)[1]], dtype=float)
+
+
+def _filler(
+    name: str, exprs: Sequence[sp.Expr], args: Sequence[sp.Symbol], constants: Sequence[sp.Symbol]
+) -> str:
+    """Return the source of ``def name(*args[, constants], out)`` filling ``out[i] = exprs[i]``.
+
+    With ``constants``, the function reads those symbols from its ``constants`` array.
+    """
     temporaries, reduced = sp.cse(list(exprs), symbols=sp.numbered_symbols("_t"))
     printer = PythonCodePrinter({"fully_qualified_modules": True})
-    lines = ["@numba.njit(cache=True)", f"def {name}({', '.join(str(a) for a in args)}, out):"]
+    parameters = [str(a) for a in args] + (["constants"] if constants else []) + ["out"]
+    lines = ["@numba.njit(cache=True)", f"def {name}({', '.join(parameters)}):"]
+    lines += [f"    {sym} = constants[{i}]" for i, sym in enumerate(constants)]
     lines += [f"    {sym} = {printer.doprint(expr)}" for sym, expr in temporaries]
     lines += [f"    out[{i}] = {printer.doprint(expr)}" for i, expr in enumerate(reduced)]
     return "\n".join(lines)
 
 
-def _kernel_sources(structure: ModelStructure) -> list[str]:
-    """Return the sources of the four kernels of ``structure`` (:func:`kernel_source`)."""
-    regressors = [t.regressor for t in structure.terms]
-    gradients = [sp.diff(e, s) for e in regressors for s in VELOCITY_SYMBOLS]
+def _kernel_sources(spec: _KernelSpec) -> list[str]:
+    """Return the sources of the four kernels of ``spec`` (:func:`kernel_source`)."""
+    gradients = [sp.diff(e, s) for e in spec.regressors for s in VELOCITY_SYMBOLS]
     kin_args = (*VELOCITY_SYMBOLS, psi)
     kin_grad = [sp.diff(e, s) for e in KINEMATICS for s in STATE_SYMBOLS]
-    exprs = (regressors, gradients, list(KINEMATICS), kin_grad)
+    exprs = (spec.regressors, gradients, list(KINEMATICS), kin_grad)
     args = (_ARGS, _ARGS, kin_args, kin_args)
-    return [_filler(*spec) for spec in zip(KERNEL_NAMES, exprs, args, strict=True)]
+    constants = (spec.constants, spec.constants, (), ())
+    return [_filler(*f) for f in zip(KERNEL_NAMES, exprs, args, constants, strict=True)]
 
 
 def _binding_sources(bindings: Sequence[Binding]) -> list[str]:
@@ -196,20 +251,23 @@ def cache_directory() -> Path:
 def kernel_source(structure: ModelStructure, bindings: Sequence[Binding]) -> str:
     """Text of the generated module of ``structure`` with ``bindings`` (module docstring).
 
-    Its kernels, for the structure's regressors φ(u, v, r, δ, n, L):
-    ``phi(u, v, r, δ, n, L, out)`` fills out (p,) with φ; ``grad(u, v, r, δ, n, L,
-    out)`` fills out (3p,) with ∂φ_i/∂(u, v, r) row-major; ``kin(u, v, r, ψ, out)``
-    fills (3,) with the kinematics (ẋ, ẏ, ψ̇); ``kin_grad(u, v, r, ψ, out)`` fills (18,)
-    with ∂(ẋ, ẏ, ψ̇)/∂(u, v, r, x, y, ψ).
+    Its kernels, for the structure's regressors φ(u, v, r, δ, n; L, shape):
+    ``phi(u, v, r, δ, n, constants, out)`` fills out (p,) with φ; ``grad(u, v, r, δ, n,
+    constants, out)`` fills out (3p,) with ∂φ_i/∂(u, v, r) row-major, ``constants``
+    being :func:`kernel_constants`; ``kin(u, v, r, ψ, out)`` fills (3,) with the
+    kinematics (ẋ, ẏ, ψ̇); ``kin_grad(u, v, r, ψ, out)`` fills (18,) with
+    ∂(ẋ, ẏ, ψ̇)/∂(u, v, r, x, y, ψ). The structures of a family have one text.
     """
     import numba  # only the identifier's hot loops need it, not the FMU runtime
 
+    spec = _kernel_spec(structure)[0]
     packages = sorted({"fmu_model", *(b.template.__module__.split(".")[0] for b in bindings)})
     stamps = ", ".join(f"{p} {_package_stamp(p)[:16]}" for p in packages)
+    constants = ", ".join(str(c) for c in spec.constants)
     header = [
-        f'"""Compiled kernels of {structure.name}: generated by fmu_model.kernels, do not edit.',
+        f'"""Compiled kernels of {spec.name}: generated by fmu_model.kernels, do not edit.',
         "",
-        f"numba {numba.__version__}; sources {stamps}.",
+        f"Run-time constants ({constants}); numba {numba.__version__}; sources {stamps}.",
         '"""',
         "",
         "import math  # noqa: F401 (the kernels' text may call it)",
@@ -217,7 +275,7 @@ def kernel_source(structure: ModelStructure, bindings: Sequence[Binding]) -> str
         "import numba",
     ]
     return (
-        "\n\n\n".join(["\n".join(header), *_kernel_sources(structure), *_binding_sources(bindings)])
+        "\n\n\n".join(["\n".join(header), *_kernel_sources(spec), *_binding_sources(bindings)])
         + "\n"
     )
 
@@ -228,7 +286,8 @@ def kernel_module(structure: ModelStructure, bindings: Sequence[Binding] = ()) -
     Parameters
     ----------
     structure : ModelStructure
-        The model structure whose kernels the module holds (see :func:`kernel_source`).
+        The model structure whose kernels the module holds (see :func:`kernel_source`);
+        the structures of a family share their family's module.
     bindings : sequence of Binding
         Wrappers binding the kernels to compiled loops, in order (a binding may bind an
         earlier one).
@@ -237,12 +296,14 @@ def kernel_module(structure: ModelStructure, bindings: Sequence[Binding] = ()) -
     -------
     ModuleType
         The module: attributes ``phi``, ``grad``, ``kin``, ``kin_grad`` and one per
-        binding, numba dispatchers cached on disk.
+        binding, numba dispatchers cached on disk; their ``constants`` argument is
+        :func:`kernel_constants` of ``structure``.
 
     """
-    key = (structure.name, tuple(bindings))
+    spec = _kernel_spec(structure)[0]
+    key = (spec.name, tuple(bindings))
     loaded = _LOADED.get(key)
-    if loaded is not None and loaded[0] == structure:
+    if loaded is not None and loaded[0] == spec:
         return loaded[1]
     text = kernel_source(structure, bindings)
     digest = hashlib.sha256(text.encode()).hexdigest()[:20]
@@ -250,11 +311,11 @@ def kernel_module(structure: ModelStructure, bindings: Sequence[Binding] = ()) -
     module = sys.modules.get(name)
     if module is None:
         module = _import(name, text)
-    _LOADED[key] = (structure, module)
+    _LOADED[key] = (spec, module)
     return module
 
 
-_LOADED: dict[tuple[str, tuple[Binding, ...]], tuple[ModelStructure, ModuleType]] = {}
+_LOADED: dict[tuple[str, tuple[Binding, ...]], tuple[_KernelSpec, ModuleType]] = {}
 
 
 def _import(name: str, text: str) -> ModuleType:

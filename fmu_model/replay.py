@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from fmu_model.integrate import n_substeps, rk4_into
-from fmu_model.kernels import Binding, kernel_module
+from fmu_model.kernels import Binding, kernel_constants, kernel_module
 from fmu_model.structure import ModelStructure
 
 # How the inputs behave between log samples (see ``replay``).
@@ -35,13 +35,14 @@ def _derivative(phi_fn, kin_fn, s, context, inputs, out):  # fmt: skip
     """ṡ = (M (θ ⊙ φ(s, δ, n)) + a, kinematics) of the structure of ``phi_fn``, ``kin_fn``.
 
     Bound to a structure's kernels, this is ``f(state, context, inputs, out)`` of
-    ``rk4_into``, with context (equation index, θ, L [m], φ scratch (p,), kinematics
-    scratch (3,)) and inputs (δ [rad], n [rev/s], a_u [m/s²], a_v [m/s²], a_r [rad/s²]):
+    ``rk4_into``, with context (equation index, θ, the kernels' constants (L [m],
+    shape…; ``fmu_model.kernels.kernel_constants``), φ scratch (p,), kinematics scratch
+    (3,)) and inputs (δ [rad], n [rev/s], a_u [m/s²], a_v [m/s²], a_r [rad/s²]):
     a known acceleration a (of a measured wind load) is added to the model's.
     """
-    eq_index, theta, length, phi, kin = context
+    eq_index, theta, constants, phi, kin = context
     rudder, n_rps, a_u, a_v, a_r = inputs
-    phi_fn(s[0], s[1], s[2], rudder, n_rps, length, phi)
+    phi_fn(s[0], s[1], s[2], rudder, n_rps, constants, phi)
     kin_fn(s[0], s[1], s[2], s[5], kin)
     out[0] = a_u
     out[1] = a_v
@@ -54,7 +55,7 @@ def _derivative(phi_fn, kin_fn, s, context, inputs, out):  # fmt: skip
 
 
 def _replay_batch(
-    derivative, eq_index, length, max_step, linear, t, rudder, n_rps, extra, x0s, thetas,
+    derivative, eq_index, constants, max_step, linear, t, rudder, n_rps, extra, x0s, thetas,
     speed_limit, out,
 ):  # fmt: skip
     """RK4 replay from every row of ``x0s`` (B, 6) with ``thetas`` (B, p) into ``out`` (B, N, 6).
@@ -71,7 +72,7 @@ def _replay_batch(
     s = np.empty(6)
     work = np.empty((5, 6))
     for b in range(n_batch):
-        context = (eq_index, thetas[b], length, phi, kin)
+        context = (eq_index, thetas[b], constants, phi, kin)
         for c in range(6):
             s[c] = x0s[b, c]
             out[b, 0, c] = x0s[b, c]
@@ -192,7 +193,7 @@ def replay(
     out = np.empty((batch.shape[0], t.size, 6))
     kernel_module(structure, _REPLAY_BINDINGS).replay_batch(
         np.array(structure.equation_index, dtype=np.int64),
-        float(length_m),
+        kernel_constants(structure, length_m),
         math.inf if max_step_s is None else float(max_step_s),
         inputs == "linear",
         t,

@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from fmu_model import ModelStructure, numeric_model
-from fmu_model.kernels import Binding, kernel_module
+from fmu_model.kernels import Binding, kernel_constants, kernel_module
 from trials.errors import IdentificationError
 
 MEASUREMENTS = ("track", "velocities")
@@ -266,6 +266,7 @@ def ekf_identify(
         raise ValueError(f"measurements must be one of {MEASUREMENTS}")
     model = numeric_model(structure)
     ekf_pass = kernel_module(structure, (_EKF_PASS,)).ekf_pass
+    constants = kernel_constants(structure, length_m)
     eq_index = np.asarray(model.structure.equation_index, dtype=np.int64)
     p = model.n_coefficients
     theta = np.array(theta0, dtype=float)
@@ -328,7 +329,7 @@ def ekf_identify(
         track = np.ascontiguousarray(seg.track, dtype=float)
         try:
             status, sample = ekf_pass(
-                eq_index, length_m,
+                eq_index, constants,
                 settings.max_substep_s, offset,
                 np.ascontiguousarray(seg.time_s, dtype=float),
                 track if offset == 3 else np.ascontiguousarray(y, dtype=float),
@@ -403,7 +404,7 @@ _STATUS_MESSAGES = {
 # A template in numba's subset: compiled, and cached on disk, per structure with its
 # kernels bound (_EKF_PASS, fmu_model.kernels).
 def _ekf_pass(
-    phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, length, max_substep, offset,
+    phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, constants, max_substep, offset,
     t, y, r_var, rudder, n_rps, known, x, P, q_state, q_theta, variance_limit, stride, track,
     states, theta_hist, std_hist, square_sums,
 ):  # fmt: skip
@@ -455,8 +456,8 @@ def _ekf_pass(
             w = (j + 0.5) / substeps
             d_mean = (1.0 - w) * rudder[k] + w * rudder[k + 1]
             n_mean = (1.0 - w) * n_rps[k] + w * n_rps[k + 1]
-            phi_fn(x[0], x[1], x[2], d_mean, n_mean, length, phi)
-            grad_fn(x[0], x[1], x[2], d_mean, n_mean, length, grad)
+            phi_fn(x[0], x[1], x[2], d_mean, n_mean, constants, phi)
+            grad_fn(x[0], x[1], x[2], d_mean, n_mean, constants, grad)
             kin_fn(x[0], x[1], x[2], x[5], kin)
             kin_grad_fn(x[0], x[1], x[2], x[5], kin_grad)
             A[:, :] = 0.0

@@ -13,8 +13,16 @@ import numpy as np
 import pytest
 
 from fmu_model import get_model, kernels, numeric_model
-from fmu_model.kernels import CACHE_ENV, Binding, cache_directory, kernel_module, kernel_source
+from fmu_model.kernels import (
+    CACHE_ENV,
+    Binding,
+    cache_directory,
+    kernel_constants,
+    kernel_module,
+    kernel_source,
+)
 from fmu_model.replay import _REPLAY_BINDINGS
+from fmu_model.variants import parse_family
 from identifier.ekf import _EKF_PASS
 
 # One EKF identification and one replay in a fresh interpreter: its numbers, and whether
@@ -86,7 +94,7 @@ def test_module_name_follows_its_text(monkeypatch: pytest.MonkeyPatch, tmp_path:
     assert Path(module.__file__ or "").read_text(encoding="utf-8") == text
     assert Path(module.__file__ or "").parent == tmp_path
     # The template's own body, its kernel parameters bound to the module's kernels.
-    assert "def ekf_pass(eq_index, length, max_substep, offset," in text
+    assert "def ekf_pass(eq_index, constants, max_substep, offset," in text
     assert "phi_fn = phi\ngrad_fn = grad\nkin_fn = kin\nkin_grad_fn = kin_grad\n" in text
     assert "from identifier.ekf import _EXPLODED, _NONFINITE, _NOT_PD, _OK," in text
 
@@ -99,9 +107,40 @@ def test_kernels_fill_the_symbolic_regressors(
     structure = get_model("prime-cubic")
     module = kernel_module(structure)
     out = np.empty(structure.n_coefficients)
-    module.phi(5.0, -0.3, 0.01, 0.2, 1.5, 100.0, out)
+    module.phi(5.0, -0.3, 0.01, 0.2, 1.5, kernel_constants(structure, 100.0), out)
     expected = numeric_model(structure).regressors(5.0, -0.3, 0.01, 0.2, 1.5, 100.0)
     np.testing.assert_allclose(out, expected, rtol=1e-14, atol=1e-300)
+
+
+def test_structures_of_a_family_share_one_module_with_their_shape_at_run_time(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Two shapes of prime-rudder: one module; each shape's φ and ∂φ/∂s are its own."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    family = parse_family("prime-rudder")
+    assert family is not None
+    shapes = [
+        {**family[0].default_shape},
+        {"k": 0.002, "gamma": 0.9, "dgamma": -0.2, "l": -0.6, "wake": 0.3, "dwake": 0.25},
+    ]
+    first, second = (family[0].structure(s) for s in shapes)
+    assert first != second
+    assert kernel_source(first, (_EKF_PASS,)) == kernel_source(second, (_EKF_PASS,))
+    module = kernel_module(first)
+    assert kernel_module(second) is module
+    state = (7.0, -0.4, -0.02, 0.3, 2.0)  # u, v, r, δ, n: a turn with drift
+    length_m = 320.0
+    for structure, shape in zip((first, second), shapes, strict=True):
+        constants = kernel_constants(structure, length_m)
+        assert constants.tolist() == [length_m, *(shape[c.name] for c in family[0].shape)]
+        phi = np.empty(structure.n_coefficients)
+        grad = np.empty(3 * structure.n_coefficients)
+        module.phi(*state, constants, phi)
+        module.grad(*state, constants, grad)
+        model = numeric_model(structure)
+        np.testing.assert_allclose(phi, model.regressors(*state, length_m), rtol=1e-13)
+        expected_grad = np.array(model._regressor_gradients(*state, length_m), dtype=float)
+        np.testing.assert_allclose(grad, expected_grad.ravel(), rtol=1e-12, atol=1e-15)
 
 
 def test_binding_needs_the_bound_parameters_bound_once() -> None:
