@@ -82,6 +82,9 @@ windows of a log of zig-zags alone do not separate the current from the hull."""
 SHAPE_PASSES = 2
 """Shape choices: for the starting current, then once more for the settled one."""
 
+_CHUNK_SAMPLES = 65_536
+"""Samples per block of the per-sample arithmetic on whole logs (bounded temporaries)."""
+
 MIN_HEADING_SPAN_RAD = math.radians(90.0)
 """Below this range of headings over all logs the along-course current is barely told
 apart from the ship's own speed (warning)."""
@@ -196,10 +199,13 @@ def water_segments(
     """
     out = []
     for seg, track in zip(segments, tracks, strict=True):
-        c_u, c_v = body_current(current_ne, np.asarray(track.heading_rad))
+        heading = np.asarray(track.heading_rad)
         velocities = seg.velocities.copy()
-        velocities[:, 0] -= c_u
-        velocities[:, 1] -= c_v
+        for start in range(0, heading.size, _CHUNK_SAMPLES):  # bounded temporaries
+            part = slice(start, start + _CHUNK_SAMPLES)
+            c_u, c_v = body_current(current_ne, heading[part])
+            velocities[part, 0] -= c_u
+            velocities[part, 1] -= c_v
         out.append(replace(seg, velocities=velocities))
     return out
 
@@ -226,7 +232,11 @@ def water_frame(
 
 def heading_span_rad(tracks: Sequence[SmoothedTrack]) -> float:
     """Range of the smoothed headings of all logs about their circular mean [rad] (< 2π)."""
-    headings = np.concatenate([np.asarray(t.heading_rad) for t in tracks])
-    mean = math.atan2(float(np.mean(np.sin(headings))), float(np.mean(np.cos(headings))))
-    deviation = np.angle(np.exp(1j * (headings - mean)))
-    return float(np.ptp(deviation))
+    sin_sum = sum(float(np.sum(np.sin(t.heading_rad))) for t in tracks)
+    cos_sum = sum(float(np.sum(np.cos(t.heading_rad))) for t in tracks)
+    mean = math.atan2(sin_sum, cos_sum)
+    low, high = math.inf, -math.inf
+    for track in tracks:  # one log at a time: a long log's temporaries stay few
+        deviation = np.remainder(np.asarray(track.heading_rad) - mean + math.pi, 2.0 * math.pi)
+        low, high = min(low, float(np.min(deviation))), max(high, float(np.max(deviation)))
+    return high - low

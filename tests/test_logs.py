@@ -230,6 +230,22 @@ def test_optional_columns_are_read_when_present_and_none_when_absent() -> None:
         assert not array.flags.writeable
 
 
+def test_replace_shares_the_unchanged_columns_and_copies_what_a_caller_can_write() -> None:
+    """A changed copy of a long log costs only its changed columns; nothing is aliased."""
+    log = parse_log(_text(_valid_lines()))
+    moved = replace(log, x_m=log.x_m + 1.0)
+    assert moved.rudder_rad is log.rudder_rad  # read-only, shared
+    assert moved.x_m is not log.x_m and not moved.x_m.flags.writeable
+    np.testing.assert_array_equal(moved.x_m, log.x_m + 1.0)
+    writable = np.array(log.y_m)
+    again = replace(log, y_m=writable)
+    writable[0] = 1e6  # the caller's array changes, the log does not
+    assert again.y_m[0] == log.y_m[0]
+    view = writable[:]
+    view.setflags(write=False)  # read-only, but a view of a writable array: copied
+    assert replace(log, y_m=view).y_m is not view
+
+
 def test_one_optional_column_alone_in_any_place() -> None:
     lines = _valid_lines()
     lines[HEADER_LINE - 1] = "stw_mps," + lines[HEADER_LINE - 1]

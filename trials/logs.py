@@ -435,13 +435,19 @@ def write_log(path: str | os.PathLike[str], log: ManeuverLog) -> None:
 
 
 def _frozen_float_array(name: str, values: object) -> _FloatArray:
-    """Validate one ManeuverLog array and return it as a read-only float64 copy."""
+    """Validate one ManeuverLog array and return it as a read-only float64 array.
+
+    A copy, unless ``values`` already is a read-only float64 array owning its data (a
+    column of another log: ``dataclasses.replace`` of a log then shares the columns it
+    does not change, which matters for a log of a million samples).
+    """
     array = np.asarray(values)
     if array.ndim != 1:
         raise ValueError(f"ManeuverLog.{name} must be one-dimensional, got shape {array.shape}")
     if array.dtype.kind not in "iuf":
         raise ValueError(f"ManeuverLog.{name} must be real-valued, got dtype {array.dtype}")
-    result = np.array(array, dtype=np.float64, copy=True)
+    frozen = array.dtype == np.float64 and array.flags.owndata and not array.flags.writeable
+    result = array if frozen else np.array(array, dtype=np.float64, copy=True)
     if not np.all(np.isfinite(result)):
         index = int(np.flatnonzero(~np.isfinite(result))[0])
         raise ValueError(f"ManeuverLog.{name}[{index}] is not finite: {result[index]!r}")
