@@ -1,7 +1,7 @@
 """Sensitivity to log quality: what trial instrumentation the identification needs (issue 8).
 
     python benchmarks/sensitivity.py [--model NAME] [--method ekf|output-error] [--quick]
-        [--seeds 10] [--out benchmarks/sensitivity.md] [--dt-s 0.2]
+        [--factor rate_hz ...] [--seeds 10] [--out benchmarks/sensitivity.md] [--dt-s 0.2]
 
 Data: KVLCC2 full-scale trial logs from the MMG reference ship (``scenarios.synthesize``):
 the 35° starboard turning circle, zig-zag 10/10 and zig-zag 20/20, all three used for
@@ -14,10 +14,11 @@ training. One factor at a time is varied around the baseline of ``benchmarks/fid
 
 A last row sets all three to their best (0.5 m, 0.05°, 10 Hz): what remains there is
 the error of the model structure, not of the logs. ``--quick`` runs only the two
-extremes of each factor (and that row). Every condition is repeated with
-``--seeds`` noise realisations; realisation k uses the same seeds in every condition
-(common random numbers), so a difference between rows is the factor's, not the draw's.
-The measurement noise is estimated from the logs, as for a user's own trial.
+extremes of each factor (and that row); ``--factor`` only the factors named (without
+it). Every condition is repeated with ``--seeds`` noise realisations; realisation k
+uses the same seeds in every condition (common random numbers), so a difference between
+rows is the factor's, not the draw's. The measurement noise is estimated from the logs,
+as for a user's own trial.
 
 Each identified model (``identifier.identify.identify`` with ``--model``, default
 ``fmu_model.DEFAULT_MODEL``; the EKF estimate unless ``--method output-error``) sails the
@@ -114,7 +115,7 @@ class Outcome:
     failures: tuple[str, ...]
 
 
-def sweep(quick: bool = False) -> list[tuple[str, LogQuality]]:
+def sweep(quick: bool = False, factors: Sequence[str] = ()) -> list[tuple[str, LogQuality]]:
     """Return the one-factor-at-a-time conditions as (varied field, quality), in table order.
 
     The last row, varied field ``"all"``, is ``BEST``: every factor at its best.
@@ -123,13 +124,17 @@ def sweep(quick: bool = False) -> list[tuple[str, LogQuality]]:
     ----------
     quick : bool
         Only the smallest and largest value of each factor.
+    factors : sequence of str
+        Only these factors (``SWEEPS`` keys), without the ``BEST`` row; all when empty.
 
     """
     rows = []
     for field, values in SWEEPS.items():
+        if factors and field not in factors:
+            continue
         for value in (values[0], values[-1]) if quick else values:
             rows.append((field, replace(BASELINE, **{field: value})))
-    return [*rows, ("all", BEST)]
+    return rows if factors else [*rows, ("all", BEST)]
 
 
 def trial_logs(ship: TruthShip, quality: LogQuality, realisation: int) -> list[ManeuverLog]:
@@ -282,6 +287,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     parser.add_argument("--method", choices=METHODS, default="ekf", help="identification procedure")
     parser.add_argument("--quick", action="store_true", help="only the extremes of each factor")
+    parser.add_argument(
+        "--factor",
+        action="append",
+        dest="factors",
+        choices=list(SWEEPS),
+        help="only this factor (repeat; default: all, and the row of all at their best)",
+    )
     parser.add_argument("--seeds", type=int, default=10, help="noise realisations per row")
     parser.add_argument("--out", default=str(Path(__file__).with_name("sensitivity.md")))
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
@@ -294,7 +306,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     settings = FitSettings(model=args.model, method=args.method)
     truth = indices(ship.plant, ship, args.dt_s)
     identify(trial_logs(ship, BASELINE, 0), settings)  # warm-up: compile before timing
-    rows = sweep(args.quick)
+    rows = sweep(args.quick, args.factors or ())
     conditions = list(dict.fromkeys(quality for _, quality in rows))  # baseline once
     outcomes: dict[LogQuality, Outcome] = {}
     with tqdm(

@@ -156,16 +156,21 @@ def _compile(structure: ModelStructure) -> NumericModel:
 
 
 @cache
-def family_regressors(family: ModelFamily) -> Callable[..., np.ndarray]:
+def family_regressors(
+    family: ModelFamily, columns: tuple[int, ...] | None = None
+) -> Callable[..., np.ndarray]:
     """Regressors of ``family`` with its shape constants as trailing arguments.
 
     Returns ``phi(u, v, r, rudder_rad, n_rps, length_m, *shape) -> (p, …)``, shape in the
     order of ``ModelFamily.shape``: one compiled function for a search over shapes,
-    from the same symbolic terms as the structures the family instantiates.
+    from the same symbolic terms as the structures the family instantiates. With
+    ``columns``, only those regressors (indices in coefficient-vector order), in that order.
     """
-    regressors = [t.regressor for t in family.terms]
+    terms = family.terms if columns is None else tuple(family.terms[i] for i in columns)
     shape_symbols = tuple(c.symbol for c in family.shape)
-    fn = sp.lambdify((*_ARGS, *shape_symbols), regressors, modules="numpy", cse=True)
+    fn = sp.lambdify(
+        (*_ARGS, *shape_symbols), [t.regressor for t in terms], modules="numpy", cse=True
+    )
 
     def phi(*args: Any) -> np.ndarray:
         shape = np.broadcast_shapes(*(np.shape(a) for a in args[:5]))

@@ -165,6 +165,12 @@ class ModelFamily:
         """All terms (with shape symbols), in coefficient-vector order."""
         return self.surge + self.sway + self.yaw
 
+    @property
+    def shaped_columns(self) -> tuple[int, ...]:
+        """Indices (coefficient-vector order) of the terms whose regressor holds a shape."""
+        symbols = {c.symbol for c in self.shape}
+        return tuple(i for i, t in enumerate(self.terms) if t.regressor.free_symbols & symbols)
+
     def structure_name(self, shape: Mapping[str, float]) -> str:
         """Canonical name of the structure with ``shape``."""
         return f"{self.name}[" + ",".join(f"{c.name}={shape[c.name]:.6g}" for c in self.shape) + "]"

@@ -57,7 +57,8 @@ class EkfSegment:
     velocities : numpy.ndarray
         Smoothed (u [m/s], v [m/s], r [rad/s]), shape (N, 3).
     velocity_std : numpy.ndarray
-        Their standard deviations, shape (N, 3).
+        Their standard deviations, shape (N, 3); with ``measurements="track"`` only
+        those at the start are used (the velocities' initial covariance).
     track : numpy.ndarray
         Logged (x [m], y [m], ψ [rad], continuous), shape (N, 3).
     track_std : numpy.ndarray

@@ -187,6 +187,15 @@ class NormalEquations:
         self.cross = np.zeros((n_coefficients, 3))
         self.acc_squares = np.zeros(3)
 
+    @classmethod
+    def of_sums(
+        cls, rows: int, gram: np.ndarray, cross: np.ndarray, acc_squares: np.ndarray
+    ) -> NormalEquations:
+        """Return the normal equations of sums made elsewhere: ΦΦᵀ, Φ aᵀ and Σ a² of ``rows``."""
+        sums = cls(gram.shape[0])
+        sums.rows, sums.gram, sums.cross, sums.acc_squares = rows, gram, cross, acc_squares
+        return sums
+
     def add(self, phi: np.ndarray, acc: np.ndarray) -> None:
         """Add the rows of φ (p, m) and of the accelerations (3, m)."""
         self.rows += phi.shape[1]
@@ -260,23 +269,3 @@ def equation_error_fit(
             sums.add(model.regressors(u, v, r, rudder_rad, n_rps, length_m), acc)
         fit = sums.solve(structure.equation_index)
     return replace(fit, sample_interval_s=regression_interval_s(segments, length_m))
-
-
-def regression_residual_std(
-    phi: np.ndarray, acc: np.ndarray, equation_index: Sequence[int]
-) -> np.ndarray:
-    """Residual σ_j (3,) of acc_j ≈ Σ_{i in equation j} θ_i φ_i, regressors in memory.
-
-    Parameters
-    ----------
-    phi : numpy.ndarray
-        Regressors (p, M).
-    acc : numpy.ndarray
-        Accelerations (3, M) [m/s², m/s², rad/s²].
-    equation_index : sequence of int
-        For each coefficient the equation it enters (0 surge, 1 sway, 2 yaw).
-
-    """
-    sums = NormalEquations(phi.shape[0])
-    sums.add(phi, acc)
-    return sums.residual_std(equation_index)

@@ -465,6 +465,20 @@ def _check_track(track: SmoothedTrack, name: str) -> None:
         )
 
 
+def _velocity_std(track: SmoothedTrack, measurements: str) -> np.ndarray:
+    """Return the σ of the smoothed (u, v, r) [m/s, m/s, rad/s] for the EKF, (N, 3).
+
+    Per sample when the EKF measures the velocities. When it measures the track it
+    needs them only for the velocities' initial covariance at a log's (or window's)
+    start: the first sample's then stand for every sample, a read-only broadcast of one
+    row (a log of a million samples is spared 24 MB).
+    """
+    if measurements == "velocities":
+        return np.column_stack([track.u_std_mps, track.v_std_mps, track.r_std_radps])
+    first = np.array([track.u_std_mps[0], track.v_std_mps[0], track.r_std_radps[0]])
+    return np.broadcast_to(first, (track.n_samples, 3))
+
+
 def _deglitched(
     log: ManeuverLog, track: SmoothedTrack, name: str, notes: list[str], warnings: list[str]
 ) -> ManeuverLog:
@@ -599,7 +613,7 @@ def _identify(
                 name=name,
                 time_s=log.time_s,
                 velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
-                velocity_std=np.column_stack([track.u_std_mps, track.v_std_mps, track.r_std_radps]),
+                velocity_std=_velocity_std(track, settings.measurements),
                 track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
                 track_std=np.array(
                     [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]

@@ -43,8 +43,8 @@ from fmu_model.numeric import family_regressors
 from fmu_model.variants import ModelFamily, ShapeConstant
 from identifier.ekf import EkfSegment
 from identifier.equation_error import (
+    NormalEquations,
     regression_interval_s,
-    regression_residual_std,
     regression_samples,
 )
 
@@ -140,9 +140,8 @@ def _select_shape(
     fixed: dict[str, float],
 ) -> ShapeSelection:
     """:func:`select_shape` after the check of ``fixed``."""
-    phi_fn = family_regressors(family)
     samples, acc = regression_samples(segments, length_m, max_rows=SHAPE_MAX_ROWS)
-    equation_index = family.structure(family.default_shape).equation_index
+    regression = _ShapeRegression(family, samples, acc, length_m)
     signal = np.sum(acc**2, axis=1)
     signal = np.where(signal > 0.0, signal, 1.0)
     names = [c.name for c in family.shape]
@@ -152,10 +151,9 @@ def _select_shape(
     def residual(values: Sequence[float]) -> float:
         nonlocal evaluations
         evaluations += 1
-        phi = phi_fn(*samples, length_m, *values)
-        if not np.all(np.isfinite(phi)):
+        residual_std = regression.residual_std(values)
+        if residual_std is None:
             return math.inf
-        residual_std = regression_residual_std(phi, acc, equation_index)
         return float(np.sum(residual_std**2 * acc.shape[1] / signal))
 
     def full(free_values: Sequence[float]) -> list[float]:
@@ -197,3 +195,47 @@ def _select_shape(
         rows=acc.shape[1],
         sample_interval_s=regression_interval_s(segments, length_m),
     )
+
+
+class _ShapeRegression:
+    """The regression of J for any shape, with the sums of the shape-free columns made once.
+
+    Only a few regressors of a family hold shape constants (``ModelFamily.shaped_columns``;
+    prime-rudder: the rudder force, 3 of 21 columns). The products ΦΦᵀ and Φ aᵀ of the
+    others are the same for every shape, so a shape costs only its own columns and their
+    products with all: about a seventh of the whole regression.
+    """
+
+    def __init__(
+        self, family: ModelFamily, samples: np.ndarray, acc: np.ndarray, length_m: float
+    ) -> None:
+        p = len(family.terms)
+        self._shaped = list(family.shaped_columns)
+        self._fixed = [i for i in range(p) if i not in self._shaped]
+        self._shaped_fn = family_regressors(family, tuple(self._shaped))
+        self._samples, self._acc, self._length_m = samples, acc, length_m
+        defaults = [c.default for c in family.shape]  # the shape-free columns ignore them
+        self._fixed_phi = family_regressors(family, tuple(self._fixed))(
+            *samples, length_m, *defaults
+        )
+        self._finite = bool(np.all(np.isfinite(self._fixed_phi)))
+        self._gram = np.zeros((p, p))
+        self._gram[np.ix_(self._fixed, self._fixed)] = self._fixed_phi @ self._fixed_phi.T
+        self._cross = np.zeros((p, 3))
+        self._cross[self._fixed] = self._fixed_phi @ acc.T
+        self._acc_squares = np.einsum("jm,jm->j", acc, acc)
+        self._equation_index = family.structure(family.default_shape).equation_index
+
+    def residual_std(self, values: Sequence[float]) -> np.ndarray | None:
+        """Residual σ_j (3,) of the equation-error fit with shape ``values``; None: not finite."""
+        shaped = self._shaped_fn(*self._samples, self._length_m, *values)
+        if not (self._finite and np.all(np.isfinite(shaped))):
+            return None
+        gram, cross = self._gram.copy(), self._cross.copy()
+        with_fixed = shaped @ self._fixed_phi.T
+        gram[np.ix_(self._shaped, self._fixed)] = with_fixed
+        gram[np.ix_(self._fixed, self._shaped)] = with_fixed.T
+        gram[np.ix_(self._shaped, self._shaped)] = shaped @ shaped.T
+        cross[self._shaped] = shaped @ self._acc.T
+        sums = NormalEquations.of_sums(self._acc.shape[1], gram, cross, self._acc_squares)
+        return sums.residual_std(self._equation_index)

@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters, get_model, model_names, numeric_model, simulate
+from fmu_model.numeric import family_regressors
 from fmu_model.structure import unit_string
 from fmu_model.variants import PRIME_RUDDER, parse_family
 from identifier import shape as shape_module
 from identifier.ekf import EkfSegment
-from identifier.equation_error import regression_rows
+from identifier.equation_error import NormalEquations, regression_rows
 from identifier.identify import FitSettings, identify
 from identifier.shape import select_shape
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
@@ -195,3 +196,32 @@ def test_shape_search_is_rate_aware_and_bounded(monkeypatch: pytest.MonkeyPatch)
     step = math.ceil(at_2hz.rows / 500)  # every step-th row of each log's
     assert few.rows == sum(math.ceil(regression_rows([seg], LENGTH_M) / step) for seg in slow)
     assert few.rows <= 500
+
+
+def test_shape_regression_reuses_the_shape_free_sums_and_equals_the_whole_regression() -> None:
+    """J's residuals from the shaped columns alone equal those of all 21 columns."""
+    assert PRIME_RUDDER.shaped_columns == tuple(
+        PRIME_RUDDER.structure(TRUE_SHAPE).coefficient_names.index(n) for n in ("X_R", "Y_R", "N_R")
+    )
+    rng = np.random.default_rng(3)
+    m = 400
+    samples = np.vstack(
+        [
+            SPEED_MPS + rng.normal(0.0, 1.0, m),
+            rng.normal(0.0, 0.4, m),
+            rng.normal(0.0, 0.005, m),
+            rng.uniform(-0.6, 0.6, m),
+            np.full(m, N_RPS),
+        ]
+    )
+    acc = rng.normal(0.0, 0.01, (3, m))
+    regression = shape_module._ShapeRegression(PRIME_RUDDER, samples, acc, LENGTH_M)
+    equation_index = PRIME_RUDDER.structure(TRUE_SHAPE).equation_index
+    for shape in (TRUE_SHAPE, PRIME_RUDDER.default_shape):
+        values = [shape[c.name] for c in PRIME_RUDDER.shape]
+        whole = NormalEquations(len(PRIME_RUDDER.terms))
+        whole.add(family_regressors(PRIME_RUDDER)(*samples, LENGTH_M, *values), acc)
+        expected = whole.residual_std(equation_index)
+        got = regression.residual_std(values)
+        assert got is not None
+        np.testing.assert_allclose(got, expected, rtol=1e-10)

@@ -172,6 +172,20 @@ def test_same_coefficients_as_the_in_memory_path_within_a_tenth_sigma(
     assert result.ekf.theta_history.shape[0] <= EkfSettings().max_history_rows
 
 
+def test_velocity_std_is_held_per_sample_only_when_the_ekf_measures_the_velocities() -> None:
+    """Measuring the track, the EKF reads the σ of the first velocities only: one row held."""
+    log = _seed_log()
+    track = smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
+    first = np.array([track.u_std_mps[0], track.v_std_mps[0], track.r_std_radps[0]])
+    per_sample = identify_module._velocity_std(track, "velocities")
+    assert per_sample.shape == (log.n_samples, 3) and per_sample.strides[0] > 0
+    np.testing.assert_array_equal(per_sample[:, 1], track.v_std_mps)
+    assert np.ptp(per_sample[:, 1]) > 0.0  # a σ that changes along the log
+    held = identify_module._velocity_std(track, "track")
+    assert held.shape == (log.n_samples, 3) and held.strides[0] == 0  # one row in memory
+    np.testing.assert_array_equal(held[-1], first)
+
+
 def test_sample_windows_are_spread_over_every_log_and_start_on_the_logged_track() -> None:
     whole = _segment(_seed_log())
     n = whole.time_s.size
