@@ -300,6 +300,7 @@ def _estimate_current(
     logs: Sequence[ManeuverLog],
     length_m: float,
     progress: Callable[[int], None] | None,
+    stage: Callable[[str], None],
 ) -> tuple[ShapeSelection | None, ModelStructure, EquationErrorFit, EkfResult, CurrentEstimate]:
     """Estimate current and coefficients together (``identifier.current``).
 
@@ -321,9 +322,11 @@ def _estimate_current(
     for _ in range(SHAPE_PASSES):
         water = water_segments(segments, tracks, current)
         speed_mps, n_rps = _nominal(logs, water)
+        stage("equation-error start")
         shape, structure, ls = _structure_and_start(settings, water, length_m, speed_mps, n_rps)
         del water  # N × 3 velocities: a long log's memory is bounded by what is held
         for _ in range(MAX_CURRENT_ITERATIONS):
+            stage(f"current: EKF pass {iterations + 1}")
             try:
                 ekf = _run_ekf(settings, structure, ls, settling, length_m, None, current)
             except IdentificationError:
@@ -344,6 +347,7 @@ def _estimate_current(
             shape, structure, ls, current = settled
             break
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
+    stage("EKF on every sample")
     ekf = _run_ekf(settings, structure, ls, segments, length_m, progress, current, walk)
     assert ekf.current is not None and ekf.current_covariance is not None
     estimate = CurrentEstimate(
@@ -465,6 +469,10 @@ def _check_track(track: SmoothedTrack, name: str) -> None:
         )
 
 
+def _no_stage(name: str) -> None:
+    """Ignore a stage name (``identify`` without a ``stage`` callback)."""
+
+
 def _velocity_std(track: SmoothedTrack, measurements: str) -> np.ndarray:
     """Return the σ of the smoothed (u, v, r) [m/s, m/s, rad/s] for the EKF, (N, 3).
 
@@ -528,6 +536,7 @@ def identify(
     *,
     length_m: float | None = None,
     progress: Callable[[int], None] | None = None,
+    stage: Callable[[str], None] | None = None,
 ) -> IdentificationResult:
     """Identify the coefficients of ``settings.model`` from trial logs.
 
@@ -541,6 +550,11 @@ def identify(
         Ship length [m]; read from the logs' metadata when omitted.
     progress : callable, optional
         Called with numbers of samples processed (smoothing and EKF).
+    stage : callable, optional
+        Called with the name of each stage as it begins ("smoothing <log>",
+        "equation-error start" (with a family's shape search), "current: EKF pass <k>",
+        "EKF on every sample", "output-error refinement"): what a progress bar shows
+        while no samples are counted.
 
     Raises
     ------
@@ -568,7 +582,7 @@ def identify(
     # EKF's states and covariance), so numpy's overflow and division warnings would only
     # repeat on stderr what the error says.
     with np.errstate(all="ignore"):
-        return _identify(logs, settings, length, vessel, progress)
+        return _identify(logs, settings, length, vessel, progress, stage or _no_stage)
 
 
 def _identify(
@@ -577,6 +591,7 @@ def _identify(
     length: float,
     vessel: str,
     progress: Callable[[int], None] | None,
+    stage: Callable[[str], None],
 ) -> IdentificationResult:
     """:func:`identify` after the checks of its arguments."""
     warnings: list[str] = []
@@ -587,6 +602,7 @@ def _identify(
     for i, log in enumerate(given):
         name = _log_name(log, i)
         _check_sampling(log, name)
+        stage(f"smoothing {Path(name).name}")
         track = smooth_track(
             log.time_s,
             log.x_m,
@@ -638,13 +654,15 @@ def _identify(
     current = None
     if settings.current == "none":
         nominal_speed_mps, nominal_n_rps = _nominal(logs, segments)
+        stage("equation-error start")
         shape, structure, ls = _structure_and_start(
             settings, segments, length, nominal_speed_mps, nominal_n_rps
         )
+        stage("EKF on every sample")
         ekf = _run_ekf(settings, structure, ls, segments, length, progress)
     else:
         shape, structure, ls, ekf, current = _estimate_current(
-            settings, segments, tracks, logs, length, progress
+            settings, segments, tracks, logs, length, progress, stage
         )
         nominal_speed_mps, nominal_n_rps = _nominal(
             logs, water_segments(segments, tracks, current.vector)
@@ -727,6 +745,7 @@ def _identify(
         if current is not None:  # the refinement sees a ship in still water
             moved = [water_frame(g, t, current.vector) for g, t in zip(logs, tracks, strict=True)]
             water_logs, water_tracks = [m[0] for m in moved], [m[1] for m in moved]
+        stage("output-error refinement")
         refinement = refine_output_error(
             params,
             water_logs,

@@ -265,6 +265,23 @@ def test_cli_fit_summary_prints_the_kept_estimate_and_the_rates(
     assert " rows at 1 s (about L/U/40)" in rows_line
 
 
+def test_stages_are_named_as_they_begin_and_samples_counted_twice(log_files: list[Path]) -> None:
+    """What the fit's bar shows: every stage, in order; smoothing and EKF count the samples."""
+    logs = [read_log(p) for p in log_files]
+    stages: list[str] = []
+    counted: list[int] = []
+    identify(logs, FitSettings(model="shi2009"), progress=counted.append, stage=stages.append)
+    names = [f"smoothing {Path(p).name}" for p in log_files]
+    assert stages[: len(logs)] == names
+    rest = stages[len(logs) :]
+    assert rest[0] == "equation-error start" and rest[1] == "current: EKF pass 1"
+    passes = [int(s.rsplit(" ", 1)[1]) for s in rest if s.startswith("current: EKF pass")]
+    assert passes == list(range(1, len(passes) + 1)) and len(passes) >= 2
+    assert rest[-2:] == ["EKF on every sample", "output-error refinement"]
+    assert set(rest[:-2]) == {"equation-error start", *(f"current: EKF pass {k}" for k in passes)}
+    assert sum(counted) == 2 * sum(log.n_samples for log in logs)
+
+
 def test_cli_fit_on_an_nmea_recording_says_to_convert_it(tmp_path: Path, capsys) -> None:
     nmea = tmp_path / "zigzag-10.nmea"
     nmea.write_text("$HEHDT,340.100,T*29\n$IIRSA,-7.960,A,,V*5C\n")

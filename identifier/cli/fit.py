@@ -185,7 +185,13 @@ def _fit(args: argparse.Namespace) -> int:
     )
     total = 2 * sum(log.n_samples for log in logs)
     with tqdm(total=total, unit="sample", disable=args.quiet, file=sys.stderr) as bar:
-        result = identify(logs, settings, length_m=args.length_m, progress=bar.update)
+        result = identify(
+            logs,
+            settings,
+            length_m=args.length_m,
+            progress=bar.update,
+            stage=bar.set_description_str,
+        )
     save_params(args.output, result.params)
     for warning in result.warnings:
         print(f"warning: {warning}", file=sys.stderr)
