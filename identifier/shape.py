@@ -203,7 +203,8 @@ class _ShapeRegression:
     Only a few regressors of a family hold shape constants (``ModelFamily.shaped_columns``;
     prime-rudder: the rudder force, 3 of 21 columns). The products ΦΦᵀ and Φ aᵀ of the
     others are the same for every shape, so a shape costs only its own columns and their
-    products with all: about a seventh of the whole regression.
+    products with all (3 × 21 of the 21 × 21 products; 2.3 instead of 2.8 ms a shape on
+    10,000 rows here, the shaped regressors' arithmetic being most of what is left).
     """
 
     def __init__(
