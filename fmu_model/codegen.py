@@ -98,7 +98,7 @@ def _equations(structure: ModelStructure) -> _Equations:
     )
 
     def rename(items: list[sp.Expr]) -> list[sp.Expr]:
-        return [e.subs(subs, simultaneous=True) for e in items]
+        return [e.xreplace(subs) for e in items]
 
     return _Equations(
         rhs=rename(exprs),
