@@ -220,11 +220,11 @@ class _ShapeRegression:
             *samples, length_m, *defaults
         )
         self._finite = bool(np.all(np.isfinite(self._fixed_phi)))
-        self._gram = np.zeros((p, p))
-        self._gram[np.ix_(self._fixed, self._fixed)] = self._fixed_phi @ self._fixed_phi.T
-        self._cross = np.zeros((p, 3))
-        self._cross[self._fixed] = self._fixed_phi @ acc.T
-        self._acc_squares = np.einsum("jm,jm->j", acc, acc)
+        # The sums with the shaped columns zero: their rows and columns are made per shape.
+        base_phi = np.zeros((p, acc.shape[1]))
+        base_phi[self._fixed] = self._fixed_phi
+        self._base = NormalEquations(p)
+        self._base.add(base_phi, acc)
         self._equation_index = family.structure(family.default_shape).equation_index
 
     def residual_std(self, values: Sequence[float]) -> np.ndarray | None:
@@ -232,11 +232,11 @@ class _ShapeRegression:
         shaped = self._shaped_fn(*self._samples, self._length_m, *values)
         if not (self._finite and np.all(np.isfinite(shaped))):
             return None
-        gram, cross = self._gram.copy(), self._cross.copy()
+        gram, cross = self._base.gram.copy(), self._base.cross.copy()
         with_fixed = shaped @ self._fixed_phi.T
         gram[np.ix_(self._shaped, self._fixed)] = with_fixed
         gram[np.ix_(self._fixed, self._shaped)] = with_fixed.T
         gram[np.ix_(self._shaped, self._shaped)] = shaped @ shaped.T
         cross[self._shaped] = shaped @ self._acc.T
-        sums = NormalEquations.of_sums(self._acc.shape[1], gram, cross, self._acc_squares)
+        sums = NormalEquations.of_sums(self._base.rows, gram, cross, self._base.acc_squares)
         return sums.residual_std(self._equation_index)
