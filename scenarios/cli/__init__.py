@@ -12,6 +12,7 @@ Commands::
                     --params: 95 % intervals from the identified covariance)
     uncertainty     Monte-Carlo 95 % intervals of the standard manoeuvres from params.json
     demo            logs -> identification -> native FMU -> validation report with intervals
+    warm-up         compile a model family's numba code once, before its first fit
 
 Speed and propeller speed default to the FMU's start values (``u0``, ``propeller_rpm``);
 the steering-gear rate to 2.34 deg/s (KVLCC2 full scale, a typical large ship's). The
@@ -26,7 +27,8 @@ gate verdicts are one line on stderr, never a traceback. Progress goes to stderr
 
 Modules, one command group each: :mod:`~scenarios.cli.synthesize`,
 :mod:`~scenarios.cli.fmu_runs` (turning-circle, zigzag, spiral, pullout, imo),
-:mod:`~scenarios.cli.validation` (validate, demo), :mod:`~scenarios.cli.uncertainty`;
+:mod:`~scenarios.cli.validation` (validate, demo), :mod:`~scenarios.cli.uncertainty`,
+:mod:`~scenarios.cli.warm_up`;
 :mod:`~scenarios.cli.common` holds what they share.
 """
 
@@ -60,6 +62,7 @@ from scenarios.cli.validation import (
     run_demo_command,
     run_validate_command,
 )
+from scenarios.cli.warm_up import add_warm_up_command, run_warm_up_command
 from scenarios.errors import ScenarioError
 from trials.errors import IdentificationError, LogFormatError
 from trials.metrics import MetricsError
@@ -76,6 +79,7 @@ _COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "validate": run_validate_command,
     "demo": run_demo_command,
     "uncertainty": run_uncertainty_command,
+    "warm-up": run_warm_up_command,
 }
 
 
@@ -105,6 +109,7 @@ def _build_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.Argume
     add_validate_command(sub, common)
     add_uncertainty_command(sub)
     add_demo_command(sub, common)
+    add_warm_up_command(sub, common)
     return parser, dict(sub.choices)
 
 
