@@ -11,6 +11,7 @@ import pytest
 
 from fmu_model import ModelParameters, load_params
 from identifier.cli import build_parser, main
+from identifier.cli import fit as fit_cli
 from identifier.identify import FitSettings, IdentificationResult, identify
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
@@ -263,6 +264,25 @@ def test_cli_fit_summary_prints_the_kept_estimate_and_the_rates(
     regression_rows = int(rows_line.split()[2].replace(",", ""))
     assert samples - 2 * len(log_files) - 10 < regression_rows <= samples  # 1 Hz: every sample
     assert " rows at 1 s (about L/U/40)" in rows_line
+
+
+@pytest.mark.parametrize("compiled", [0, 7])
+def test_cli_fit_says_when_it_compiled(
+    compiled: int, log_files: list[Path], tmp_path: Path, capsys, monkeypatch
+) -> None:
+    """A fit that compiled says so and names the warm-up; one that did not, nothing."""
+    counts = iter([(3, 0), (3 + compiled, 4)])  # before and after the identification
+    monkeypatch.setattr(fit_cli, "numba_compilations", lambda: next(counts))
+    out = tmp_path / "params.json"
+    args = ["--model", "shi2009", "--method", "ekf", "-o", str(out)]
+    assert main(["fit", *map(str, log_files), *args]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "numba" in line]
+    expected = (
+        f"note: compiled {compiled} numba functions (cached now: the first fit of shi2009 "
+        "with these settings on this machine); `python -m scenarios warm-up --model shi2009` "
+        "does it ahead, in a process of its own"
+    )
+    assert notes == ([expected] if compiled else [])
 
 
 def test_stages_are_named_as_they_begin_and_samples_counted_twice(log_files: list[Path]) -> None:

@@ -12,6 +12,7 @@ from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
+from fmu_model.kernels import numba_compilations
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
 from identifier.current import CURRENT_MODES
 from identifier.identify import (
@@ -184,6 +185,7 @@ def _fit(args: argparse.Namespace) -> int:
         windage=windage,
     )
     total = 2 * sum(log.n_samples for log in logs)
+    compiled_before = numba_compilations()[0]
     with tqdm(total=total, unit="sample", disable=args.quiet, file=sys.stderr) as bar:
         result = identify(
             logs,
@@ -198,6 +200,14 @@ def _fit(args: argparse.Namespace) -> int:
     if not args.quiet:
         for note in result.notes:
             print(f"note: {note}", file=sys.stderr)
+        compiled = numba_compilations()[0] - compiled_before
+        if compiled:
+            print(
+                f"note: compiled {compiled} numba functions (cached now: the first fit of "
+                f"{args.model} with these settings on this machine); `python -m scenarios "
+                f"warm-up --model {args.model}` does it ahead, in a process of its own",
+                file=sys.stderr,
+            )
     if args.plot:
         from identifier.plots import write_plots
 
