@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numba
 import numpy as np
@@ -42,6 +43,10 @@ from fmu_model.kernels import Binding, kernel_constants, kernel_module
 from trials.errors import IdentificationError
 
 MEASUREMENTS = ("track", "velocities")
+
+#: Samples of a log the compiled pass runs at a time (rounded up to a whole number of
+#: history strides), so that ``progress`` hears from a long log while it runs.
+EKF_CHUNK_SAMPLES = 50_000
 
 
 @dataclass(frozen=True)
@@ -328,28 +333,41 @@ def ekf_identify(
         states = np.empty((rows[len(filtered)], 6))
         square_sums = np.zeros(2)
         track = np.ascontiguousarray(seg.track, dtype=float)
-        try:
-            status, sample = ekf_pass(
-                eq_index, constants,
-                settings.max_substep_s, offset,
-                np.ascontiguousarray(seg.time_s, dtype=float),
-                track if offset == 3 else np.ascontiguousarray(y, dtype=float),
-                np.ascontiguousarray(r_var, dtype=float),
-                np.ascontiguousarray(seg.rudder_rad, dtype=float),
-                np.ascontiguousarray(seg.n_rps, dtype=float),
-                seg.known_acceleration_or_zero(),
-                x, P, q_state, q_theta, variance_limit, stride, track,
-                states, theta_hist[row : row + states.shape[0]],
-                std_hist[row : row + states.shape[0]], square_sums,
+        inputs = (  # t, y, R, δ, n, known loads: the pass's arguments in its order
+            np.ascontiguousarray(seg.time_s, dtype=float),
+            track if offset == 3 else np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(r_var, dtype=float),
+            np.ascontiguousarray(seg.rudder_rad, dtype=float),
+            np.ascontiguousarray(seg.n_rps, dtype=float),
+            seg.known_acceleration_or_zero(),
+        )
+        histories = (states, theta_hist[row : row + states.shape[0]],
+                     std_hist[row : row + states.shape[0]])  # fmt: skip
+        # Chunks [a, b] of whole strides, each starting at the previous one's last sample:
+        # the pass carries x and P on, so the filter is the same as in one pass; the
+        # history row of a chunk's first sample is written again with the same values,
+        # and its track residual, added again, is taken back out. An input of one row
+        # stands for every sample (R with track measurements, no known loads): not cut.
+        chunk = -(-EKF_CHUNK_SAMPLES // stride) * stride
+        for a in range(0, max(n - 1, 1), chunk):
+            b = min(a + chunk, n - 1)
+            repeated = np.zeros(2)
+            if a > 0:
+                _add_track_residual(x, track, a, repeated)
+            part, rows_part = slice(a, b + 1), slice(a // stride, b // stride + 1)
+            status, sample = _run_pass(
+                ekf_pass, seg.name, eq_index, constants, settings.max_substep_s, offset,
+                *(v if v.shape[0] == 1 else v[part] for v in inputs),
+                x, P, q_state, q_theta, variance_limit, stride, track[part],
+                *(h[rows_part] for h in histories), square_sums,
             )  # fmt: skip
-        except ZeroDivisionError:  # numba's scalar division, e.g. by a speed of exactly 0
-            raise IdentificationError(
-                "the model divides by zero: the ship's speed through the water reached 0 "
-                "(the speed-scaled models need headway throughout the log)",
-                log=seg.name,
-            ) from None
-        if status != _OK:
-            raise IdentificationError(_STATUS_MESSAGES[status], log=seg.name, sample=int(sample))
+            if status != _OK:
+                raise IdentificationError(
+                    _STATUS_MESSAGES[status], log=seg.name, sample=a + int(sample)
+                )
+            square_sums -= repeated
+            if progress is not None:
+                progress(b - a + int(a == 0))  # every sample once
         theta = x[6:].copy()
         P_theta = 0.5 * (P[6:, 6:] + P[6:, 6:].T)
         try:
@@ -364,8 +382,6 @@ def ekf_identify(
         ends.append(row)
         filtered.append(states)
         track_rms.append((float(np.sqrt(square_sums[0] / n)), float(np.sqrt(square_sums[1] / n))))
-        if progress is not None:
-            progress(n)
     return EkfResult(
         theta=theta[:p],
         covariance=P_theta[:p, :p],
@@ -389,6 +405,18 @@ def body_current(current_ne: np.ndarray, heading_rad: np.ndarray | float) -> np.
     c_n, c_e = current_ne[0], current_ne[1]
     cos_psi, sin_psi = np.cos(heading_rad), np.sin(heading_rad)
     return np.array([c_n * cos_psi + c_e * sin_psi, -c_n * sin_psi + c_e * cos_psi])
+
+
+def _run_pass(ekf_pass: Callable[..., tuple[int, int]], name: str, *args: Any) -> tuple[int, int]:
+    """Call the compiled ``ekf_pass``; a division by zero is a data error of the log ``name``."""
+    try:
+        return ekf_pass(*args)
+    except ZeroDivisionError:  # numba's scalar division, e.g. by a speed of exactly 0
+        raise IdentificationError(
+            "the model divides by zero: the ship's speed through the water reached 0 "
+            "(the speed-scaled models need headway throughout the log)",
+            log=name,
+        ) from None
 
 
 _OK, _NONFINITE, _NOT_PD, _EXPLODED = 0, 1, 2, 3

@@ -3,6 +3,7 @@ histories, decimation; and the same coefficients as the in-memory path on a shar
 
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import json
 import math
@@ -12,6 +13,7 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters, get_model, numeric_model
+from identifier import ekf as ekf_module
 from identifier import equation_error, smoothing
 from identifier import identify as identify_module
 from identifier.ekf import EkfSegment, EkfSettings, ekf_identify, sample_windows
@@ -25,6 +27,7 @@ from identifier.identify import FitSettings, identify
 from identifier.smoothing import smooth_axis, smooth_track
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log
 
 DATA = Path(__file__).parent / "data"
@@ -151,6 +154,58 @@ def test_ekf_histories_are_strided_and_the_fit_quality_uses_every_sample() -> No
     heading = np.sqrt(np.mean(np.angle(np.exp(1j * (states[:, 5] - segment.track[:, 2]))) ** 2))
     assert strided.track_rms[0] == pytest.approx((position, heading), rel=1e-12)
     assert 0.3 < position < 2.0  # the logger's 1 m noise
+
+
+@pytest.mark.parametrize(
+    ("measurements", "max_history_rows"), [("track", 10**9), ("velocities", 100)]
+)
+def test_ekf_in_chunks_is_the_ekf_in_one_pass_and_reports_progress_per_chunk(
+    measurements: str, max_history_rows: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Chunks of 37 samples (rounded up to whole strides) against one pass per log."""
+    segment = _segment(_seed_log())
+    structure = get_model("shi2009")
+    ls = equation_error_fit(structure, [segment], 100.0)
+    settings = EkfSettings(measurements=measurements, max_history_rows=max_history_rows)
+    runs, heard = {}, {}
+    for chunk in (10**9, 37):
+        monkeypatch.setattr(ekf_module, "EKF_CHUNK_SAMPLES", chunk)
+        heard[chunk] = []
+        runs[chunk] = ekf_identify(
+            structure, [segment, segment], ls.theta, ls.covariance * 100.0, 100.0, settings,
+            heard[chunk].append,
+        )  # fmt: skip
+    one, chunked = runs[10**9], runs[37]
+    n = segment.time_s.size
+    np.testing.assert_array_equal(chunked.theta, one.theta)
+    np.testing.assert_array_equal(chunked.covariance, one.covariance)
+    np.testing.assert_array_equal(chunked.theta_history, one.theta_history)
+    np.testing.assert_array_equal(chunked.std_history, one.std_history)
+    for a, b in zip(chunked.filtered, one.filtered, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(chunked.track_rms, one.track_rms, strict=True):
+        assert a == pytest.approx(b, rel=1e-12)
+    assert heard[10**9] == [n, n]
+    stride = one.history_stride
+    chunk = -(-37 // stride) * stride
+    assert len(heard[37]) == 2 * -(-(n - 1) // chunk) and sum(heard[37]) == 2 * n
+
+
+def test_a_failing_ekf_names_the_same_sample_in_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A rudder that turns NaN at sample 100 (in the third chunk of 37) stops both there."""
+    segment = _segment(_seed_log())
+    rudder = np.array(segment.rudder_rad)
+    rudder[100:] = np.nan
+    broken = dataclasses.replace(segment, rudder_rad=rudder)
+    structure = get_model("shi2009")
+    ls = equation_error_fit(structure, [segment], 100.0)
+    samples = []
+    for chunk in (10**9, 37):
+        monkeypatch.setattr(ekf_module, "EKF_CHUNK_SAMPLES", chunk)
+        with pytest.raises(IdentificationError, match="EKF diverged") as info:
+            ekf_identify(structure, [broken], ls.theta, ls.covariance * 100.0, 100.0)
+        samples.append(info.value.sample)
+    assert samples == [100, 100]
 
 
 def test_same_coefficients_as_the_in_memory_path_within_a_tenth_sigma(
