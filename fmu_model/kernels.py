@@ -59,9 +59,6 @@ from fmu_model.variants import parse_family
 CACHE_ENV = "SHIPID_KERNEL_CACHE"
 """Environment variable naming the kernel cache directory (module docstring)."""
 
-_MODULE_PREFIX = "shipid_kernels_"
-"""Name of a generated module: this, then the hash of its text."""
-
 _ARGS = (*VELOCITY_SYMBOLS, *INPUT_SYMBOLS)
 
 KERNEL_NAMES = ("phi", "grad", "kin", "kin_grad")
@@ -310,7 +307,7 @@ def kernel_module(structure: ModelStructure, bindings: Sequence[Binding] = ()) -
         return loaded[1]
     text = kernel_source(structure, bindings)
     digest = hashlib.sha256(text.encode()).hexdigest()[:20]
-    name = f"{_MODULE_PREFIX}{digest}"
+    name = f"shipid_kernels_{digest}"
     module = sys.modules.get(name)
     if module is None:
         module = _import(name, text)
@@ -343,19 +340,17 @@ def _import(name: str, text: str) -> ModuleType:
 def numba_compilations() -> tuple[int, int]:
     """Return (compiled, loaded): numba functions this process compiled, and loaded from caches.
 
-    Counted per signature (numba's ``Dispatcher.stats``) over the dispatchers of the
-    project's packages and of the generated kernel modules imported so far: after
-    ``python -m scenarios warm-up`` (or any earlier fit with the same settings) a fit
-    compiles nothing, and its process holds no compiler.
+    Counted per signature (numba's ``Dispatcher.stats``) over the dispatchers at the top
+    level of every module imported so far (the generated kernel modules among them):
+    after ``python -m scenarios warm-up`` (or any earlier fit with the same settings) a
+    fit compiles nothing, and its process holds no compiler.
     """
     import numba
 
-    project = {"fmu_model", "identifier", "trials", "scenarios"}
     dispatchers = {
         id(value): value
-        for name, module in list(sys.modules.items())
-        if name.split(".")[0] in project or name.startswith(_MODULE_PREFIX)
-        for value in list(vars(module).values())
+        for module in list(sys.modules.values())
+        for value in list(getattr(module, "__dict__", {}).values())
         if isinstance(value, numba.core.dispatcher.Dispatcher)
     }
     compiled = sum(sum(d.stats.cache_misses.values()) for d in dispatchers.values())
