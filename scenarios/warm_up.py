@@ -3,8 +3,8 @@
 The smoother (``identifier.smoothing``), the EKF and the replay of a model family
 (``fmu_model.kernels``) are numba functions: compiled at their first call, cached on
 disk, loaded by every later process. So the first fit on a machine pays the
-compilation, about 25 s for the default family here, and keeps numba's compiler in its
-process for as long as it runs (about 90 MiB: a long log's fit then needs that much
+compilation, about 20 s for the default family here, and keeps numba's compiler in its
+process for as long as it runs (about 95 MiB: a long log's fit then needs that much
 more memory, a Dask worker keeps it). :func:`warm_up` pays both in a process of its
 own: it fits a short reference-ship zig-zag with the settings a fit uses, so that what
 it compiles is what a fit calls, with the same argument types. ``make`` runs it once
@@ -41,9 +41,10 @@ class WarmUp:
 def warm_up(model: str = DEFAULT_MODEL) -> WarmUp:
     """Fit :data:`WARM_UP_MANEUVER` of KVLCC2 with ``model`` under every current mode.
 
-    Each current mode (``identifier.identify.CURRENT_MODES``) passes the EKF other
-    arguments, so each is fitted once, with the default procedure (its output-error
-    refinement compiles the replay).
+    Each current mode (``identifier.current.CURRENT_MODES``) takes its own path through
+    the identification (the still-water EKF, the alternation with a current), so each
+    is fitted once, with the default procedure (its output-error refinement compiles the
+    replay): whatever a default fit calls is compiled.
 
     Raises
     ------
