@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from candidates import register_candidates
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
@@ -265,7 +266,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--model",
         action="append",
         dest="models",
-        help=f"model to assess (repeat; default: {', '.join(MODELS)})",
+        help=f"model to assess (repeat; default: {', '.join(MODELS)}; issue 13's "
+        f"candidates: {', '.join(register_candidates())})",
     )
     parser.add_argument("--out", default=str(Path(__file__).with_name("fidelity.md")))
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")

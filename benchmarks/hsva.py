@@ -19,17 +19,7 @@ Two estimates of each fit: ``ekf`` (the seed paper's algorithm, ``--method ekf``
 The asymmetry row: the predicted second-overshoot difference port-first − starboard-first
 run of each pair, against the measured one (10/10: 17.83 − 20.54 = −2.71°).
 
-Candidates studied for issue 13 (registered here, not in ``fmu_model``: none won), each
-``prime-rudder`` plus terms with one gain each:
-
-* ``asym-hull``: even yaw-rate terms of the hull, q·r′² in sway and yaw (r²L, r²), a
-  side-dependent yaw damping: the propeller's swirl makes the stern flow asymmetric;
-* ``asym-prop``: a constant propeller side force and yaw moment, n²L and n² (§5 of
-  reference/model_structures.md: too small on its own);
-* ``thrust``: the propeller thrust as one term n²L − κ·u·n with κ = 20 (a typical
-  open-water slope, K_T falling by about a third from bollard to service), instead of
-  free n²L and u·n terms, which constant-rpm zig-zags cannot separate and which
-  extrapolate to a negative bollard thrust.
+Candidates studied for issue 13: ``benchmarks/candidates.py`` (``--model NAME``).
 """
 
 from __future__ import annotations
@@ -38,12 +28,12 @@ import argparse
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
+from candidates import register_candidates
+
 from fmu_model import ModelParameters
-from fmu_model.structure import L, Term, n, r, u
-from fmu_model.variants import PRIME_RUDDER, parse_family, register_family
 from identifier.identify import FitSettings, identify
 from trials.conditions import sail_again
 from trials.logs import ManeuverLog, read_log
@@ -60,29 +50,6 @@ FOLDS: dict[str, tuple[str, ...]] = {
 LENGTH_M = 7.0
 MODELS = ("prime-rudder",)
 INDICES = ("first_overshoot_deg", "second_overshoot_deg")
-
-
-THRUST_KAPPA = 20.0
-
-
-def register_candidates() -> tuple[str, ...]:
-    """Register the candidate families of the module docstring; return their names."""
-    base = PRIME_RUDDER
-    thrust = (
-        Term("X_T", n**2 * L - THRUST_KAPPA * u * n),
-        *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
-    )
-    candidates = {
-        "asym-hull": (base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
-        "asym-prop": (base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
-        "thrust": (thrust, (), ()),
-    }
-    for name, (surge, sway, yaw) in candidates.items():
-        if parse_family(name) is None:
-            register_family(
-                replace(base, name=name, surge=surge, sway=base.sway + sway, yaw=base.yaw + yaw)
-            )
-    return tuple(candidates)
 
 
 @dataclass(frozen=True)

@@ -390,7 +390,28 @@ _wake = 1 + WAKE_C1 * (WAKE_RECOVERY * sp.Abs(_betaR) + WAKE_ASYMMETRY * _betaR)
 )
 _uR = sp.sqrt((u * _wake) ** 2 + SLIPSTREAM_K * (n * L) ** 2)
 _alphaR = delta + sp.atan((STRAIGHTENING_GAMMA * _wR - STRAIGHTENING_ASYMMETRY * sp.Abs(_wR)) / _uR)
-_FN = _uR**2 * sp.sin(_alphaR)  # rudder normal force per ½ρA_R [m²/s²]
+SLIPSTREAM_SHARE = SLIPSTREAM_K * (n * L) ** 2 / _uR**2  # slipstream part of u_R² [-]
+
+
+def rudder_normal_force(extra_angle: sp.Expr = sp.Integer(0)) -> sp.Expr:
+    """Return the rudder normal force per ½ρA_R [m²/s²], u_R²·sin(α_R + ``extra_angle``).
+
+    ``extra_angle`` [rad] is added to the angle of attack: the candidate terms of
+    ``benchmarks/candidates.py`` (a neutral-rudder offset, a propeller-swirl angle).
+    """
+    return _uR**2 * sp.sin(_alphaR + extra_angle)
+
+
+def rudder_gain_terms(normal_force: sp.Expr) -> tuple[Term, Term, Term]:
+    """Return the rudder's surge, sway and yaw terms (X_R, Y_R, N_R) of a normal force."""
+    return (
+        Term("X_R", normal_force * sp.sin(delta) / L),
+        Term("Y_R", normal_force * sp.cos(delta) / L),
+        Term("N_R", normal_force * sp.cos(delta) / L**2),
+    )
+
+
+_X_R, _Y_R, _N_R = rudder_gain_terms(rudder_normal_force())
 
 PRIME_RUDDER = register_family(
     ModelFamily(
@@ -414,11 +435,8 @@ PRIME_RUDDER = register_family(
             ShapeConstant(WAKE_RECOVERY, 0.0, 1.0, 0.0, (0.0, 0.35, 0.7)),
             ShapeConstant(WAKE_ASYMMETRY, -0.5, 0.5, 0.0, (-0.25, 0.0, 0.25)),
         ),
-        surge=(
-            *_SURGE_PRIME[:6],
-            Term("X_R", _FN * sp.sin(delta) / L),
-        ),
-        sway=(*_hull("Y", sp.Integer(1), _MODULUS), Term("Y_R", _FN * sp.cos(delta) / L)),
-        yaw=(*_hull("N", 1 / L, _MODULUS), Term("N_R", _FN * sp.cos(delta) / L**2)),
+        surge=(*_SURGE_PRIME[:6], _X_R),
+        sway=(*_hull("Y", sp.Integer(1), _MODULUS), _Y_R),
+        yaw=(*_hull("N", 1 / L, _MODULUS), _N_R),
     )
 )

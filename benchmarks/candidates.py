@@ -1,0 +1,103 @@
+"""Candidate asymmetry terms of issue 13, studied with benchmarks/hsva.py and fidelity.py.
+
+Registered here, not in ``fmu_model``: none predicted held-out runs better than
+``prime-rudder`` (``benchmarks/hsva.md``, section "Candidate terms"). Each is
+``prime-rudder`` plus terms with one gain each, or with one more shape constant:
+
+* ``asym-hull``: even yaw-rate terms of the hull, q·r′² in sway and yaw (r²L, r²), a
+  side-dependent yaw damping: the propeller's swirl makes the stern flow asymmetric;
+* ``asym-prop``: a constant propeller side force and yaw moment, n²L and n² (§5 of
+  reference/model_structures.md: too small on its own);
+* ``thrust``: the propeller thrust as one term n²L − κ·u·n with κ = 20 (a typical
+  open-water slope, K_T falling by about a third from bollard to service), instead of
+  free n²L and u·n terms, which constant-rpm zig-zags cannot separate and which
+  extrapolate to a negative bollard thrust;
+* ``offset``: a neutral-rudder offset, α_R = δ + δ₀ + …, with δ₀ a shape constant
+  (±0.1 rad, grid −0.04, 0, 0.04): a rudder or propeller misaligned, a zero error of the
+  rudder indicator;
+* ``swirl``: the propeller-swirl angle of issue 13, α_R = δ + s·k(nL)²/u_R² + …, with s a
+  shape constant (±0.3 rad, grid −0.15, 0, 0.15): it grows with the slipstream share,
+  i.e. as the ship slows in a turn (reference/model_structures.md §9: equation error
+  alone cannot choose s);
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import sympy as sp
+
+from fmu_model.structure import L, Term, n, r, u
+from fmu_model.variants import (
+    PRIME_RUDDER,
+    SLIPSTREAM_SHARE,
+    ModelFamily,
+    ShapeConstant,
+    parse_family,
+    register_family,
+    rudder_gain_terms,
+    rudder_normal_force,
+)
+
+THRUST_KAPPA = 20.0  # open-water slope of the ``thrust`` candidate [-]
+RUDDER_OFFSET_RAD = sp.Symbol("d0", real=True)
+SWIRL_RAD = sp.Symbol("swirl", real=True)
+
+
+def _with_terms(
+    name: str, surge: tuple[Term, ...], sway: tuple[Term, ...], yaw: tuple[Term, ...]
+) -> ModelFamily:
+    base = PRIME_RUDDER
+    return replace(base, name=name, surge=surge, sway=base.sway + sway, yaw=base.yaw + yaw)
+
+
+def _with_rudder_angle(name: str, extra_angle: sp.Expr, constant: ShapeConstant) -> ModelFamily:
+    """``prime-rudder`` with ``extra_angle`` added to α_R and its shape constant."""
+    base = PRIME_RUDDER
+    gains = {t.coefficient: t for t in rudder_gain_terms(rudder_normal_force(extra_angle))}
+
+    def swap(terms: tuple[Term, ...]) -> tuple[Term, ...]:
+        return tuple(gains.get(t.coefficient, t) for t in terms)
+
+    return replace(
+        base,
+        name=name,
+        shape=(*base.shape, constant),
+        surge=swap(base.surge),
+        sway=swap(base.sway),
+        yaw=swap(base.yaw),
+    )
+
+
+def candidate_families() -> tuple[ModelFamily, ...]:
+    """Return the candidate families of the module docstring."""
+    base = PRIME_RUDDER
+    thrust = (
+        Term("X_T", n**2 * L - THRUST_KAPPA * u * n),
+        *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
+    )
+    return (
+        _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
+        _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
+        _with_terms("thrust", thrust, (), ()),
+        _with_rudder_angle(
+            "offset",
+            RUDDER_OFFSET_RAD,
+            ShapeConstant(RUDDER_OFFSET_RAD, -0.1, 0.1, 0.0, (-0.04, 0.0, 0.04)),
+        ),
+        _with_rudder_angle(
+            "swirl",
+            SWIRL_RAD * SLIPSTREAM_SHARE,
+            ShapeConstant(SWIRL_RAD, -0.3, 0.3, 0.0, (-0.15, 0.0, 0.15)),
+        ),
+    )
+
+
+def register_candidates() -> tuple[str, ...]:
+    """Register the candidate families (once); return their names."""
+    names = []
+    for family in candidate_families():
+        if parse_family(family.name) is None:
+            register_family(family)
+        names.append(family.name)
+    return tuple(names)
