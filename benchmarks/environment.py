@@ -19,7 +19,8 @@ Each fit predicts the calm-water standard manoeuvres (35° turn both sides, zig-
 largest difference of a turning index [percentage points] and of an overshoot [deg] from
 what the default procedure gives from the calm-water logs of the same draw, and the error of
 the current estimate (speed [m/s], direction [deg]). Issue 14's bar: within 1 point and
-0.5°, and the current within 0.05 m/s and 5°, in every draw.
+0.5°, and the current within 0.05 m/s and 5°, in every draw. The table goes into its block
+of ``--out`` (``report.py``: the notes around it stay), row by row.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fidelity import SEEDS, Indices, index_errors, indices
+from report import write_block
 
 from identifier.identify import FitSettings, IdentificationResult, identify
 from scenarios.kvlcc2 import kvlcc2_windage
@@ -179,8 +181,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             ]
             lines.append("| " + " | ".join(row) + " |")
             print(lines[-1], flush=True)
-            Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
-    Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+            write_block(args.out, "environment.py", lines)
+    write_block(args.out, "environment.py", lines)
     return 0
 
 

@@ -22,9 +22,10 @@ compared with the reference ship's own run through the same driver:
 diameter), first and second overshoot of both zig-zags. Errors are predicted/true − 1
 for distances and predicted − true in degrees for overshoots.
 
-Prints a markdown table and writes it to ``--out``. The recommendation at the end is
-the structure whose kept estimate predicts the held-out turning circle of (a) best
-(largest |error| of advance, transfer and tactical diameter, both sides).
+Prints a markdown table and writes it into its block of ``--out`` (``report.py``: the
+notes around it stay). The recommendation at the end is the structure whose kept
+estimate predicts the held-out turning circle of (a) best (largest |error| of advance,
+transfer and tactical diameter, both sides).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 from candidates import register_candidates
+from report import write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
@@ -277,7 +279,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.draws:
         lines = draws_table(args.models or [MODELS[-1]], args.draws, args.dt_s)
-        Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+        write_block(args.out, "fidelity.py draws", lines)
         return 0
 
     ship = reference_ship("kvlcc2", "full")
@@ -354,9 +356,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         + f". Recommended default: **{best}**.",
     ]
-    text = "\n".join(lines) + "\n"
-    Path(args.out).write_text(text, encoding="utf-8")
-    print(text)
+    write_block(args.out, "fidelity.py", lines)
+    print("\n".join(lines))
     return 0
 
 

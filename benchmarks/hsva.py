@@ -19,7 +19,8 @@ Two estimates of each fit: ``ekf`` (the seed paper's algorithm, ``--method ekf``
 The asymmetry row: the predicted second-overshoot difference port-first − starboard-first
 run of each pair, against the measured one (10/10: 17.83 − 20.54 = −2.71°).
 
-Candidates studied for issue 13: ``benchmarks/candidates.py`` (``--model NAME``).
+Candidates studied for issue 13: ``benchmarks/candidates.py`` (``--model NAME``). The table
+goes into its block of ``--out`` (``report.py``: the notes around it stay).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from candidates import register_candidates
+from report import write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
@@ -185,8 +187,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 ]
                 lines.append("| " + " | ".join(row) + " |")
                 print(lines[-1], flush=True)
-    text = "\n".join(lines) + "\n"
-    Path(args.out).write_text(text, encoding="utf-8")
+    write_block(args.out, "hsva.py", lines)
     return 0
 
 

@@ -31,7 +31,8 @@ worst columns are the largest magnitude over all realisations (the turning one a
 over the tactical diameter of the held-out port turn). The identification wall
 time is the mean per realisation, after a warm-up fit (numba compilation not timed).
 
-Prints a markdown table and writes it to ``--out``; progress goes to stderr.
+Prints a markdown table and writes it into its block of ``--out`` (``report.py``: the notes
+around it stay); progress goes to stderr.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from fidelity import SEEDS, Indices, index_errors, indices, worst_turning_error
+from report import write_block
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, model_names
@@ -361,9 +363,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     failures = sorted({m for outcome in outcomes.values() for m in outcome.failures})
     if failures:
         lines += ["", "Failed identifications:", *(f"- {m}" for m in failures)]
-    text = "\n".join(lines) + "\n"
-    Path(args.out).write_text(text, encoding="utf-8")
-    print(text)
+    write_block(args.out, "sensitivity.py", lines)
+    print("\n".join(lines))
     return 0
 
 

@@ -393,7 +393,7 @@ _alphaR = delta + sp.atan((STRAIGHTENING_GAMMA * _wR - STRAIGHTENING_ASYMMETRY *
 SLIPSTREAM_SHARE = SLIPSTREAM_K * (n * L) ** 2 / _uR**2  # slipstream part of u_R² [-]
 
 
-def rudder_normal_force(extra_angle: sp.Expr = sp.Integer(0)) -> sp.Expr:
+def rudder_normal_force(extra_angle: sp.Expr = sp.S.Zero) -> sp.Expr:
     """Return the rudder normal force per ½ρA_R [m²/s²], u_R²·sin(α_R + ``extra_angle``).
 
     ``extra_angle`` [rad] is added to the angle of attack: the candidate terms of
