@@ -1,8 +1,9 @@
-"""Candidate asymmetry terms of issue 13, studied with benchmarks/hsva.py and fidelity.py.
+"""Candidate terms of issue 13, studied with benchmarks/hsva.py and fidelity.py.
 
 Registered here, not in ``fmu_model``: none predicted held-out runs better than
 ``prime-rudder`` (``benchmarks/hsva.md``, section "Candidate terms"). Each is
-``prime-rudder`` plus terms with one gain each, or with one more shape constant:
+``prime-rudder`` plus terms with one gain each, or with another rudder force and its
+shape constants:
 
 * ``asym-hull``: even yaw-rate terms of the hull, q·r′² in sway and yaw (r²L, r²), a
   side-dependent yaw damping: the propeller's swirl makes the stern flow asymmetric;
@@ -19,6 +20,12 @@ Registered here, not in ``fmu_model``: none predicted held-out runs better than
   shape constant (±0.3 rad, grid −0.15, 0, 0.15): it grows with the slipstream share,
   i.e. as the ship slows in a turn (reference/model_structures.md §9: equation error
   alone cannot choose s);
+* ``slipstream``: the rudder inflow of the MMG standard method (Yasukawa & Yoshimura 2015,
+  reference/kvlcc2_mmg.md §5) instead of u_P² + k(nL)²: u_R² = η(u_P + κ(S − u_P))² +
+  (1 − η)u_P², S² = u_P² + c(nL)², with η = D_P/H_R = 0.7 and κ = 0.5 fixed (KVLCC2:
+  0.626, 0.50) and c, which stands for 8K_T D_P²/(πL²) at a constant K_T, searched in
+  place of k (KVLCC2 about 4e-4). Its cross term 2ηκ(1 − κ)·S·u_P, which
+  u_P² + k(nL)² lacks, changes how the inflow falls with the speed in a turn.
 """
 
 from __future__ import annotations
@@ -30,6 +37,8 @@ import sympy as sp
 from fmu_model.structure import L, Term, n, r, u
 from fmu_model.variants import (
     PRIME_RUDDER,
+    PROPELLER_INFLOW,
+    SLIPSTREAM_K,
     SLIPSTREAM_SHARE,
     ModelFamily,
     ShapeConstant,
@@ -42,6 +51,10 @@ from fmu_model.variants import (
 THRUST_KAPPA = 20.0  # open-water slope of the ``thrust`` candidate [-]
 RUDDER_OFFSET_RAD = sp.Symbol("d0", real=True)
 SWIRL_RAD = sp.Symbol("swirl", real=True)
+SLIPSTREAM_C = sp.Symbol("c", nonnegative=True)
+SLIPSTREAM_C_GRID = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # c·(n₀L)² / U₀²
+MMG_ETA = sp.Rational(7, 10)  # η = D_P/H_R (KVLCC2 0.626)
+MMG_KAPPA = sp.Rational(1, 2)  # κ of the slipstream (KVLCC2 0.50)
 
 
 def _with_terms(
@@ -51,10 +64,12 @@ def _with_terms(
     return replace(base, name=name, surge=surge, sway=base.sway + sway, yaw=base.yaw + yaw)
 
 
-def _with_rudder_angle(name: str, extra_angle: sp.Expr, constant: ShapeConstant) -> ModelFamily:
-    """``prime-rudder`` with ``extra_angle`` added to α_R and its shape constant."""
+def _with_rudder_force(
+    name: str, normal_force: sp.Expr, shape: tuple[ShapeConstant, ...]
+) -> ModelFamily:
+    """``prime-rudder`` with another rudder normal force and its shape constants."""
     base = PRIME_RUDDER
-    gains = {t.coefficient: t for t in rudder_gain_terms(rudder_normal_force(extra_angle))}
+    gains = {t.coefficient: t for t in rudder_gain_terms(normal_force)}
 
     def swap(terms: tuple[Term, ...]) -> tuple[Term, ...]:
         return tuple(gains.get(t.coefficient, t) for t in terms)
@@ -62,11 +77,18 @@ def _with_rudder_angle(name: str, extra_angle: sp.Expr, constant: ShapeConstant)
     return replace(
         base,
         name=name,
-        shape=(*base.shape, constant),
+        shape=shape,
         surge=swap(base.surge),
         sway=swap(base.sway),
         yaw=swap(base.yaw),
     )
+
+
+def mmg_inflow_squared() -> sp.Expr:
+    """u_R² [m²/s²] of the MMG rudder model, with c·(nL)² for 8K_T(nD)²/π (module docstring)."""
+    u_p = PROPELLER_INFLOW
+    slipstream = sp.sqrt(u_p**2 + SLIPSTREAM_C * (n * L) ** 2)
+    return MMG_ETA * (u_p + MMG_KAPPA * (slipstream - u_p)) ** 2 + (1 - MMG_ETA) * u_p**2
 
 
 def candidate_families() -> tuple[ModelFamily, ...]:
@@ -80,15 +102,25 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
         _with_terms("thrust", thrust, (), ()),
-        _with_rudder_angle(
+        _with_rudder_force(
             "offset",
-            RUDDER_OFFSET_RAD,
-            ShapeConstant(RUDDER_OFFSET_RAD, -0.1, 0.1, 0.0, (-0.04, 0.0, 0.04)),
+            rudder_normal_force(RUDDER_OFFSET_RAD),
+            (*base.shape, ShapeConstant(RUDDER_OFFSET_RAD, -0.1, 0.1, 0.0, (-0.04, 0.0, 0.04))),
         ),
-        _with_rudder_angle(
+        _with_rudder_force(
             "swirl",
-            SWIRL_RAD * SLIPSTREAM_SHARE,
-            ShapeConstant(SWIRL_RAD, -0.3, 0.3, 0.0, (-0.15, 0.0, 0.15)),
+            rudder_normal_force(SWIRL_RAD * SLIPSTREAM_SHARE),
+            (*base.shape, ShapeConstant(SWIRL_RAD, -0.3, 0.3, 0.0, (-0.15, 0.0, 0.15))),
+        ),
+        _with_rudder_force(
+            "slipstream",
+            rudder_normal_force(inflow_squared=mmg_inflow_squared()),
+            tuple(
+                ShapeConstant(SLIPSTREAM_C, 0.0, 0.2, 2e-3, SLIPSTREAM_C_GRID, "slipstream")
+                if constant.symbol == SLIPSTREAM_K
+                else constant
+                for constant in base.shape
+            ),
         ),
     )
 

@@ -388,18 +388,24 @@ _betaR = -_wR / sp.sqrt(u**2 + v**2)
 _wake = 1 + WAKE_C1 * (WAKE_RECOVERY * sp.Abs(_betaR) + WAKE_ASYMMETRY * _betaR) / (
     1 + WAKE_C1 * sp.Abs(_betaR)
 )
-_uR = sp.sqrt((u * _wake) ** 2 + SLIPSTREAM_K * (n * L) ** 2)
-_alphaR = delta + sp.atan((STRAIGHTENING_GAMMA * _wR - STRAIGHTENING_ASYMMETRY * sp.Abs(_wR)) / _uR)
-SLIPSTREAM_SHARE = SLIPSTREAM_K * (n * L) ** 2 / _uR**2  # slipstream part of u_R² [-]
+PROPELLER_INFLOW = u * _wake  # u_P, the ship-speed part of the rudder inflow [m/s]
+_uR_SQUARED = PROPELLER_INFLOW**2 + SLIPSTREAM_K * (n * L) ** 2  # u_R² [m²/s²]
+SLIPSTREAM_SHARE = SLIPSTREAM_K * (n * L) ** 2 / _uR_SQUARED  # slipstream part of u_R² [-]
 
 
-def rudder_normal_force(extra_angle: sp.Expr = sp.S.Zero) -> sp.Expr:
+def rudder_normal_force(
+    extra_angle: sp.Expr = sp.S.Zero, inflow_squared: sp.Expr = _uR_SQUARED
+) -> sp.Expr:
     """Return the rudder normal force per ½ρA_R [m²/s²], u_R²·sin(α_R + ``extra_angle``).
 
-    ``extra_angle`` [rad] is added to the angle of attack: the candidate terms of
-    ``benchmarks/candidates.py`` (a neutral-rudder offset, a propeller-swirl angle).
+    α_R = δ + atan((γ·w − Δγ·|w|)/u_R) as above. ``inflow_squared`` is u_R² [m²/s²]
+    (default u_P² + k·(nL)²) and ``extra_angle`` [rad] is added to the angle of attack:
+    the candidate terms of ``benchmarks/candidates.py`` (a neutral-rudder offset, a
+    propeller-swirl angle, the MMG slipstream).
     """
-    return _uR**2 * sp.sin(_alphaR + extra_angle)
+    inflow = sp.sqrt(inflow_squared)
+    straightened = STRAIGHTENING_GAMMA * _wR - STRAIGHTENING_ASYMMETRY * sp.Abs(_wR)
+    return inflow_squared * sp.sin(delta + sp.atan(straightened / inflow) + extra_angle)
 
 
 def rudder_gain_terms(normal_force: sp.Expr) -> tuple[Term, Term, Term]:
