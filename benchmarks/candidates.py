@@ -1,7 +1,8 @@
 """Candidate terms of issue 13, studied with benchmarks/hsva.py and fidelity.py.
 
-Registered here, not in ``fmu_model``: none predicted held-out runs better than
-``prime-rudder`` (``benchmarks/hsva.md``, section "Candidate terms"). Each is
+Registered here, not in ``fmu_model``: none predicted the held-out measured runs better
+than ``prime-rudder`` (``benchmarks/hsva.md``, the sections after the first table;
+``benchmarks/fidelity.md``, the last section, for the reference). Each is
 ``prime-rudder`` plus terms with one gain each, or with another rudder force and its
 shape constants:
 
