@@ -389,12 +389,13 @@ _wake = 1 + WAKE_C1 * (WAKE_RECOVERY * sp.Abs(_betaR) + WAKE_ASYMMETRY * _betaR)
     1 + WAKE_C1 * sp.Abs(_betaR)
 )
 PROPELLER_INFLOW = u * _wake  # u_P, the ship-speed part of the rudder inflow [m/s]
-_uR_SQUARED = PROPELLER_INFLOW**2 + SLIPSTREAM_K * (n * L) ** 2  # u_R² [m²/s²]
-SLIPSTREAM_SHARE = SLIPSTREAM_K * (n * L) ** 2 / _uR_SQUARED  # slipstream part of u_R² [-]
+RUDDER_INFLOW_SQUARED = PROPELLER_INFLOW**2 + SLIPSTREAM_K * (n * L) ** 2  # u_R² [m²/s²]
+# The slipstream part of u_R² [-].
+SLIPSTREAM_SHARE = SLIPSTREAM_K * (n * L) ** 2 / RUDDER_INFLOW_SQUARED
 
 
 def rudder_normal_force(
-    extra_angle: sp.Expr = sp.S.Zero, inflow_squared: sp.Expr = _uR_SQUARED
+    extra_angle: sp.Expr = sp.S.Zero, inflow_squared: sp.Expr = RUDDER_INFLOW_SQUARED
 ) -> sp.Expr:
     """Return the rudder normal force per ½ρA_R [m²/s²], u_R²·sin(α_R + ``extra_angle``).
 
