@@ -2,7 +2,8 @@
 
 Registered here, not in ``fmu_model``: none predicted the held-out measured runs better
 than ``prime-rudder`` (``benchmarks/hsva.md``, the sections after the first table;
-``benchmarks/fidelity.md``, the last section, for the reference). Each is
+``benchmarks/fidelity.md``, the last section, for the reference); the one that did,
+a rudder normal force not linear in sin α_R, is ``fmu_model``'s ``prime-rudder-lift``. Each is
 ``prime-rudder`` plus terms with one gain each, or with another rudder force and its
 shape constants:
 
@@ -26,11 +27,7 @@ shape constants:
   (1 − η)u_P², S² = u_P² + c(nL)², with η = D_P/H_R = 0.7 and κ = 0.5 fixed (KVLCC2:
   0.626, 0.50) and c, which stands for 8K_T D_P²/(πL²) at a constant K_T, searched in
   place of k (KVLCC2 about 4e-4). Its cross term 2ηκ(1 − κ)·S·u_P, which
-  u_P² + k(nL)² lacks, changes how the inflow falls with the speed in a turn;
-* ``rudder-lift``: a rudder normal force not linear in sin α_R, u_R²·sin³α_R·cos δ in sway
-  and yaw beside u_R²·sin α_R·cos δ, one gain each: the normal-force coefficient of a
-  low-aspect-ratio rudder grows faster than sin α_R (cross flow), or slower before the
-  stall at model-scale Reynolds numbers; the MMG method's f_α is a constant.
+  u_P² + k(nL)² lacks, changes how the inflow falls with the speed in a turn.
 """
 
 from __future__ import annotations
@@ -39,11 +36,10 @@ from dataclasses import replace
 
 import sympy as sp
 
-from fmu_model.structure import L, Term, delta, n, r, u
+from fmu_model.structure import L, Term, n, r, u
 from fmu_model.variants import (
     PRIME_RUDDER,
     PROPELLER_INFLOW,
-    RUDDER_INFLOW_SQUARED,
     SLIPSTREAM_K,
     SLIPSTREAM_SHARE,
     ModelFamily,
@@ -104,8 +100,6 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         Term("X_T", n**2 * L - THRUST_KAPPA * u * n),
         *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
     )
-    sin_alpha = rudder_normal_force() / RUDDER_INFLOW_SQUARED
-    cubic_lift = RUDDER_INFLOW_SQUARED * sin_alpha**3  # u_R²·sin³α_R [m²/s²]
     return (
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
@@ -129,12 +123,6 @@ def candidate_families() -> tuple[ModelFamily, ...]:
                 else constant
                 for constant in base.shape
             ),
-        ),
-        _with_terms(
-            "rudder-lift",
-            base.surge,
-            (Term("Y_R3", cubic_lift * sp.cos(delta) / L),),
-            (Term("N_R3", cubic_lift * sp.cos(delta) / L**2),),
         ),
     )
 
