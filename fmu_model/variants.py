@@ -453,9 +453,10 @@ PRIME_RUDDER = register_family(
 # normal force of a low-aspect-ratio rudder grows faster than sin α_R (cross flow;
 # Whicker & Fehlner 1958), and a model-scale rudder loses lift slope before it stalls;
 # one more term per equation, u_R²·sin³α_R·cos δ in sway and yaw with its own gain, lets
-# the data say which. It is the only candidate of issue 13 that predicts the measured HSVA
-# runs it was not trained on better than ``prime-rudder`` (every fold but one, the held-out
-# sum 15.3° against 18.8°) without losing on the KVLCC2 reference.
+# the data say which (on the HSVA runs: faster, N_R3/N_R = 0.4–1.1). It is the only
+# candidate of issue 13 that predicts the measured HSVA runs it was not trained on better
+# than ``prime-rudder`` (every fold but one, the held-out sum 15.3° against 18.8°)
+# without losing on the KVLCC2 reference.
 _CUBIC_LIFT = RUDDER_INFLOW_SQUARED * (rudder_normal_force() / RUDDER_INFLOW_SQUARED) ** 3
 
 PRIME_RUDDER_LIFT = register_family(
