@@ -62,6 +62,7 @@ MMG_KAPPA = sp.Rational(1, 2)  # κ of the slipstream (KVLCC2 0.50)
 def _with_terms(
     name: str, surge: tuple[Term, ...], sway: tuple[Term, ...], yaw: tuple[Term, ...]
 ) -> ModelFamily:
+    """``prime-rudder`` with the surge terms ``surge`` and extra sway and yaw terms."""
     base = PRIME_RUDDER
     return replace(base, name=name, surge=surge, sway=base.sway + sway, yaw=base.yaw + yaw)
 
