@@ -394,27 +394,32 @@ RUDDER_INFLOW_SQUARED = PROPELLER_INFLOW**2 + SLIPSTREAM_K * (n * L) ** 2  # u_R
 SLIPSTREAM_SHARE = SLIPSTREAM_K * (n * L) ** 2 / RUDDER_INFLOW_SQUARED
 
 
+def rudder_angle_of_attack(
+    extra_angle: sp.Expr = sp.S.Zero, inflow_squared: sp.Expr = RUDDER_INFLOW_SQUARED
+) -> sp.Expr:
+    """Return α_R [rad] = δ + atan((γ·w − Δγ·|w|)/u_R) + ``extra_angle``.
+
+    ``inflow_squared`` is u_R² [m²/s²] (default u_P² + k·(nL)²) and ``extra_angle`` [rad]
+    is added to the angle of attack: the candidate terms of ``benchmarks/candidates.py``
+    (a neutral-rudder offset, a propeller-swirl angle, the MMG slipstream).
+    """
+    straightened = STRAIGHTENING_GAMMA * _wR - STRAIGHTENING_ASYMMETRY * sp.Abs(_wR)
+    return delta + sp.atan(straightened / sp.sqrt(inflow_squared)) + extra_angle
+
+
 def rudder_normal_force(
     extra_angle: sp.Expr = sp.S.Zero, inflow_squared: sp.Expr = RUDDER_INFLOW_SQUARED
 ) -> sp.Expr:
-    """Return the rudder normal force per ½ρA_R [m²/s²], u_R²·sin(α_R + ``extra_angle``).
-
-    α_R = δ + atan((γ·w − Δγ·|w|)/u_R) as above. ``inflow_squared`` is u_R² [m²/s²]
-    (default u_P² + k·(nL)²) and ``extra_angle`` [rad] is added to the angle of attack:
-    the candidate terms of ``benchmarks/candidates.py`` (a neutral-rudder offset, a
-    propeller-swirl angle, the MMG slipstream).
-    """
-    inflow = sp.sqrt(inflow_squared)
-    straightened = STRAIGHTENING_GAMMA * _wR - STRAIGHTENING_ASYMMETRY * sp.Abs(_wR)
-    return inflow_squared * sp.sin(delta + sp.atan(straightened / inflow) + extra_angle)
+    """Return the rudder normal force per ½ρA_R [m²/s²], u_R²·sin α_R (arguments as above)."""
+    return inflow_squared * sp.sin(rudder_angle_of_attack(extra_angle, inflow_squared))
 
 
-def rudder_gain_terms(normal_force: sp.Expr) -> tuple[Term, Term, Term]:
-    """Return the rudder's surge, sway and yaw terms (X_R, Y_R, N_R) of a normal force."""
+def rudder_gain_terms(normal_force: sp.Expr, suffix: str = "") -> tuple[Term, Term, Term]:
+    """Return the rudder's surge, sway and yaw terms (X_R, Y_R, N_R + ``suffix``) of a force."""
     return (
-        Term("X_R", normal_force * sp.sin(delta) / L),
-        Term("Y_R", normal_force * sp.cos(delta) / L),
-        Term("N_R", normal_force * sp.cos(delta) / L**2),
+        Term(f"X_R{suffix}", normal_force * sp.sin(delta) / L),
+        Term(f"Y_R{suffix}", normal_force * sp.cos(delta) / L),
+        Term(f"N_R{suffix}", normal_force * sp.cos(delta) / L**2),
     )
 
 
@@ -457,7 +462,9 @@ PRIME_RUDDER = register_family(
 # candidate of issue 13 that predicts the measured HSVA runs it was not trained on better
 # than ``prime-rudder`` (every fold but one, the held-out sum 15.3° against 18.8°)
 # without losing on the KVLCC2 reference.
-_CUBIC_LIFT = RUDDER_INFLOW_SQUARED * (rudder_normal_force() / RUDDER_INFLOW_SQUARED) ** 3
+_, _Y_R3, _N_R3 = rudder_gain_terms(
+    RUDDER_INFLOW_SQUARED * sp.sin(rudder_angle_of_attack()) ** 3, suffix="3"
+)
 
 PRIME_RUDDER_LIFT = register_family(
     replace(
@@ -467,7 +474,7 @@ PRIME_RUDDER_LIFT = register_family(
         "u_R^2 sin^3(alpha_R) in sway and yaw, 23 coefficients",
         reference="Whicker & Fehlner (1958) low-aspect-ratio rudder normal force; "
         "benchmarks/hsva.md (issue 13)",
-        sway=(*PRIME_RUDDER.sway, Term("Y_R3", _CUBIC_LIFT * sp.cos(delta) / L)),
-        yaw=(*PRIME_RUDDER.yaw, Term("N_R3", _CUBIC_LIFT * sp.cos(delta) / L**2)),
+        sway=(*PRIME_RUDDER.sway, _Y_R3),
+        yaw=(*PRIME_RUDDER.yaw, _N_R3),
     )
 )
