@@ -27,7 +27,12 @@ shape constants:
   (1 − η)u_P², S² = u_P² + c(nL)², with η = D_P/H_R = 0.7 and κ = 0.5 fixed (KVLCC2:
   0.626, 0.50) and c, which stands for 8K_T D_P²/(πL²) at a constant K_T, searched in
   place of k (KVLCC2 about 4e-4). Its cross term 2ηκ(1 − κ)·S·u_P, which
-  u_P² + k(nL)² lacks, changes how the inflow falls with the speed in a turn.
+  u_P² + k(nL)² lacks, changes how the inflow falls with the speed in a turn;
+* ``rudder-cubic``: the rudder force of ``prime-rudder`` with the MMG cubic hull basis
+  {v′, r′, v′³, v′²r′, v′r′², r′³} (``prime-cubic``'s) in place of the modulus one: the
+  KVLCC2 reference's own hull form;
+* ``rudder-both``: the modulus basis and the cubic terms v′³, v′²r′, v′r′², r′³ together
+  (25 coefficients).
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ import sympy as sp
 
 from fmu_model.structure import L, Term, n, r, u
 from fmu_model.variants import (
+    PRIME_CUBIC,
     PRIME_RUDDER,
     PROPELLER_INFLOW,
     SLIPSTREAM_K,
@@ -55,6 +61,7 @@ RUDDER_OFFSET_RAD = sp.Symbol("d0", real=True)
 SWIRL_RAD = sp.Symbol("swirl", real=True)
 SLIPSTREAM_C = sp.Symbol("c", nonnegative=True)
 SLIPSTREAM_C_GRID = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # c·(n₀L)² / U₀²
+CUBIC_HULL = ("v", "r", "vvv", "vvr", "vrr", "rrr")  # the MMG hull basis, prime-cubic's
 MMG_ETA = sp.Rational(7, 10)  # η = D_P/H_R (KVLCC2 0.626)
 MMG_KAPPA = sp.Rational(1, 2)  # κ of the slipstream (KVLCC2 0.50)
 
@@ -87,6 +94,19 @@ def _with_rudder_force(
     )
 
 
+def _with_hull(name: str, sway: tuple[Term, ...], yaw: tuple[Term, ...]) -> ModelFamily:
+    """``prime-rudder`` with the hull terms ``sway`` and ``yaw`` before its rudder's."""
+    base = PRIME_RUDDER
+    return replace(base, name=name, sway=(*sway, base.sway[-1]), yaw=(*yaw, base.yaw[-1]))
+
+
+def cubic_hull_terms(*bases: str) -> tuple[tuple[Term, ...], tuple[Term, ...]]:
+    """Sway and yaw hull terms of ``prime-cubic`` for the basis functions named (``vvr``)."""
+    sway = {t.coefficient: t for t in PRIME_CUBIC.sway}
+    yaw = {t.coefficient: t for t in PRIME_CUBIC.yaw}
+    return tuple(sway[f"Y_{b}"] for b in bases), tuple(yaw[f"N_{b}"] for b in bases)
+
+
 def mmg_inflow_squared() -> sp.Expr:
     """u_R² [m²/s²] of the MMG rudder model, with c·(nL)² for 8K_T(nD)²/π (module docstring)."""
     u_p = PROPELLER_INFLOW
@@ -101,7 +121,12 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         Term("X_T", n**2 * L - THRUST_KAPPA * u * n),
         *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
     )
+    modulus = base.sway[:-1], base.yaw[:-1]  # the hull terms before the rudder's
+    cubic = cubic_hull_terms(*CUBIC_HULL)
+    extra = cubic_hull_terms(*CUBIC_HULL[2:])
     return (
+        _with_hull("rudder-cubic", *cubic),
+        _with_hull("rudder-both", modulus[0] + extra[0], modulus[1] + extra[1]),
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
         _with_terms("thrust", thrust, (), ()),

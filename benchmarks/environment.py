@@ -1,13 +1,16 @@
 """Identification at sea: calm-water predictions from logs sailed in current and wind (issue 14).
 
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
-        [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--out benchmarks/environment.md]
+        [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
+        [--heading-noise-deg 0.1] [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
 each true wind speed from ``--wind-from-deg``) and every noise draw d, the KVLCC2 reference
-ship (``scenarios.synthesize``, full scale, 1 Hz, 1 m / 0.1° noise) sails zig-zag 10/10 and
-20/20 in it (noise seeds 10·d + 1, 10·d + 2, as ``benchmarks/fidelity.py --draws``), with its
-logger recording the relative wind and the speed through the water. Two fits:
+ship (``scenarios.synthesize``, full scale, 1 Hz, by default 1 m / 0.1° noise) sails zig-zag
+10/10 and 20/20 in it (noise seeds 10·d + 1, 10·d + 2, as ``benchmarks/fidelity.py --draws``),
+with its logger recording the relative wind and the speed through the water; the calm-water
+logs have the same noise. With ``--position-noise-m 0.01 --heading-noise-deg 0.001`` what
+remains is the sea's own effect on the identification, without the noise's. Two fits:
 
 * ``default``: ``identify`` with the default settings (the current estimated, constant) and
   the ship's windage (``--windage``), so the measured wind's load is taken out;
@@ -76,11 +79,26 @@ class Condition:
         return f"current {current}, wind {wind}"
 
 
-def training_logs(condition: Condition, draw: int) -> list[ManeuverLog]:
+@dataclass(frozen=True)
+class Noise:
+    """Logger noise of the training logs: position [m] (North and East), heading [deg]."""
+
+    position_m: float = 1.0
+    heading_deg: float = 0.1
+
+
+def training_logs(condition: Condition, draw: int, noise: Noise) -> list[ManeuverLog]:
     """Sail the zig-zags of draw ``draw`` in ``condition``; return their logs."""
     ship = reference_ship("kvlcc2", "full", condition.environment())
     return [
-        synthesize_log(ship, MANEUVERS[name](), seed=10 * draw + SEEDS[name]) for name in TRAINING
+        synthesize_log(
+            ship,
+            MANEUVERS[name](),
+            seed=10 * draw + SEEDS[name],
+            position_noise_m=noise.position_m,
+            heading_noise_deg=noise.heading_deg,
+        )
+        for name in TRAINING
     ]
 
 
@@ -117,9 +135,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--wind-mps", type=float, action="append", dest="winds")
     parser.add_argument("--wind-from-deg", type=float, default=90.0)
     parser.add_argument("--draws", type=int, default=5)
+    parser.add_argument("--position-noise-m", type=float, default=Noise.position_m)
+    parser.add_argument("--heading-noise-deg", type=float, default=Noise.heading_deg)
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
+    noise = Noise(args.position_noise_m, args.heading_noise_deg)
     currents = args.currents or [0.0, 0.25, 0.5, 1.0]
     directions = args.directions or [0.0, 90.0, 180.0, 270.0]
     winds = args.winds or [0.0, 10.0, 15.0]
@@ -139,7 +160,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "Zig-zag 10/10 + 20/20 of the KVLCC2 reference sailed in a uniform current and a "
         "true wind; calm-water predictions (35° turn both sides, both zig-zags) compared "
         "with what the default procedure gives from the calm-water logs of the same noise "
-        "draw. Columns: largest difference of a turning index [points] and of an overshoot "
+        f"draw (logger noise {noise.position_m:g} m, {noise.heading_deg:g}°). Columns: "
+        "largest difference of a turning index [points] and of an overshoot "
         "[deg]; error of the current estimate [m/s, deg]; fit time [s].",
         "",
         "| condition | draw | calm fit s | default: turn Δ | OS Δ | current err m/s | dir err ° "
@@ -150,12 +172,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     calm: dict[int, tuple[Indices, float]] = {}
     for draw in range(args.draws):
         start = time.perf_counter()
-        calm_fit = identify(training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw), FitSettings())
+        calm_fit = identify(
+            training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw, noise), FitSettings()
+        )
         calm[draw] = (indices(ModelPlant(calm_fit.params), ship, args.dt_s),
                       time.perf_counter() - start)  # fmt: skip
     for condition in conditions:
         for draw in range(args.draws):
-            logs = training_logs(condition, draw)
+            logs = training_logs(condition, draw, noise)
             start = time.perf_counter()
             sea = identify(logs, FitSettings(windage=windage))
             seconds = time.perf_counter() - start
