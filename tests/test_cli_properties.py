@@ -10,7 +10,7 @@ and its numeric options; the columns of a lat/lon CSV and the numeric options of
 input, the command either exits 0 (3: a failed gate) and writes its output, or exits
 1 (data error) or 2 (usage error) with one error line on stderr (after argparse's
 usage for a usage error) and writes nothing; it never raises, and it answers within
-:data:`ANSWER_S` seconds and :data:`MEMORY_BYTES` more memory (an input that asks for
+:data:`ANSWER_S` seconds of CPU time and :data:`MEMORY_BYTES` more memory (an input that asks for
 more, e.g. a resampling grid of 1e12 points, fails the test rather than the machine).
 
 The commands run in this process (``main([...])``), with the stderr of the file
@@ -24,6 +24,7 @@ import math
 import resource
 import signal
 import tempfile
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -46,8 +47,9 @@ from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from trials.logs import format_log
 
-# Longest a command may take on one example [s]: more is a hang, reported as a failure
-# rather than stalling the suite.
+# Most CPU time a command may take on one example [s]: more is a hang (a loop), reported
+# as a failure rather than stalling the suite. CPU, not wall-clock, time: a machine busy
+# with other jobs slows a command down without making it hang.
 ANSWER_S = 20.0
 # Most address space a command may add on one example [bytes]: more raises MemoryError
 # (a failure) instead of having the machine's OOM killer end the test process.
@@ -121,29 +123,39 @@ def numbers(low: float, high: float) -> st.SearchStrategy[str]:
 
 
 class Hang(Exception):
-    """A command did not answer within ANSWER_S."""
+    """A command did not answer within ANSWER_S seconds of CPU time."""
 
 
 @contextmanager
 def _bounded(seconds: float, memory_bytes: int) -> Iterator[None]:
-    """Raise Hang after ``seconds``, MemoryError beyond ``memory_bytes`` more (RLIMIT_AS)."""
+    """Raise Hang after ``seconds`` of CPU time (ITIMER_PROF: the process's user and
+    system time), MemoryError beyond ``memory_bytes`` more (RLIMIT_AS)."""
 
     def expire(signum: int, frame: FrameType | None) -> None:
-        raise Hang(f"no answer within {seconds:g} s")
+        raise Hang(f"no answer within {seconds:g} s of CPU time")
 
     soft, hard = resource.getrlimit(resource.RLIMIT_AS)
     limit = psutil.Process().memory_info().vms + memory_bytes
     if hard != resource.RLIM_INFINITY:
         limit = min(limit, hard)
-    previous = signal.signal(signal.SIGALRM, expire)
+    previous = signal.signal(signal.SIGPROF, expire)
     resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    signal.setitimer(signal.ITIMER_PROF, seconds)
     try:
         yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.setitimer(signal.ITIMER_PROF, 0.0)
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
-        signal.signal(signal.SIGALRM, previous)
+        signal.signal(signal.SIGPROF, previous)
+
+
+def test_the_watchdog_counts_cpu_time_not_waiting() -> None:
+    """A busy machine makes a command wait, not hang: only CPU time counts."""
+    with _bounded(0.2, MEMORY_BYTES):
+        time.sleep(0.5)  # waiting costs no CPU time
+    with pytest.raises(Hang), _bounded(0.2, MEMORY_BYTES):
+        while True:  # a loop does
+            pass
 
 
 def _run(
