@@ -319,16 +319,20 @@ def test_training_approach_takes_the_fastest_rudder_or_the_imo_minimum(
 
 
 def _fit(
-    cost: float, diameters: tuple[float | None, float | None], diverged: tuple[str, ...] = ()
+    cost: float,
+    diameters: tuple[float | None, float | None],
+    diverged: tuple[str, ...] = (),
+    short_rad: float = 2.0,
 ) -> FitSummary:
-    """A fit whose virtual turns reach 360 deg exactly when they have a diameter [m]."""
+    """A fit whose virtual turns reach 360 deg exactly when they have a diameter [m]
+    (else ``short_rad`` of heading)."""
     turns = tuple(
         VirtualTurn(
             rudder_rad=sign * math.radians(35.0),
             advance_m=None,
             transfer_m=None,
             tactical_diameter_m=d,
-            heading_change_rad=7.0 if d is not None else 2.0,
+            heading_change_rad=7.0 if d is not None else short_rad,
             bounded=True,
             passed_360=d is not None,
         )
@@ -357,6 +361,21 @@ def _fit(
         (_fit(2.0, (300.0, 300.0)), _fit(3.0, (300.0, 300.0)), False, "initial", "not lower"),
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, None)), False, "initial", "360 deg"),
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, 300.0), ("a",)), False, "initial", "a div"),
+        # The start's turn fails the sanity guard too: the refined one may not turn less far.
+        (
+            _fit(2.0, (300.0, None)),
+            _fit(1.0, (300.0, None), short_rad=3.0),
+            False,
+            "refined",
+            "accepted",
+        ),
+        (
+            _fit(2.0, (300.0, None)),
+            _fit(1.0, (300.0, None), short_rad=1.0),
+            False,
+            "initial",
+            "360 deg",
+        ),
     ],
 )
 def test_decide_keeps_the_start_when_a_guard_fires(
