@@ -74,6 +74,15 @@ ALTERNATION_MAX_SAMPLES = 50_000
 they only settle the start; the last pass, the estimate, sees every sample. A day-long
 log at 10 Hz has 864,000; the manoeuvres of a trial at 1 Hz, a few thousand."""
 
+MIN_APPROACH_SPREAD_RAD = math.radians(5.0)
+"""Spread of the approaches' headings (RMS about their mean) below which they do not show
+the current's along component without a speed log (:func:`initial_current`). The
+least-squares solution resolves a component when its singular value exceeds this
+fraction (sin) of the largest, and for approaches on one heading that fraction is the
+RMS heading spread: a compass's noise (0.5° is ordinary for a GNSS compass) would
+otherwise "resolve" the along component as v_g divided by noise (7 m/s on the KVLCC2
+logs at 0.5°, benchmarks/sensitivity.md)."""
+
 ALTERNATION_WINDOWS = 4
 """Windows of the alternation's samples on long logs (:data:`ALTERNATION_MAX_SAMPLES`):
 few and long (12,500 samples: 21 min at 10 Hz, a KVLCC2 zig-zag or turn), as short
@@ -168,8 +177,9 @@ def initial_current(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]
     is the current's cross component there: −c_N sin ψ + c_E cos ψ = v_g. A speed log
     adds the along component: c_N cos ψ + c_E sin ψ = u_g − stw. Least squares over the
     approach samples of every log (before execute); with all approaches on one heading
-    and no speed log the along component is not seen, and the minimum-norm solution
-    leaves it 0 for the EKF to find. Without an approach: (0, 0).
+    (within :data:`MIN_APPROACH_SPREAD_RAD`) and no speed log the along component is not
+    seen, and the minimum-norm solution leaves it 0 for the EKF to find. Without an
+    approach: (0, 0).
     """
     rows, rhs = [], []
     for log, track in zip(logs, tracks, strict=True):
@@ -184,7 +194,7 @@ def initial_current(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]
     a, b = np.concatenate(rows), np.concatenate(rhs)
     if b.size < 2:
         return np.zeros(2)
-    return np.linalg.lstsq(a, b, rcond=1e-3)[0]
+    return np.linalg.lstsq(a, b, rcond=math.sin(MIN_APPROACH_SPREAD_RAD))[0]
 
 
 def water_segments(

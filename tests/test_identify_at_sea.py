@@ -34,6 +34,7 @@ from identifier.wind import known_acceleration, read_windage
 from scenarios.synthesize import MANEUVERS, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_identify import SEED, TRAINING, _ship, _truth
+from trials.conditions import execute_index
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, write_log
 
@@ -226,6 +227,23 @@ def test_the_approach_shows_the_cross_current(calm_logs: list[ManeuverLog]) -> N
     stw = np.hypot(track.u_mps, track.v_mps) - CURRENT_NE[0]
     logged = replace(log, stw_mps=np.maximum(stw, 0.0))
     assert initial_current([logged], [track]) == pytest.approx(CURRENT_NE, abs=0.02)
+
+
+def test_a_noisy_compass_does_not_show_an_along_current(calm_logs: list[ManeuverLog]) -> None:
+    """0.5° of heading noise is no heading spread: the along component stays unseen."""
+    log = _with_current(calm_logs[1], CURRENT_NE)
+    noise = np.random.default_rng(5).normal(0.0, math.radians(0.5), log.n_samples)
+    noisy = replace(log, heading_rad=log.heading_rad + noise)
+    track = smooth_track(noisy.time_s, noisy.x_m, noisy.y_m, noisy.heading_rad)
+    start = initial_current([noisy], [track])
+    assert start[1] == pytest.approx(CURRENT_NE[1], abs=0.02)
+    assert start[0] == pytest.approx(0.0, abs=1e-3)
+    # The threshold is the heading spread: it is not just any rcond (the same approach
+    # with a cut below that noise's spread resolves an along current that is not there).
+    rows = np.column_stack([-np.sin(track.heading_rad), np.cos(track.heading_rad)])
+    end = execute_index(noisy)
+    loose = np.linalg.lstsq(rows[:end], track.v_mps[:end], rcond=1e-3)[0]
+    assert abs(loose[0] - CURRENT_NE[0]) > 0.5
 
 
 # --------------------------------------------------------------------------- wind
