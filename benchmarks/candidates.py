@@ -2,7 +2,7 @@
 
 Registered here, not in ``fmu_model``: none predicted the held-out measured runs better
 than ``prime-rudder`` (``benchmarks/hsva.md``, the sections after the first table;
-``benchmarks/fidelity.md``, the last section, for the reference); the one that did,
+``benchmarks/fidelity.md``, "Issue 13's candidates on the reference" and after); the one that did,
 a rudder normal force not linear in sin α_R, is ``fmu_model``'s ``prime-rudder-lift``. Each is
 ``prime-rudder`` plus terms with one gain each, or with another rudder force and its
 shape constants:
