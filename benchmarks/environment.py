@@ -32,11 +32,12 @@ import argparse
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from fidelity import SEEDS, Indices, index_errors, indices
 from report import write_block
+from sensitivity import BASELINE, LogQuality
 
 from identifier.identify import FitSettings, IdentificationResult, identify
 from scenarios.kvlcc2 import kvlcc2_windage
@@ -79,24 +80,17 @@ class Condition:
         return f"current {current}, wind {wind}"
 
 
-@dataclass(frozen=True)
-class Noise:
-    """Logger noise of the training logs: position [m] (North and East), heading [deg]."""
-
-    position_m: float = 1.0
-    heading_deg: float = 0.1
-
-
-def training_logs(condition: Condition, draw: int, noise: Noise) -> list[ManeuverLog]:
-    """Sail the zig-zags of draw ``draw`` in ``condition``; return their logs."""
+def training_logs(condition: Condition, draw: int, quality: LogQuality) -> list[ManeuverLog]:
+    """Sail the zig-zags of draw ``draw`` in ``condition``, logged at ``quality``."""
     ship = reference_ship("kvlcc2", "full", condition.environment())
     return [
         synthesize_log(
             ship,
             MANEUVERS[name](),
             seed=10 * draw + SEEDS[name],
-            position_noise_m=noise.position_m,
-            heading_noise_deg=noise.heading_deg,
+            rate_hz=quality.rate_hz,
+            position_noise_m=quality.position_noise_m,
+            heading_noise_deg=quality.heading_noise_deg,
         )
         for name in TRAINING
     ]
@@ -135,12 +129,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--wind-mps", type=float, action="append", dest="winds")
     parser.add_argument("--wind-from-deg", type=float, default=90.0)
     parser.add_argument("--draws", type=int, default=5)
-    parser.add_argument("--position-noise-m", type=float, default=Noise.position_m)
-    parser.add_argument("--heading-noise-deg", type=float, default=Noise.heading_deg)
+    parser.add_argument("--position-noise-m", type=float, default=BASELINE.position_noise_m)
+    parser.add_argument("--heading-noise-deg", type=float, default=BASELINE.heading_noise_deg)
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
-    noise = Noise(args.position_noise_m, args.heading_noise_deg)
+    quality = replace(
+        BASELINE, position_noise_m=args.position_noise_m, heading_noise_deg=args.heading_noise_deg
+    )
     currents = args.currents or [0.0, 0.25, 0.5, 1.0]
     directions = args.directions or [0.0, 90.0, 180.0, 270.0]
     winds = args.winds or [0.0, 10.0, 15.0]
@@ -160,8 +156,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "Zig-zag 10/10 + 20/20 of the KVLCC2 reference sailed in a uniform current and a "
         "true wind; calm-water predictions (35° turn both sides, both zig-zags) compared "
         "with what the default procedure gives from the calm-water logs of the same noise "
-        f"draw (logger noise {noise.position_m:g} m, {noise.heading_deg:g}°). Columns: "
-        "largest difference of a turning index [points] and of an overshoot "
+        f"draw (logger noise {quality.position_noise_m:g} m, {quality.heading_noise_deg:g}°). "
+        "Columns: largest difference of a turning index [points] and of an overshoot "
         "[deg]; error of the current estimate [m/s, deg]; fit time [s].",
         "",
         "| condition | draw | calm fit s | default: turn Δ | OS Δ | current err m/s | dir err ° "
@@ -173,13 +169,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     for draw in range(args.draws):
         start = time.perf_counter()
         calm_fit = identify(
-            training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw, noise), FitSettings()
+            training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw, quality), FitSettings()
         )
         calm[draw] = (indices(ModelPlant(calm_fit.params), ship, args.dt_s),
                       time.perf_counter() - start)  # fmt: skip
     for condition in conditions:
         for draw in range(args.draws):
-            logs = training_logs(condition, draw, noise)
+            logs = training_logs(condition, draw, quality)
             start = time.perf_counter()
             sea = identify(logs, FitSettings(windage=windage))
             seconds = time.perf_counter() - start
