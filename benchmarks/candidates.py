@@ -41,9 +41,10 @@ from dataclasses import replace
 
 import sympy as sp
 
-from fmu_model.structure import L, Term, n, r, u
+from fmu_model.structure import L, ModelStructure, Term, n, r, u
 from fmu_model.variants import (
     PRIME_CUBIC,
+    PRIME_MODULUS,
     PRIME_RUDDER,
     PROPELLER_INFLOW,
     SLIPSTREAM_K,
@@ -62,6 +63,7 @@ SWIRL_RAD = sp.Symbol("swirl", real=True)
 SLIPSTREAM_C = sp.Symbol("c", nonnegative=True)
 SLIPSTREAM_C_GRID = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # c·(n₀L)² / U₀²
 CUBIC_HULL = ("v", "r", "vvv", "vvr", "vrr", "rrr")  # the MMG hull basis, prime-cubic's
+MODULUS_HULL = ("v", "r", "vav", "rar", "var", "avr")  # prime-rudder's (prime-modulus's)
 MMG_ETA = sp.Rational(7, 10)  # η = D_P/H_R (KVLCC2 0.626)
 MMG_KAPPA = sp.Rational(1, 2)  # κ of the slipstream (KVLCC2 0.50)
 
@@ -97,13 +99,16 @@ def _with_rudder_force(
 def _with_hull(name: str, sway: tuple[Term, ...], yaw: tuple[Term, ...]) -> ModelFamily:
     """``prime-rudder`` with the hull terms ``sway`` and ``yaw`` before its rudder's."""
     base = PRIME_RUDDER
-    return replace(base, name=name, sway=(*sway, base.sway[-1]), yaw=(*yaw, base.yaw[-1]))
+    (rudder_sway,), (rudder_yaw,) = hull_terms(base, "R")
+    return replace(base, name=name, sway=(*sway, rudder_sway), yaw=(*yaw, rudder_yaw))
 
 
-def cubic_hull_terms(*bases: str) -> tuple[tuple[Term, ...], tuple[Term, ...]]:
-    """Sway and yaw hull terms of ``prime-cubic`` for the basis functions named (``vvr``)."""
-    sway = {t.coefficient: t for t in PRIME_CUBIC.sway}
-    yaw = {t.coefficient: t for t in PRIME_CUBIC.yaw}
+def hull_terms(
+    source: ModelStructure | ModelFamily, *bases: str
+) -> tuple[tuple[Term, ...], tuple[Term, ...]]:
+    """Sway and yaw terms Y_b, N_b of ``source`` for the basis functions named (``vvr``)."""
+    sway = {t.coefficient: t for t in source.sway}
+    yaw = {t.coefficient: t for t in source.yaw}
     return tuple(sway[f"Y_{b}"] for b in bases), tuple(yaw[f"N_{b}"] for b in bases)
 
 
@@ -121,9 +126,9 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         Term("X_T", n**2 * L - THRUST_KAPPA * u * n),
         *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
     )
-    modulus = base.sway[:-1], base.yaw[:-1]  # the hull terms before the rudder's
-    cubic = cubic_hull_terms(*CUBIC_HULL)
-    extra = cubic_hull_terms(*CUBIC_HULL[2:])
+    modulus = hull_terms(PRIME_MODULUS, *MODULUS_HULL)
+    cubic = hull_terms(PRIME_CUBIC, *CUBIC_HULL)
+    extra = hull_terms(PRIME_CUBIC, *CUBIC_HULL[2:])
     return (
         _with_hull("rudder-cubic", *cubic),
         _with_hull("rudder-both", modulus[0] + extra[0], modulus[1] + extra[1]),
