@@ -99,11 +99,11 @@ def _with_rudder_force(
 def _with_hull(name: str, sway: tuple[Term, ...], yaw: tuple[Term, ...]) -> ModelFamily:
     """``prime-rudder`` with the hull terms ``sway`` and ``yaw`` before its rudder's."""
     base = PRIME_RUDDER
-    (rudder_sway,), (rudder_yaw,) = hull_terms(base, "R")
+    (rudder_sway,), (rudder_yaw,) = sway_and_yaw_terms(base, "R")
     return replace(base, name=name, sway=(*sway, rudder_sway), yaw=(*yaw, rudder_yaw))
 
 
-def hull_terms(
+def sway_and_yaw_terms(
     source: ModelStructure | ModelFamily, *bases: str
 ) -> tuple[tuple[Term, ...], tuple[Term, ...]]:
     """Sway and yaw terms Y_b, N_b of ``source`` for the basis functions named (``vvr``)."""
@@ -126,9 +126,9 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         Term("X_T", n**2 * L - THRUST_KAPPA * u * n),
         *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
     )
-    modulus = hull_terms(PRIME_MODULUS, *MODULUS_HULL)
-    cubic = hull_terms(PRIME_CUBIC, *CUBIC_HULL)
-    extra = hull_terms(PRIME_CUBIC, *CUBIC_HULL[2:])
+    modulus = sway_and_yaw_terms(PRIME_MODULUS, *MODULUS_HULL)
+    cubic = sway_and_yaw_terms(PRIME_CUBIC, *CUBIC_HULL)
+    extra = sway_and_yaw_terms(PRIME_CUBIC, *CUBIC_HULL[2:])
     return (
         _with_hull("rudder-cubic", *cubic),
         _with_hull("rudder-both", modulus[0] + extra[0], modulus[1] + extra[1]),
