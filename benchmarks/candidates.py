@@ -15,6 +15,7 @@ shape constants:
   open-water slope, K_T falling by about a third from bollard to service), instead of
   free n²L and u·n terms, which constant-rpm zig-zags cannot separate and which
   extrapolate to a negative bollard thrust;
+* ``lift-thrust``: the same thrust term in ``prime-rudder-lift``;
 * ``offset``: a neutral-rudder offset, α_R = δ + δ₀ + …, with δ₀ a shape constant
   (±0.1 rad, grid −0.04, 0, 0.04): a rudder or propeller misaligned, a zero error of the
   rudder indicator;
@@ -46,6 +47,7 @@ from fmu_model.variants import (
     PRIME_CUBIC,
     PRIME_MODULUS,
     PRIME_RUDDER,
+    PRIME_RUDDER_LIFT,
     PROPELLER_INFLOW,
     SLIPSTREAM_K,
     SLIPSTREAM_SHARE,
@@ -69,10 +71,13 @@ MMG_KAPPA = sp.Rational(1, 2)  # κ of the slipstream (KVLCC2 0.50)
 
 
 def _with_terms(
-    name: str, surge: tuple[Term, ...], sway: tuple[Term, ...], yaw: tuple[Term, ...]
+    name: str,
+    surge: tuple[Term, ...],
+    sway: tuple[Term, ...],
+    yaw: tuple[Term, ...],
+    base: ModelFamily = PRIME_RUDDER,
 ) -> ModelFamily:
-    """``prime-rudder`` with the surge terms ``surge`` and extra sway and yaw terms."""
-    base = PRIME_RUDDER
+    """Return ``base`` with the surge terms ``surge`` and extra sway and yaw terms."""
     return replace(base, name=name, surge=surge, sway=base.sway + sway, yaw=base.yaw + yaw)
 
 
@@ -135,6 +140,7 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
         _with_terms("thrust", thrust, (), ()),
+        _with_terms("lift-thrust", thrust, (), (), base=PRIME_RUDDER_LIFT),
         _with_rudder_force(
             "offset",
             rudder_normal_force(RUDDER_OFFSET_RAD),

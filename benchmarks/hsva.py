@@ -19,6 +19,14 @@ Two estimates of each fit: ``ekf`` (the seed paper's algorithm, ``--method ekf``
 The asymmetry row: the predicted second-overshoot difference port-first − starboard-first
 run of each pair, against the measured one (10/10: 17.83 − 20.54 = −2.71°).
 
+The hard-turn column: none of the runs is a turn, but an FMU built from them will be
+sailed through one. Each estimate sails virtual 35° turns to both sides from the approach
+its fit found, at the runs' rudder rate (``identifier.output_error.guards.virtual_turns``);
+tactical diameter and advance in ship lengths, n/a when the turn diverges or does not pass
+360°. A yardstick, not a measurement of these runs: the KVLCC2 MMG reference at the same
+Froude number turns with a tactical diameter of 3.11 L and an advance of 3.08 L, and the
+hull in free-running tests turns about 8 % tighter to port (``README.md`` of the data).
+
 Candidates studied for issue 13: ``benchmarks/candidates.py`` (``--model NAME``). The table
 goes into its block of ``--out`` (``report.py``: the notes around it stay).
 """
@@ -37,6 +45,7 @@ from report import write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
+from identifier.output_error.guards import virtual_turns
 from trials.conditions import sail_again
 from trials.logs import ManeuverLog, read_log
 from trials.run import ModelPlant
@@ -50,6 +59,7 @@ FOLDS: dict[str, tuple[str, ...]] = {
     **{f"leave out {held}": tuple(r for r in RUNS if r != held) for held in RUNS},
 }
 LENGTH_M = 7.0
+RUDDER_RATE_RADPS = math.radians(15.0)  # the runs' steering gear, 14–16 °/s (README.md there)
 MODELS = ("prime-rudder",)
 INDICES = ("first_overshoot_deg", "second_overshoot_deg")
 
@@ -131,6 +141,27 @@ def asymmetry(
     return diff(port.predicted[1], stbd.predicted[1]), diff(port.logged[1], stbd.logged[1])
 
 
+def hard_turns(params: ModelParameters) -> str:
+    """Tactical diameter / advance [L] of virtual 35° turns to starboard and port; n/a: diverged.
+
+    From the approach the fit found, at the runs' rudder rate: none of the runs is a turn,
+    so this is how far the model can be trusted beyond zig-zags (module docstring).
+    """
+    cells = []
+    for turn in virtual_turns(
+        params,
+        speed_mps=params.nominal_speed_mps,
+        n_rps=params.nominal_n_rps,
+        rudder_rate_radps=RUDDER_RATE_RADPS,
+    ):
+        diameter, advance = turn.tactical_diameter_m, turn.advance_m
+        if not turn.bounded or diameter is None or advance is None:
+            cells.append("n/a")
+        else:
+            cells.append(f"{diameter / LENGTH_M:.2f} / {advance / LENGTH_M:.2f}")
+    return ", ".join(cells)
+
+
 def _deg(value: float | None) -> str:
     return "n/a" if value is None or not math.isfinite(value) else f"{value:+.2f}"
 
@@ -159,8 +190,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
         "| model | fold | estimate | "
         + " | ".join(f"{r.removeprefix('hsva_')} OS1 | OS2" for r in RUNS)
-        + " | worst T | worst H | asym 10/10 | asym 20/10 | s |",
-        "|" + "---|" * (3 + 2 * len(RUNS) + 5),
+        + " | worst T | worst H | asym 10/10 | asym 20/10 | 35° TD / adv stbd, port [L] | s |",
+        "|" + "---|" * (3 + 2 * len(RUNS) + 6),
     ]
     for model in args.models or MODELS:
         for fold in args.folds or FOLDS:
@@ -183,6 +214,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     _deg(worst(errors, True)),
                     _deg(worst(errors, False)),
                     *(f"{_deg(p)} ({_deg(m)})" for p, m in asym),
+                    hard_turns(params),
                     f"{seconds:.0f}" if name == "ekf" else "",
                 ]
                 lines.append("| " + " | ".join(row) + " |")
