@@ -3,7 +3,9 @@
 Registered here, not in ``fmu_model``: none predicted the held-out measured runs better
 than ``prime-rudder`` (``benchmarks/hsva.md``, the sections after the first table;
 ``benchmarks/fidelity.md``, "Issue 13's candidates on the reference" and after); the one that did,
-a rudder normal force not linear in sin α_R, is ``fmu_model``'s ``prime-rudder-lift``. Each is
+a rudder normal force not linear in sin α_R, is ``fmu_model``'s ``prime-rudder-lift``, and
+the one whose every fit of the measured runs turns, a thrust of fixed open-water slope, is
+``prime-rudder-thrust``. Each is
 ``prime-rudder`` plus terms with one gain each, or with another rudder force and its
 shape constants:
 
@@ -11,11 +13,9 @@ shape constants:
   side-dependent yaw damping: the propeller's swirl makes the stern flow asymmetric;
 * ``asym-prop``: a constant propeller side force and yaw moment, n²L and n² (§5 of
   reference/model_structures.md: too small on its own);
-* ``thrust``: the propeller thrust as one term n²L − κ·u·n with κ = 20 (a typical
-  open-water slope, K_T falling by about a third from bollard to service), instead of
-  free n²L and u·n terms, which constant-rpm zig-zags cannot separate and which
-  extrapolate to a negative bollard thrust;
-* ``lift-thrust``: the same thrust term in ``prime-rudder-lift``;
+* ``lift-thrust``: the thrust of fixed open-water slope of ``prime-rudder-thrust`` (the
+  candidate ``thrust`` of earlier rounds, registered in ``fmu_model``: every fit of the
+  measured HSVA runs turns) in ``prime-rudder-lift``;
 * ``offset``: a neutral-rudder offset, α_R = δ + δ₀ + …, with δ₀ a shape constant
   (±0.1 rad, grid −0.04, 0, 0.04): a rudder or propeller misaligned, a zero error of the
   rudder indicator;
@@ -42,12 +42,13 @@ from dataclasses import replace
 
 import sympy as sp
 
-from fmu_model.structure import L, ModelStructure, Term, n, r, u
+from fmu_model.structure import L, ModelStructure, Term, n, r
 from fmu_model.variants import (
     PRIME_CUBIC,
     PRIME_MODULUS,
     PRIME_RUDDER,
     PRIME_RUDDER_LIFT,
+    PRIME_RUDDER_THRUST,
     PROPELLER_INFLOW,
     SLIPSTREAM_K,
     SLIPSTREAM_SHARE,
@@ -59,7 +60,6 @@ from fmu_model.variants import (
     rudder_normal_force,
 )
 
-THRUST_KAPPA = 20.0  # open-water slope of the ``thrust`` candidate [-]
 RUDDER_OFFSET_RAD = sp.Symbol("d0", real=True)
 SWIRL_RAD = sp.Symbol("swirl", real=True)
 SLIPSTREAM_C = sp.Symbol("c", nonnegative=True)
@@ -127,10 +127,6 @@ def mmg_inflow_squared() -> sp.Expr:
 def candidate_families() -> tuple[ModelFamily, ...]:
     """Return the candidate families of the module docstring."""
     base = PRIME_RUDDER
-    thrust = (
-        Term("X_T", n**2 * L - THRUST_KAPPA * u * n),
-        *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
-    )
     modulus = sway_and_yaw_terms(PRIME_MODULUS, *MODULUS_HULL)
     cubic = sway_and_yaw_terms(PRIME_CUBIC, *CUBIC_HULL)
     extra = sway_and_yaw_terms(PRIME_CUBIC, *CUBIC_HULL[2:])
@@ -139,8 +135,7 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         _with_hull("rudder-both", modulus[0] + extra[0], modulus[1] + extra[1]),
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
-        _with_terms("thrust", thrust, (), ()),
-        _with_terms("lift-thrust", thrust, (), (), base=PRIME_RUDDER_LIFT),
+        _with_terms("lift-thrust", PRIME_RUDDER_THRUST.surge, (), (), base=PRIME_RUDDER_LIFT),
         _with_rudder_force(
             "offset",
             rudder_normal_force(RUDDER_OFFSET_RAD),

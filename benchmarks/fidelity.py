@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 from candidates import register_candidates
-from report import write_block
+from report import fitted_label, write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
@@ -245,7 +245,8 @@ def draws_table(models: Sequence[str], n_draws: int, dt_s: float) -> list[str]:
             for estimate, params in fits.items():
                 predicted = indices(ModelPlant(params), ship, dt_s)
                 worst = worst_turning_error(predicted, truth)
-                row = [model, str(draw), estimate, *errors(predicted, truth)]
+                label = fitted_label(model, result.params.model)
+                row = [label, str(draw), estimate, *errors(predicted, truth)]
                 row += [f"{worst:.1%}" if math.isfinite(worst) else "n/a"]
                 row += [f"{seconds:.0f}" if estimate == "EKF" else ""]
                 if estimate == "default":
@@ -337,7 +338,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 predicted = indices(ModelPlant(params), ship, args.dt_s)
                 if kept and label == "zig-zags":
                     held_out[model] = worst_turning_error(predicted, truth)
-                row = [model, tag, estimate, "yes" if kept else "", *errors(predicted, truth)]
+                shown = fitted_label(model, params.model)
+                row = [shown, tag, estimate, "yes" if kept else "", *errors(predicted, truth)]
                 row += [
                     "" if rms is None else f"{rms:.3f}",
                     f"{seconds:.0f}" if estimate.startswith("EKF") else "",

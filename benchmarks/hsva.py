@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from candidates import register_candidates
-from report import write_block
+from report import fitted_label, write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
@@ -207,7 +207,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     cells += [f"{_deg(e)} {tag}" for e in run_error.errors]
                 asym = [asymmetry(errors, PAIRS[p]) for p in PAIRS]
                 row = [
-                    model,
+                    fitted_label(model, params.model),
                     fold,
                     name,
                     *cells,

@@ -40,3 +40,15 @@ def write_block(path: str | Path, name: str, lines: Sequence[str]) -> None:
     else:
         new = [*old, *([""] if old and old[-1] else []), *block]
     write_atomic(target, "\n".join(new) + "\n")
+
+
+def fitted_label(model: str, fitted: str) -> str:
+    """Return ``model`` for a table's model column, with the family a fit refitted it as.
+
+    ``identify`` refits a ``prime-rudder`` fit whose thrust is not a propeller's as
+    ``prime-rudder-thrust`` (``fitted``, the params' structure name): "prime-rudder →
+    prime-rudder-thrust". Otherwise ``model`` alone.
+    """
+    family = fitted.split("[", 1)[0]
+    requested = model.split("[", 1)[0]
+    return model if family == requested else f"{model} → {family}"

@@ -478,3 +478,30 @@ PRIME_RUDDER_LIFT = register_family(
         yaw=(*PRIME_RUDDER.yaw, _N_R3),
     )
 )
+
+# --- Propeller thrust of fixed open-water slope (issue 13, benchmarks/hsva.md) ----------
+# X_nn·n²L + X_un·u·n is a fixed-pitch propeller's thrust only with X_nn > 0 (a thrust at
+# bollard) and X_un < 0 (K_T falls with the advance ratio J). Logs at one rpm fix the sum
+# at the approach, not the split, and fits of measured constant-rpm zig-zags split it
+# the wrong way round: the thrust then falls as the ship slows, and the model stops in a
+# hard turn (five of six HSVA folds). With the open-water curve K_T = k0 + k1·J + k2·J²
+# and J = u(1 − w_P)/(nD_P), the thrust is ∝ n²L − κ·u·n (the J² part goes to X_uu) with
+# κ = −(k1/k0)(1 − w_P)·L/D_P, fixed here at THRUST_SLOPE (KVLCC2, w_P0 = 0.40: 18.3;
+# the HSVA model, L/D_P = 34.3: about 19; single-screw ships 12–40), one gain X_T.
+THRUST_SLOPE = 20.0
+
+PRIME_RUDDER_THRUST = register_family(
+    replace(
+        PRIME_RUDDER,
+        name="prime-rudder-thrust",
+        description="prime-rudder with one propeller thrust term of fixed open-water slope, "
+        f"X_T*(n^2 L - {THRUST_SLOPE:g} u n), in place of free n^2 L and u n terms, "
+        "20 coefficients",
+        reference="propeller open-water curve K_T(J) (e.g. reference/kvlcc2_mmg.md section 4); "
+        "benchmarks/hsva.md (issue 13)",
+        surge=(
+            Term("X_T", n**2 * L - THRUST_SLOPE * u * n),
+            *(t for t in PRIME_RUDDER.surge if t.coefficient not in ("X_nn", "X_un")),
+        ),
+    )
+)

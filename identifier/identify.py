@@ -32,7 +32,7 @@ from fmu_model import DEFAULT_MODEL, ModelParameters, ModelStructure, get_model
 from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
-from fmu_model.variants import parse_family
+from fmu_model.variants import PRIME_RUDDER, PRIME_RUDDER_THRUST, parse_family
 from identifier.current import (
     ALTERNATION_MAX_SAMPLES,
     ALTERNATION_WINDOWS,
@@ -530,6 +530,31 @@ def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
     )
 
 
+def thrust_warning(params: ModelParameters) -> str | None:
+    """Return a warning when the estimate's propeller thrust is not a propeller's, else None.
+
+    The thrust of the prime families, X_nn·n²L + X_un·u·n, is a fixed-pitch propeller's
+    only with a thrust at bollard (X_nn > 0) that falls as the ship gains speed (X_un < 0:
+    K_T falls with the advance ratio J). Logs at one rpm fix the sum at the approach, not
+    the split; split the other way the model loses its thrust as it slows in a hard turn
+    and may stop there (benchmarks/hsva.md, "The propeller thrust is why";
+    ``prime-rudder-thrust`` fixes the split). Families without both terms: None.
+    """
+    coefficients = params.as_dict()
+    if "X_nn" not in coefficients or "X_un" not in coefficients:
+        return None
+    if coefficients["X_nn"] > 0.0 and coefficients["X_un"] < 0.0:
+        return None
+    return (
+        f"the identified propeller thrust is not a propeller's (X_nn = {coefficients['X_nn']:.3g}, "
+        f"X_un = {coefficients['X_un']:.3g}; a thrust at bollard needs X_nn > 0, one that "
+        "falls with speed X_un < 0): logs at one rpm fix the thrust at the approach only, "
+        "and turns, where the ship slows, extrapolate badly; add a run at another rpm "
+        "(an acceleration or a stopping run) or a turning circle, or fit with --model "
+        "prime-rudder-thrust (a thrust of fixed open-water slope)"
+    )
+
+
 def identify(
     logs: Sequence[ManeuverLog],
     settings: FitSettings | None = None,
@@ -581,8 +606,43 @@ def identify(
     # Every result below is checked (the smoothed track, the equation-error fit, the
     # EKF's states and covariance), so numpy's overflow and division warnings would only
     # repeat on stderr what the error says.
+    stage = stage or _no_stage
     with np.errstate(all="ignore"):
-        return _identify(logs, settings, length, vessel, progress, stage or _no_stage)
+        result = _identify(logs, settings, length, vessel, progress, stage)
+        free_split = thrust_warning(result.params)
+        fixed_slope = fixed_thrust_model(settings.model)
+        if free_split is None or fixed_slope is None:
+            return result
+        stage("refit with a thrust of fixed open-water slope")
+        refit = _identify(logs, replace(settings, model=fixed_slope), length, vessel, None, stage)
+    coefficients = result.params.as_dict()
+    choice = (
+        f"{settings.model}'s thrust came out not a propeller's (X_nn = {coefficients['X_nn']:.3g}, "
+        f"X_un = {coefficients['X_un']:.3g}: the logs do not split it); refitted as "
+        f"{PRIME_RUDDER_THRUST.name}, a thrust of fixed open-water slope"
+    )
+    identification = {**refit.params.identification, "thrust": choice}
+    return replace(
+        refit,
+        params=replace(refit.params, identification=identification),
+        notes=(*refit.notes, choice),
+    )
+
+
+def fixed_thrust_model(model: str) -> str | None:
+    """Return the model a ``prime-rudder`` fit is refitted as when its thrust is not a propeller's.
+
+    ``prime-rudder-thrust`` with the shape constants ``model`` fixes, if ``model`` is
+    ``prime-rudder`` (bare or with constants); None for every other model, whose thrust
+    :func:`thrust_warning` only warns about.
+    """
+    parsed = parse_family(model)
+    if parsed is None or parsed[0] is not PRIME_RUDDER:
+        return None
+    fixed = parsed[1]
+    if not fixed:
+        return PRIME_RUDDER_THRUST.name
+    return f"{PRIME_RUDDER_THRUST.name}[" + ",".join(f"{k}={v!r}" for k, v in fixed.items()) + "]"
 
 
 def _identify(
@@ -754,6 +814,9 @@ def _identify(
         )
         params = refinement.params
         warnings.extend(refinement.warnings)
+    thrust = thrust_warning(params)
+    if thrust is not None:
+        warnings.append(thrust)
     estimates = {
         "ekf": dict(zip(structure.coefficient_names, map(float, ekf.theta), strict=True)),
         "equation-error": dict(zip(structure.coefficient_names, map(float, ls.theta), strict=True)),

@@ -422,8 +422,9 @@ def test_outputs_equal_python_rk4(unzipped: Path, params: ModelParameters, sched
 
 
 # Gains of the speed-dependent variants: the prime-rudder tanker of test_shape, with
-# rudder terms for the free-rudder variants and a cubic lift of a third of the linear one
-# (prime-rudder-lift); absent names are 0.
+# rudder terms for the free-rudder variants, a cubic lift of a third of the linear one
+# (prime-rudder-lift) and the same approach thrust of fixed slope (prime-rudder-thrust);
+# absent names are 0.
 PRIME_GAINS = {
     **PRIME_RUDDER_COEFFICIENTS,
     "Y_uud": -0.03,
@@ -431,6 +432,7 @@ PRIME_GAINS = {
     "N_nv": -1e-3,
     "Y_R3": -0.018,
     "N_R3": 0.17,
+    "X_T": 9e-6,
 }
 
 

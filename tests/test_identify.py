@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmu_model import ModelParameters, load_params
+from fmu_model import ModelParameters, get_model, load_params
 from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
-from identifier.identify import FitSettings, IdentificationResult, identify
+from identifier.identify import FitSettings, IdentificationResult, identify, thrust_warning
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from trials.errors import IdentificationError
@@ -313,3 +313,32 @@ def test_cli_fit_on_an_nmea_recording_says_to_convert_it(tmp_path: Path, capsys)
         "(an NMEA recording? convert it first: python -m identifier convert FILE -o DIR)\n"
     )
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("x_nn", "x_un", "warned"),
+    [
+        (2.3e-5, -1.2e-3, False),  # a propeller: thrust at bollard, falling with speed
+        (-6.5e-5, 1.1e-2, True),  # the HSVA 10/10 pair's kept estimate (benchmarks/hsva.md)
+        (2.0e-6, 2.4e-3, True),  # thrust rising with speed at one rpm
+        (0.0, -1.2e-3, True),  # no thrust at bollard
+    ],
+)
+def test_a_thrust_that_is_not_a_propellers_is_warned_about(
+    x_nn: float, x_un: float, warned: bool
+) -> None:
+    model = get_model("prime-rudder")
+    theta = np.ones(model.n_coefficients)
+    names = list(model.coefficient_names)
+    theta[names.index("X_nn")], theta[names.index("X_un")] = x_nn, x_un
+    params = ModelParameters.from_vector(model.name, theta, length_m=320.0)
+    warning = thrust_warning(params)
+    assert (warning is not None) == warned
+    if warning is not None:
+        assert f"X_nn = {x_nn:.3g}" in warning and "another rpm" in warning
+
+
+def test_families_without_the_thrust_pair_are_not_judged() -> None:
+    model = get_model("shi2009")
+    params = ModelParameters.from_vector(model.name, np.zeros(model.n_coefficients), length_m=320.0)
+    assert thrust_warning(params) is None
