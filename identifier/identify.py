@@ -15,6 +15,14 @@ guarded: the refined estimate is kept only when the guards of
 reference/model_structures.md §6–§7 pass, else the better-replaying start. That is
 the procedure that predicts held-out manoeuvres best (benchmarks/fidelity.md,
 benchmarks/hsva.md); ``method="ekf"`` keeps the EKF estimate, the paper's algorithm.
+
+A ``prime-rudder`` estimate whose free thrust X_nn·n²L + X_un·u·n is not a propeller's
+(:func:`thrust_warning`: no thrust at bollard, or one that grows with the speed; logs at
+one rpm fix the thrust at the approach only) is refitted as ``prime-rudder-thrust``, a
+thrust of fixed open-water slope, with the same settings: the free split would make the
+ship lose its thrust as it slows in a hard turn (benchmarks/hsva.md, "The propeller
+thrust is why"). The result says so (a note, ``identification.thrust``); fits of other
+families with such a thrust are warned about.
 """
 
 from __future__ import annotations

@@ -12,7 +12,13 @@ import pytest
 from fmu_model import ModelParameters, get_model, load_params
 from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
-from identifier.identify import FitSettings, IdentificationResult, identify, thrust_warning
+from identifier.identify import (
+    FitSettings,
+    IdentificationResult,
+    fixed_thrust_model,
+    identify,
+    thrust_warning,
+)
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from trials.errors import IdentificationError
@@ -342,3 +348,24 @@ def test_families_without_the_thrust_pair_are_not_judged() -> None:
     model = get_model("shi2009")
     params = ModelParameters.from_vector(model.name, np.zeros(model.n_coefficients), length_m=320.0)
     assert thrust_warning(params) is None
+
+
+@pytest.mark.parametrize(
+    ("model", "refit"),
+    [
+        ("prime-rudder", "prime-rudder-thrust"),
+        ("prime-rudder[dgamma=0, l=-0.6]", "prime-rudder-thrust[dgamma=0.0,l=-0.6]"),
+        ("prime-rudder-lift", None),
+        ("prime-rudder-thrust", None),
+        ("shi2009", None),
+    ],
+)
+def test_only_prime_rudder_is_refitted_with_a_fixed_thrust_slope(
+    model: str, refit: str | None
+) -> None:
+    """The constants the user fixed stay fixed in the refit."""
+    assert fixed_thrust_model(model) == refit
+    if refit is not None:
+        assert get_model(refit).name == get_model(model).name.replace(
+            "prime-rudder[", "prime-rudder-thrust["
+        )

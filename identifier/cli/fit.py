@@ -202,10 +202,11 @@ def _fit(args: argparse.Namespace) -> int:
             print(f"note: {note}", file=sys.stderr)
         compiled = numba_compilations()[0] - compiled_before
         if compiled:
+            fitted = result.params.model.split("[", 1)[0]  # prime-rudder-thrust if refitted
             print(
                 f"note: compiled {compiled} numba functions (cached now: the first fit of "
-                f"{args.model} with these settings on this machine); `python -m scenarios "
-                f"warm-up --model {args.model}` does it ahead, in a process of its own",
+                f"{fitted} with these settings on this machine); `python -m scenarios "
+                f"warm-up --model {fitted}` does it ahead, in a process of its own",
                 file=sys.stderr,
             )
     if args.plot:
