@@ -617,23 +617,28 @@ def identify(
     stage = stage or _no_stage
     with np.errstate(all="ignore"):
         result = _identify(logs, settings, length, vessel, progress, stage)
-        free_split = thrust_warning(result.params)
         fixed_slope = fixed_thrust_model(settings.model)
-        if free_split is None or fixed_slope is None:
+        if fixed_slope is None or thrust_warning(result.params) is None:
             return result
         stage("refit with a thrust of fixed open-water slope")
-        refit = _identify(logs, replace(settings, model=fixed_slope), length, vessel, None, stage)
-    coefficients = result.params.as_dict()
-    choice = (
-        f"{settings.model}'s thrust came out not a propeller's (X_nn = {coefficients['X_nn']:.3g}, "
-        f"X_un = {coefficients['X_un']:.3g}: the logs do not split it); refitted as "
+        try:
+            refit = _identify(
+                logs, replace(settings, model=fixed_slope), length, vessel, None, stage
+            )
+        except IdentificationError as exc:  # keep the free split, warned about
+            failed = f"the refit as {fixed_slope} failed ({exc}); kept {settings.model}"
+            return replace(result, notes=(*result.notes, failed))
+    free = result.params.as_dict()
+    why = (
+        f"{settings.model}'s thrust came out not a propeller's (X_nn = {free['X_nn']:.3g}, "
+        f"X_un = {free['X_un']:.3g}: the logs do not split it); refitted as "
         f"{PRIME_RUDDER_THRUST.name}, a thrust of fixed open-water slope"
     )
-    identification = {**refit.params.identification, "thrust": choice}
+    identification = {**refit.params.identification, "thrust": why}
     return replace(
         refit,
         params=replace(refit.params, identification=identification),
-        notes=(*refit.notes, choice),
+        notes=(*refit.notes, why),
     )
 
 

@@ -119,6 +119,7 @@ class DemoResult:
     report_files: tuple[Path, ...]
     validation: Validation
     identification_warnings: tuple[str, ...]
+    identification_notes: tuple[str, ...] = ()
     stage_seconds: dict[str, float] = field(default_factory=dict)
 
 
@@ -200,7 +201,8 @@ def run_demo(
         bar.close()
     params_path = out / "params.json"
     save_params(params_path, result.params)
-    stage_done("identify", start, f"{config.model} coefficients in {params_path}")
+    family = result.params.model.split("[", 1)[0]  # prime-rudder-thrust when refitted
+    stage_done("identify", start, f"{family} coefficients in {params_path}")
 
     start = time.perf_counter()
     fmu_path = out / f"{model_identifier(result.params.vessel_name)}.fmu"
@@ -270,5 +272,6 @@ def run_demo(
         report_files=tuple(files),
         validation=validation,
         identification_warnings=tuple(result.warnings),
+        identification_notes=tuple(result.notes),
         stage_seconds=seconds,
     )

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters
+from identifier import identify as identify_module
 from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.output_error import VirtualTurn
 from identifier.output_error.guards import virtual_turns
@@ -190,6 +191,26 @@ def test_a_fit_at_one_rpm_refits_a_thrust_that_is_not_a_propellers(
     turns = _hard_turns(result.params)
     assert all(t.sane and t.tactical_diameter_m is not None for t in turns)
     assert all(2.0 < (t.tactical_diameter_m or 0.0) / 7.0 < 4.5 for t in turns)
+
+
+def test_a_failed_refit_keeps_the_free_split_warned_about(
+    hsva: dict[str, ManeuverLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A refit that fails (a diverging EKF, say) does not lose the fit that worked."""
+    first_pass = identify_module._identify
+
+    def refit_fails(logs, settings, *args):  # type: ignore[no-untyped-def]
+        if settings.model.startswith("prime-rudder-thrust"):
+            raise IdentificationError("the EKF diverged (test)")
+        return first_pass(logs, settings, *args)
+
+    monkeypatch.setattr(identify_module, "_identify", refit_fails)
+    runs = [hsva["hsva_zz10_stbd"], hsva["hsva_zz10_port"]]
+    result = identify(runs, FitSettings(current="none"), length_m=7.0)
+    assert result.params.model.startswith("prime-rudder[")
+    assert any("not a propeller's" in w for w in result.warnings)
+    failed = "the refit as prime-rudder-thrust failed (the EKF diverged"
+    assert any(failed in note for note in result.notes)
 
 
 def test_other_families_keep_the_free_split_and_are_warned(

@@ -203,6 +203,8 @@ def run_demo_command(args: argparse.Namespace) -> int:
     result = run_demo(args.out, config, on_stage=on_stage, make_bar=make_bars(args.quiet))
     for warning in result.identification_warnings:
         print(f"identification warning: {warning}", file=sys.stderr)
+    for note in result.identification_notes:
+        progress(f"identification note: {note}", args.quiet)
     _print_validation(result.validation)
     print(f"demo finished in {time.perf_counter() - start:.1f} s")
     print(f"params: {result.params_path}")
