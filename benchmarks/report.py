@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fmu_model.atomic import write_atomic
+from fmu_model.variants import family_name
 
 
 def write_block(path: str | Path, name: str, lines: Sequence[str]) -> None:
@@ -49,6 +50,5 @@ def fitted_label(model: str, fitted: str) -> str:
     ``prime-rudder-thrust`` (``fitted``, the params' structure name): "prime-rudder →
     prime-rudder-thrust". Otherwise ``model`` alone.
     """
-    family = fitted.split("[", 1)[0]
-    requested = model.split("[", 1)[0]
-    return model if family == requested else f"{model} → {family}"
+    family = family_name(fitted)
+    return model if family == family_name(model) else f"{model} → {family}"

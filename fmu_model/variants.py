@@ -62,6 +62,11 @@ def model_names() -> tuple[str, ...]:
     return tuple(sorted([*_REGISTRY, *_FAMILIES]))
 
 
+def family_name(model: str) -> str:
+    """Return the family (or structure) name of ``model``: prime-rudder[k=…] → prime-rudder."""
+    return model.split("[", 1)[0]
+
+
 def parse_family(name: str) -> tuple[ModelFamily, dict[str, float]] | None:
     """Split ``family[c=v,…]`` or a bare family name into the family and the constants given.
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol
 
-from fmu_model.variants import DEFAULT_MODEL
+from fmu_model.variants import DEFAULT_MODEL, family_name
 from scenarios.records import Validation, interval_counts
 from scenarios.report import write_report
 from scenarios.synthesize import synthesize_logs
@@ -201,7 +201,7 @@ def run_demo(
         bar.close()
     params_path = out / "params.json"
     save_params(params_path, result.params)
-    family = result.params.model.split("[", 1)[0]  # prime-rudder-thrust when refitted
+    family = family_name(result.params.model)  # prime-rudder-thrust when refitted
     stage_done("identify", start, f"{family} coefficients in {params_path}")
 
     start = time.perf_counter()

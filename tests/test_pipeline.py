@@ -8,6 +8,7 @@ import zipfile
 import pytest
 
 from fmu_model import DEFAULT_MODEL, load_params
+from fmu_model.variants import family_name
 from identifier.identify import fixed_thrust_model
 from scenarios.cli import main
 from scenarios.demo import DemoConfig
@@ -33,7 +34,7 @@ def test_quick_demo_produces_logs_params_fmu_and_report(tmp_path, capsys):
     params = load_params(out / "params.json")
     # The default family, or what it is refitted as when its free thrust split is not a
     # propeller's (identifier.identify; these logs are at one rpm), and then says why.
-    family = params.model.split("[", 1)[0]
+    family = family_name(params.model)
     assert family in (DEFAULT_MODEL, fixed_thrust_model(DEFAULT_MODEL)) and params.length_m == 320.0
     assert (family != DEFAULT_MODEL) == ("thrust" in params.identification)
     # Through the water: the approach speed less the along-course part of the current the

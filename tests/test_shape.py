@@ -11,7 +11,7 @@ import pytest
 from fmu_model import ModelParameters, get_model, model_names, numeric_model, simulate
 from fmu_model.numeric import family_regressors
 from fmu_model.structure import unit_string
-from fmu_model.variants import PRIME_RUDDER, parse_family
+from fmu_model.variants import PRIME_RUDDER, family_name, parse_family
 from identifier import shape as shape_module
 from identifier.ekf import EkfSegment
 from identifier.equation_error import NormalEquations, regression_rows
@@ -55,6 +55,7 @@ def test_family_names_carry_their_shape() -> None:
     family, fixed = parse_family("prime-rudder[dgamma=0.1, l=-0.6]") or (None, None)
     assert family is PRIME_RUDDER and fixed == {"dgamma": 0.1, "l": -0.6}
     assert parse_family("prime-modulus") is None
+    assert family_name(partial.name) == "prime-rudder" and family_name("shi2009") == "shi2009"
 
 
 @pytest.mark.parametrize(

@@ -13,6 +13,7 @@ from tqdm import tqdm
 from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from fmu_model.kernels import numba_compilations
+from fmu_model.variants import family_name
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
 from identifier.current import CURRENT_MODES
 from identifier.identify import (
@@ -202,7 +203,7 @@ def _fit(args: argparse.Namespace) -> int:
             print(f"note: {note}", file=sys.stderr)
         compiled = numba_compilations()[0] - compiled_before
         if compiled:
-            fitted = result.params.model.split("[", 1)[0]  # prime-rudder-thrust if refitted
+            fitted = family_name(result.params.model)  # prime-rudder-thrust if refitted
             print(
                 f"note: compiled {compiled} numba functions (cached now: the first fit of "
                 f"{fitted} with these settings on this machine); `python -m scenarios "
