@@ -620,15 +620,17 @@ def identify(
         fixed_slope = fixed_thrust_model(settings.model)
         if fixed_slope is None or thrust_warning(result.params) is None:
             return result
+        free = result.params.as_dict()
+        del result  # a long log's tracks and histories: not held twice (issue 17)
         stage("refit with a thrust of fixed open-water slope")
         try:
             refit = _identify(
                 logs, replace(settings, model=fixed_slope), length, vessel, None, stage
             )
-        except IdentificationError as exc:  # keep the free split, warned about
+        except IdentificationError as exc:  # the free split again (deterministic), warned
             failed = f"the refit as {fixed_slope} failed ({exc}); kept {settings.model}"
-            return replace(result, notes=(*result.notes, failed))
-    free = result.params.as_dict()
+            kept = _identify(logs, settings, length, vessel, None, stage)
+            return replace(kept, notes=(*kept.notes, failed))
     why = (
         f"{settings.model}'s thrust came out not a propeller's (X_nn = {free['X_nn']:.3g}, "
         f"X_un = {free['X_un']:.3g}: the logs do not split it); refitted as "
