@@ -13,7 +13,6 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[dev]'
 	$(PY) -m scenarios warm-up --quiet
-	$(PY) -m scenarios warm-up --quiet --model prime-rudder-thrust
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -9,6 +9,7 @@ import argparse
 from typing import Any
 
 from fmu_model import DEFAULT_MODEL, model_names
+from identifier.identify import fixed_thrust_model
 from scenarios.cli.common import progress
 from scenarios.warm_up import WARM_UP_MANEUVER, warm_up
 
@@ -27,21 +28,24 @@ def add_warm_up_command(sub: Any, common: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--model",
-        default=DEFAULT_MODEL,
         choices=model_names(),
-        help=f"model structure or family (default {DEFAULT_MODEL})",
+        help=f"model structure or family (default: {DEFAULT_MODEL} and "
+        f"{fixed_thrust_model(DEFAULT_MODEL)}, which a default fit of logs at one rpm may be "
+        "refitted as)",
     )
 
 
 def run_warm_up_command(args: argparse.Namespace) -> int:
     """Run ``warm-up`` and print what it compiled; return the exit status."""
-    progress(
-        f"warm-up: fitting {WARM_UP_MANEUVER} with {args.model} (about 45 s the first time)",
-        args.quiet,
-    )
-    done = warm_up(args.model)
-    print(
-        f"warm-up of {args.model}: {done.compiled} numba functions compiled, {done.loaded} "
-        f"loaded from the caches in {done.seconds:.1f} s (kernel cache {done.kernel_cache})"
-    )
+    models = [args.model] if args.model else [DEFAULT_MODEL, fixed_thrust_model(DEFAULT_MODEL)]
+    for model in filter(None, models):
+        progress(
+            f"warm-up: fitting {WARM_UP_MANEUVER} with {model} (about 45 s the first time)",
+            args.quiet,
+        )
+        done = warm_up(model)
+        print(
+            f"warm-up of {model}: {done.compiled} numba functions compiled, {done.loaded} "
+            f"loaded from the caches in {done.seconds:.1f} s (kernel cache {done.kernel_cache})"
+        )
     return 0
