@@ -52,6 +52,9 @@ def test_after_warm_up_a_fit_loads_every_compiled_function(tmp_path: Path) -> No
     assert match, warm.stdout
     assert int(match[1]) > 0  # it compiled (the count is not always 0) ...
     assert list((tmp_path / "kernels").glob("shipid_kernels_*.py"))  # ... into the caches
+    # ... of the default family and of what a default fit may be refitted as
+    assert "warm-up of prime-rudder:" in warm.stdout
+    assert "warm-up of prime-rudder-thrust:" in warm.stdout
     fit = subprocess.run(
         [sys.executable, "-c", _FIT], capture_output=True, text=True, env=env, timeout=900
     )
