@@ -7,8 +7,10 @@ compilation, about 20 s for the default family here, and keeps numba's compiler 
 process for as long as it runs (about 95 MiB: a long log's fit then needs that much
 more memory, a Dask worker keeps it). :func:`warm_up` pays both in a process of its
 own: it fits a short reference-ship zig-zag with the settings a fit uses, so that what
-it compiles is what a fit calls, with the same argument types. ``make`` runs it once
-after installing; ``python -m scenarios warm-up`` runs it for another model family.
+it compiles is what a fit calls, with the same argument types. ``make`` runs
+``python -m scenarios warm-up`` once after installing: for the default family and for
+``prime-rudder-thrust``, which a default fit of logs at one rpm may be refitted as
+(``identifier.identify``); ``--model NAME`` warms up another family.
 """
 
 from __future__ import annotations
