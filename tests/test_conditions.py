@@ -257,4 +257,4 @@ def test_held_out_20_10_runs_first_overshoots_within_1_5_degrees(
         sailed = fit_on_the_10_10_pair[run]
         first, second = "first_overshoot_deg", "second_overshoot_deg"
         assert sailed.predicted[first] == pytest.approx(sailed.logged[first], abs=1.5), run
-        assert sailed.predicted[second] == pytest.approx(sailed.logged[second], abs=7.0), run
+        assert sailed.predicted[second] == pytest.approx(sailed.logged[second], abs=5.0), run
