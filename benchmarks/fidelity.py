@@ -245,8 +245,8 @@ def draws_table(models: Sequence[str], n_draws: int, dt_s: float) -> list[str]:
             for estimate, params in fits.items():
                 predicted = indices(ModelPlant(params), ship, dt_s)
                 worst = worst_turning_error(predicted, truth)
-                label = fitted_label(model, result.params.model)
-                row = [label, str(draw), estimate, *errors(predicted, truth)]
+                shown = fitted_label(model, params.model)
+                row = [shown, str(draw), estimate, *errors(predicted, truth)]
                 row += [f"{worst:.1%}" if math.isfinite(worst) else "n/a"]
                 row += [f"{seconds:.0f}" if estimate == "EKF" else ""]
                 if estimate == "default":
