@@ -33,7 +33,11 @@ shape constants:
   {v′, r′, v′³, v′²r′, v′r′², r′³} (``prime-cubic``'s) in place of the modulus one: the
   KVLCC2 reference's own hull form;
 * ``rudder-both``: the modulus basis and the cubic terms v′³, v′²r′, v′r′², r′³ together
-  (25 coefficients).
+  (25 coefficients);
+* ``both-prior002``, ``both-prior010``: ``rudder-both`` with a zero-mean prior on the
+  cubic terms (``Term.prior_std``) of 0.02 and 0.1 in the MMG's Y′ and N′ (per ½ρL²d,
+  ½ρL³d; KVLCC2 |Y′_vvv| 1.6, |N′_vvr| 0.29): cubic terms that count only where the logs
+  determine them.
 """
 
 from __future__ import annotations
@@ -124,6 +128,16 @@ def mmg_inflow_squared() -> sp.Expr:
     return MMG_ETA * (u_p + MMG_KAPPA * (slipstream - u_p)) ** 2 + (1 - MMG_ETA) * u_p**2
 
 
+def _with_prior(terms: tuple[Term, ...], std: float) -> tuple[Term, ...]:
+    return tuple(replace(t, prior_std=std) for t in terms)
+
+
+# Typical m' + m_y' and I_z' + J_z' (per ½ρL²d, ½ρL⁴d; KVLCC2 0.405, 0.022): the sway
+# and yaw coefficients of the prime structures are Y' and N' divided by them.
+SWAY_MASS = 0.4
+YAW_INERTIA = 0.022
+
+
 def candidate_families() -> tuple[ModelFamily, ...]:
     """Return the candidate families of the module docstring."""
     base = PRIME_RUDDER
@@ -133,6 +147,14 @@ def candidate_families() -> tuple[ModelFamily, ...]:
     return (
         _with_hull("rudder-cubic", *cubic),
         _with_hull("rudder-both", modulus[0] + extra[0], modulus[1] + extra[1]),
+        *(
+            _with_hull(
+                f"both-prior{round(100 * std):03d}",
+                modulus[0] + _with_prior(extra[0], std / SWAY_MASS),
+                modulus[1] + _with_prior(extra[1], std / YAW_INERTIA),
+            )
+            for std in (0.02, 0.1)
+        ),
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
         _with_terms("lift-thrust", PRIME_RUDDER_THRUST.surge, (), (), base=PRIME_RUDDER_LIFT),

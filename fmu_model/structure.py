@@ -152,11 +152,16 @@ class Term:
         Coefficient name, unique within the structure (e.g. ``"a1"``).
     regressor : sympy.Expr
         Regressor in the module's symbols (e.g. ``u**2``).
+    prior_std : float or None
+        Standard deviation of a zero-mean Gaussian prior on the coefficient, for a term
+        that should count only where the logs determine it (the identifier's equation-
+        error fit, ``identifier.equation_error``); None: no prior.
 
     """
 
     coefficient: str
     regressor: sp.Expr
+    prior_std: float | None = None
 
 
 @dataclass(frozen=True)

@@ -223,7 +223,7 @@ def _instantiate(family: ModelFamily, name: str) -> ModelStructure:
     subs = {c.symbol: sp.Float(values[c.name], 15) for c in family.shape}
 
     def fixed(terms: tuple[Term, ...]) -> tuple[Term, ...]:
-        return tuple(Term(t.coefficient, t.regressor.subs(subs)) for t in terms)
+        return tuple(replace(t, regressor=t.regressor.subs(subs)) for t in terms)
 
     return ModelStructure(
         name=name,

@@ -203,14 +203,26 @@ class NormalEquations:
         self.cross += phi @ acc.T
         self.acc_squares += np.einsum("jm,jm->j", acc, acc)
 
-    def solve(self, equation_index: Sequence[int]) -> EquationErrorFit:
+    def solve(
+        self,
+        equation_index: Sequence[int],
+        prior_std: Sequence[float | None] | None = None,
+        prior_inflation: float = 1.0,
+    ) -> EquationErrorFit:
         """Solve acc_j ≈ Σ_{i in equation j} θ_i φ_i for every equation j (module docstring).
 
-        With X = Φ_jᵀ D⁻¹ (columns scaled to unit RMS by D), A = XᵀX + λ m I::
+        With X = Φ_jᵀ D⁻¹ (columns scaled to unit RMS by D), A = XᵀX + λ m I + R::
 
             β = A⁻¹ Xᵀ a_j,   θ_j = D⁻¹ β,
             ‖a_j − X β‖² = aᵀa − 2 βᵀ Xᵀ a + βᵀ XᵀX β,   σ² = that / (m − p_j),
             Cov θ_j = σ² D⁻¹ A⁻¹ D⁻¹,   VIF = diag((A / m)⁻¹).
+
+        R is the zero-mean prior θ_i ~ N(0, s_i²) of the coefficients with a ``prior_std``
+        s_i (None: none), R_ii = c²σ₀²/(s_i D_i)², σ₀ the residual standard deviation
+        without it and c = ``prior_inflation``: the rows are serially correlated, so the
+        data carry about 1/c² of the information σ₀⁻²XᵀX says (the EKF's prior is this
+        covariance × c², ``identifier.identify``), and a coefficient the data do not
+        determine keeps its prior, c²·Cov θ_i → s_i².
         """
         m = self.rows
         p = self.gram.shape[0]
@@ -221,8 +233,14 @@ class NormalEquations:
         eq_index = np.asarray(equation_index)
         fitted_squares = np.zeros(3)
         vif = np.ones(p)
+        prior = np.array(
+            [np.inf if std is None else std for std in (prior_std or [None] * p)], dtype=float
+        )
         for j in range(3):
             cols, scale, A, beta, fit_squares, sigma2 = self._equation(j, eq_index, rms)
+            if np.isfinite(prior[cols]).any():
+                ridge = prior_inflation**2 * sigma2 / (prior[cols] * scale) ** 2
+                cols, scale, A, beta, fit_squares, sigma2 = self._equation(j, eq_index, rms, ridge)
             theta[cols] = beta / scale
             cov[np.ix_(cols, cols)] = sigma2 * np.linalg.inv(A) / np.outer(scale, scale)
             residual_std[j] = np.sqrt(sigma2)
@@ -243,15 +261,15 @@ class NormalEquations:
         return np.sqrt(np.maximum(np.diag(self.gram), 0.0) / max(self.rows, 1))
 
     def _equation(
-        self, j: int, eq_index: np.ndarray, rms: np.ndarray
+        self, j: int, eq_index: np.ndarray, rms: np.ndarray, ridge: np.ndarray | float = 0.0
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float]:
-        """Columns, their scale D, A, β, ‖Xβ‖² and σ² of equation j (:meth:`solve`)."""
+        """Columns, scale D, A, β, ‖Xβ‖² and σ² of equation j (:meth:`solve`; R = ``ridge``)."""
         m = self.rows
         cols = np.flatnonzero(eq_index == j)
         scale = np.where(rms[cols] > 0.0, rms[cols], 1.0)
         xtx = self.gram[np.ix_(cols, cols)] / np.outer(scale, scale)
         xta = self.cross[cols, j] / scale
-        A = xtx + _RIDGE * m * np.eye(cols.size)
+        A = xtx + np.diag(_RIDGE * m + np.broadcast_to(ridge, cols.shape))
         beta = np.linalg.solve(A, xta)
         fit_squares = float(beta @ xtx @ beta)
         residual = max(float(self.acc_squares[j] - 2.0 * beta @ xta + fit_squares), 0.0)
@@ -259,13 +277,22 @@ class NormalEquations:
 
 
 def equation_error_fit(
-    structure: ModelStructure, segments: Sequence[EkfSegment], length_m: float
+    structure: ModelStructure,
+    segments: Sequence[EkfSegment],
+    length_m: float,
+    prior_inflation: float = 1.0,
 ) -> EquationErrorFit:
-    """Fit θ by equation-error least squares on the smoothed segments (module docstring)."""
+    """Fit θ by equation-error least squares on the smoothed segments (module docstring).
+
+    Terms with a ``prior_std`` get their prior (:meth:`NormalEquations.solve`, with
+    ``prior_inflation``).
+    """
     model = numeric_model(structure)
     sums = NormalEquations(model.n_coefficients)
     with threadpool_limits(limits=1, user_api="blas"):  # p ≤ 28 columns: threads only cost
         for (u, v, r, rudder_rad, n_rps), acc in regression_chunks(segments, length_m):
             sums.add(model.regressors(u, v, r, rudder_rad, n_rps, length_m), acc)
-        fit = sums.solve(structure.equation_index)
+        fit = sums.solve(
+            structure.equation_index, [t.prior_std for t in structure.terms], prior_inflation
+        )
     return replace(fit, sample_interval_s=regression_interval_s(segments, length_m))

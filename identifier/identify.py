@@ -252,7 +252,7 @@ def _structure_and_start(
     if family is not None and len(fixed) < len(family.shape):  # a family, shape to choose
         shape = select_shape(family, segments, length_m, speed_mps, n_rps, fixed=fixed)
     structure = get_model(settings.model) if shape is None else shape.structure
-    ls = equation_error_fit(structure, segments, length_m)
+    ls = equation_error_fit(structure, segments, length_m, settings.prior_inflation)
     if not (np.all(np.isfinite(ls.theta)) and np.all(np.isfinite(ls.covariance))):
         raise IdentificationError(
             "the equation-error fit is not finite (the model's terms overflow or divide by "
@@ -347,7 +347,12 @@ def _estimate_current(
             change = float(np.max(np.abs(ekf.current - current)))
             current = ekf.current
             iterations += 1
-            ls = equation_error_fit(structure, water_segments(segments, tracks, current), length_m)
+            ls = equation_error_fit(
+                structure,
+                water_segments(segments, tracks, current),
+                length_m,
+                settings.prior_inflation,
+            )
             if change < current_tolerance_mps(ekf.current_covariance):
                 break
         if diverged:
@@ -616,20 +621,19 @@ def identify(
     # repeat on stderr what the error says.
     stage = stage or _no_stage
     with np.errstate(all="ignore"):
-        result = _identify(logs, settings, length, vessel, progress, stage)
+        data = _smooth(logs, settings, progress, stage)
+        result = _fit(data, settings, length, vessel, progress, stage)
         fixed_slope = fixed_thrust_model(settings.model)
         if fixed_slope is None or thrust_warning(result.params) is None:
             return result
         free = result.params.as_dict()
-        del result  # a long log's tracks and histories: not held twice (issue 17)
+        del result  # a long log's EKF histories: not held twice (issue 17)
         stage("refit with a thrust of fixed open-water slope")
         try:
-            refit = _identify(
-                logs, replace(settings, model=fixed_slope), length, vessel, None, stage
-            )
+            refit = _fit(data, replace(settings, model=fixed_slope), length, vessel, None, stage)
         except IdentificationError as exc:  # the free split again (deterministic), warned
             failed = f"the refit as {fixed_slope} failed ({exc}); kept {settings.model}"
-            kept = _identify(logs, settings, length, vessel, None, stage)
+            kept = _fit(data, settings, length, vessel, None, stage)
             return replace(kept, notes=(*kept.notes, failed))
     why = (
         f"{settings.model}'s thrust came out not a propeller's (X_nn = {free['X_nn']:.3g}, "
@@ -660,21 +664,35 @@ def fixed_thrust_model(model: str) -> str | None:
     return f"{PRIME_RUDDER_THRUST.name}[" + ",".join(f"{k}={v!r}" for k, v in fixed.items()) + "]"
 
 
-def _identify(
+@dataclass(frozen=True)
+class _SmoothedLogs:
+    """The logs as given, deglitched, smoothed and as EKF segments: what every fit starts from.
+
+    Smoothing depends on the logs and the noise settings only, not on the model, so a
+    refit (``identify``'s thrust rule) starts from the same.
+    """
+
+    given: tuple[ManeuverLog, ...]
+    logs: tuple[ManeuverLog, ...]  # the glitches replaced by the smoother's estimates
+    tracks: tuple[SmoothedTrack, ...]
+    segments: tuple[EkfSegment, ...]
+    warnings: tuple[str, ...]
+    notes: tuple[str, ...]
+
+
+def _smooth(
     logs: Sequence[ManeuverLog],
     settings: FitSettings,
-    length: float,
-    vessel: str,
     progress: Callable[[int], None] | None,
     stage: Callable[[str], None],
-) -> IdentificationResult:
-    """:func:`identify` after the checks of its arguments."""
+) -> _SmoothedLogs:
+    """Check, smooth and deglitch every log; warn of what the fits cannot fix."""
     warnings: list[str] = []
     notes: list[str] = []
     tracks: list[SmoothedTrack] = []
     segments: list[EkfSegment] = []
-    given, cleaned = logs, []
-    for i, log in enumerate(given):
+    cleaned = []
+    for i, log in enumerate(logs):
         name = _log_name(log, i)
         _check_sampling(log, name)
         stage(f"smoothing {Path(name).name}")
@@ -718,14 +736,29 @@ def _identify(
         if progress is not None:
             progress(log.n_samples)
 
-    logs = cleaned  # from here on, the glitches are the smoother's estimates
-    _check_rudder(logs)
-    with_wind = [_log_name(log, i) for i, log in enumerate(logs) if has_wind(log)]
+    _check_rudder(cleaned)
+    with_wind = [_log_name(log, i) for i, log in enumerate(cleaned) if has_wind(log)]
     if with_wind and settings.windage is None:
         warnings.append(
-            f"{len(with_wind)} of {len(logs)} logs carry a measured wind, but no windage was "
+            f"{len(with_wind)} of {len(cleaned)} logs carry a measured wind, but no windage was "
             "given: its load stays in the coefficients (give --windage FILE.json)"
         )
+    return _SmoothedLogs(
+        tuple(logs), tuple(cleaned), tuple(tracks), tuple(segments), tuple(warnings), tuple(notes)
+    )
+
+
+def _fit(
+    data: _SmoothedLogs,
+    settings: FitSettings,
+    length: float,
+    vessel: str,
+    progress: Callable[[int], None] | None,
+    stage: Callable[[str], None],
+) -> IdentificationResult:
+    """Identify ``settings.model`` from the smoothed logs (:func:`identify`'s fit)."""
+    logs, tracks, segments = data.logs, data.tracks, data.segments
+    warnings = list(data.warnings)
     current = None
     if settings.current == "none":
         nominal_speed_mps, nominal_n_rps = _nominal(logs, segments)
@@ -816,7 +849,7 @@ def _identify(
         )
     elif settings.method == "output-error":
         equation_error = params.with_vector(ls.theta, ls_prior)
-        water_logs, water_tracks = list(logs), tracks
+        water_logs, water_tracks = list(logs), list(tracks)
         if current is not None:  # the refinement sees a ship in still water
             moved = [water_frame(g, t, current.vector) for g, t in zip(logs, tracks, strict=True)]
             water_logs, water_tracks = [m[0] for m in moved], [m[1] for m in moved]
@@ -841,13 +874,13 @@ def _identify(
     params = replace(params, identification={**params.identification, "estimates": estimates})
     return IdentificationResult(
         params=params,
-        logs=tuple(given),
+        logs=data.given,
         tracks=tuple(tracks),
         equation_error=ls,
         ekf=ekf,
         coefficients=reports,
         warnings=tuple(warnings),
-        notes=tuple(notes),
+        notes=data.notes,
         settings=settings,
         refinement=refinement,
         current=current,

@@ -196,17 +196,26 @@ def test_a_fit_at_one_rpm_refits_a_thrust_that_is_not_a_propellers(
 def test_a_failed_refit_keeps_the_free_split_warned_about(
     hsva: dict[str, ManeuverLog], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A refit that fails (a diverging EKF, say) does not lose the fit that worked."""
-    first_pass = identify_module._identify
+    """A refit that fails (a diverging EKF, say) does not lose the fit that worked; the
+    three fits (free, refit, free again) start from one smoothing of each log."""
+    first_pass = identify_module._fit
+    smooth = identify_module.smooth_track
+    smoothed = []
 
-    def refit_fails(logs, settings, *args):  # type: ignore[no-untyped-def]
+    def counted(*args, **kwargs):  # type: ignore[no-untyped-def]
+        smoothed.append(args[0].size)
+        return smooth(*args, **kwargs)
+
+    def refit_fails(data, settings, *args):  # type: ignore[no-untyped-def]
         if settings.model.startswith("prime-rudder-thrust"):
             raise IdentificationError("the EKF diverged (test)")
-        return first_pass(logs, settings, *args)
+        return first_pass(data, settings, *args)
 
-    monkeypatch.setattr(identify_module, "_identify", refit_fails)
+    monkeypatch.setattr(identify_module, "_fit", refit_fails)
+    monkeypatch.setattr(identify_module, "smooth_track", counted)
     runs = [hsva["hsva_zz10_stbd"], hsva["hsva_zz10_port"]]
     result = identify(runs, FitSettings(current="none"), length_m=7.0)
+    assert smoothed == [run.n_samples for run in runs]
     assert result.params.model.startswith("prime-rudder[")
     assert any("not a propeller's" in w for w in result.warnings)
     failed = "the refit as prime-rudder-thrust failed (the EKF diverged"
