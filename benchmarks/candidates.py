@@ -157,7 +157,10 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         ),
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
-        _with_terms("lift-thrust", PRIME_RUDDER_THRUST.surge, (), (), base=PRIME_RUDDER_LIFT),
+        replace(
+            _with_terms("lift-thrust", PRIME_RUDDER_THRUST.surge, (), (), base=PRIME_RUDDER_LIFT),
+            shape=PRIME_RUDDER_THRUST.shape,
+        ),
         _with_rudder_force(
             "offset",
             rudder_normal_force(RUDDER_OFFSET_RAD),

@@ -125,6 +125,10 @@ class ShapeConstant:
     grid_unit : {"1", "slipstream"}
         "1": the grid is in the constant's own value; "slipstream": in units of
         (U₀/(n₀L))², so that the grid means the same share of the inflow on every ship.
+    searched : bool
+        False for a constant the logs cannot choose (the thrust's open-water slope: logs
+        at one rpm do not split the thrust): the identifier keeps the default unless the
+        model name gives it, and ``grid`` is not used.
 
     """
 
@@ -134,6 +138,7 @@ class ShapeConstant:
     default: float
     grid: tuple[float, ...]
     grid_unit: str = "1"
+    searched: bool = True
 
     @property
     def name(self) -> str:
@@ -491,8 +496,11 @@ PRIME_RUDDER_LIFT = register_family(
 # the wrong way round: the thrust then falls as the ship slows, and the model stops in a
 # hard turn (five of six HSVA folds). With the open-water curve K_T = k0 + k1·J + k2·J²
 # and J = u(1 − w_P)/(nD_P), the thrust is ∝ n²L − κ·u·n (the J² part goes to X_uu) with
-# κ = −(k1/k0)(1 − w_P)·L/D_P, fixed here at THRUST_SLOPE (KVLCC2, w_P0 = 0.40: 18.3;
-# the HSVA model, L/D_P = 34.3: about 19; single-screw ships 12–40), one gain X_T.
+# κ = −(k1/k0)(1 − w_P)·L/D_P, one gain X_T. κ is a shape constant the identifier does
+# not search (the logs cannot split the thrust): THRUST_SLOPE by default (KVLCC2,
+# w_P0 = 0.40: 18.3; the HSVA model, L/D_P = 34.3: about 19; single-screw ships 12–40),
+# or the user's from their propeller's open-water curve, prime-rudder-thrust[kappa=…].
+THRUST_SLOPE_KAPPA = sp.Symbol("kappa", nonnegative=True)
 THRUST_SLOPE = 20.0
 
 PRIME_RUDDER_THRUST = register_family(
@@ -500,12 +508,18 @@ PRIME_RUDDER_THRUST = register_family(
         PRIME_RUDDER,
         name="prime-rudder-thrust",
         description="prime-rudder with one propeller thrust term of fixed open-water slope, "
-        f"X_T*(n^2 L - {THRUST_SLOPE:g} u n), in place of free n^2 L and u n terms, "
-        "20 coefficients",
+        f"X_T*(n^2 L - kappa u n) (kappa = -(k1/k0)(1 - w_P) L/D_P, default {THRUST_SLOPE:g}, "
+        "not searched), in place of free n^2 L and u n terms, 20 coefficients",
         reference="propeller open-water curve K_T(J) (e.g. reference/kvlcc2_mmg.md section 4); "
         "benchmarks/hsva.md (issue 13)",
+        shape=(
+            *PRIME_RUDDER.shape,
+            ShapeConstant(
+                THRUST_SLOPE_KAPPA, 0.0, 100.0, THRUST_SLOPE, (THRUST_SLOPE,), searched=False
+            ),
+        ),
         surge=(
-            Term("X_T", n**2 * L - THRUST_SLOPE * u * n),
+            Term("X_T", n**2 * L - THRUST_SLOPE_KAPPA * u * n),
             *(t for t in PRIME_RUDDER.surge if t.coefficient not in ("X_nn", "X_un")),
         ),
     )

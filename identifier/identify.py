@@ -249,7 +249,7 @@ def _structure_and_start(
     """Choose the family's shape (if one is to be chosen), fit the equation-error start."""
     family, fixed = parse_family(settings.model) or (None, {})
     shape = None
-    if family is not None and len(fixed) < len(family.shape):  # a family, shape to choose
+    if family is not None and any(c.searched and c.name not in fixed for c in family.shape):
         shape = select_shape(family, segments, length_m, speed_mps, n_rps, fixed=fixed)
     structure = get_model(settings.model) if shape is None else shape.structure
     ls = equation_error_fit(structure, segments, length_m, settings.prior_inflation)

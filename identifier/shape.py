@@ -122,10 +122,14 @@ def select_shape(
     nominal_speed_mps, nominal_n_rps : float
         Approach speed [m/s] and propeller speed [rev/s], to scale the slipstream grid.
     fixed : mapping of str to float, optional
-        Constants known beforehand (e.g. ``{"dgamma": 0.0}``); only the others are searched.
+        Constants known beforehand (e.g. ``{"dgamma": 0.0}``); only the others are
+        searched, and of them only those ``searched`` (the rest take their defaults).
 
     """
-    fixed = dict(fixed or {})
+    fixed = {
+        **{c.name: c.default for c in family.shape if not c.searched},
+        **dict(fixed or {}),
+    }
     family.check(fixed)
     with threadpool_limits(limits=1, user_api="blas"):
         return _select_shape(family, segments, length_m, nominal_speed_mps, nominal_n_rps, fixed)

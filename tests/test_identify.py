@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters, get_model, load_params
+from fmu_model.variants import THRUST_SLOPE
 from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
 from identifier.identify import (
@@ -363,9 +364,9 @@ def test_families_without_the_thrust_pair_are_not_judged() -> None:
 def test_only_prime_rudder_is_refitted_with_a_fixed_thrust_slope(
     model: str, refit: str | None
 ) -> None:
-    """The constants the user fixed stay fixed in the refit."""
+    """The constants the user fixed stay fixed in the refit, κ at its default."""
     assert fixed_thrust_model(model) == refit
     if refit is not None:
         assert get_model(refit).name == get_model(model).name.replace(
             "prime-rudder[", "prime-rudder-thrust["
-        )
+        ).replace("]", f",kappa={THRUST_SLOPE:g}]")

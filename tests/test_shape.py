@@ -11,7 +11,13 @@ import pytest
 from fmu_model import ModelParameters, get_model, model_names, numeric_model, simulate
 from fmu_model.numeric import family_regressors
 from fmu_model.structure import unit_string
-from fmu_model.variants import PRIME_RUDDER, family_name, parse_family
+from fmu_model.variants import (
+    PRIME_RUDDER,
+    PRIME_RUDDER_THRUST,
+    THRUST_SLOPE,
+    family_name,
+    parse_family,
+)
 from identifier import shape as shape_module
 from identifier.ekf import EkfSegment
 from identifier.equation_error import NormalEquations, regression_rows
@@ -144,6 +150,23 @@ def test_shape_search_finds_the_slipstream_share_and_fits_as_well_as_the_truth()
     )
     assert known_l.shape["l"] == TRUE_SHAPE["l"]
     assert known_l.shape["gamma"] == pytest.approx(TRUE_SHAPE["gamma"], abs=0.03)
+
+
+def test_the_thrust_slope_is_not_searched_but_can_be_given() -> None:
+    """κ of prime-rudder-thrust: the default unless the name gives it, never searched."""
+    segments = _segments()
+    default = select_shape(PRIME_RUDDER_THRUST, segments, LENGTH_M, SPEED_MPS, N_RPS)
+    given = select_shape(
+        PRIME_RUDDER_THRUST, segments, LENGTH_M, SPEED_MPS, N_RPS, fixed={"kappa": 35.0}
+    )
+    assert default.shape["kappa"] == THRUST_SLOPE and given.shape["kappa"] == 35.0
+    assert given.structure.name.endswith(",kappa=35]")
+    assert default.shape["k"] != PRIME_RUDDER_THRUST.default_shape["k"]  # the rest searched
+    rest = select_shape(PRIME_RUDDER_THRUST, segments, LENGTH_M, SPEED_MPS, N_RPS, TRUE_SHAPE)
+    assert rest.evaluations == 3 and rest.shape == {**TRUE_SHAPE, "kappa": THRUST_SLOPE}
+    u, n = np.array([6.0, 2.0]), np.array([1.5, 0.4])
+    phi = numeric_model(given.structure).regressors(u, 0.0 * u, 0.0 * u, 0.0 * u, n, LENGTH_M)
+    np.testing.assert_allclose(phi[0], n**2 * LENGTH_M - 35.0 * u * n)  # X_T's regressor
 
 
 def test_identify_resolves_the_family_and_the_fmu_model_is_that_structure() -> None:
