@@ -7,7 +7,9 @@ project's own reader. Folds:
 
 * ``10/10 → 20/10``: trained on both 10°/10° runs, predicts both 20°/10° runs;
 * ``stbd → port``: trained on the two starboard-first runs, predicts the port-first ones;
-* ``leave one out``: trained on three runs, predicts the fourth (four folds).
+* ``leave one out``: trained on three runs, predicts the fourth (four folds);
+* ``all four`` (only with ``--fold 'all four'``): trained on every run, nothing held out:
+  what the family can fit at all.
 
 Every run of every fold, trained on or held out, is sailed again closed-loop by the
 identified model in the run's own condition (``trials.conditions.sail_again``: approach
@@ -58,6 +60,7 @@ FOLDS: dict[str, tuple[str, ...]] = {
     "stbd → port": (RUNS[0], RUNS[2]),
     **{f"leave out {held}": tuple(r for r in RUNS if r != held) for held in RUNS},
 }
+EXTRA_FOLDS = {"all four": RUNS}  # run only when named
 LENGTH_M = 7.0
 RUDDER_RATE_RADPS = math.radians(15.0)  # the runs' steering gear, 14–16 °/s (README.md there)
 MODELS = ("prime-rudder",)
@@ -176,7 +179,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         dest="models",
         help=f"model (repeat; default {MODELS[0]}; candidates: {', '.join(candidates)})",
     )
-    parser.add_argument("--fold", action="append", dest="folds", help="fold name (repeat)")
+    parser.add_argument(
+        "--fold",
+        action="append",
+        dest="folds",
+        choices=[*FOLDS, *EXTRA_FOLDS],
+        help="fold name (repeat; default: all but 'all four')",
+    )
     parser.add_argument("--data", type=Path, default=DATA, help="directory of the runs")
     parser.add_argument("--out", default=str(Path(__file__).with_name("hsva.md")))
     args = parser.parse_args(argv)
@@ -195,7 +204,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ]
     for model in args.models or MODELS:
         for fold in args.folds or FOLDS:
-            train = FOLDS[fold]
+            train = {**FOLDS, **EXTRA_FOLDS}[fold]
             start = time.perf_counter()
             fits = estimates(logs, model, train)
             seconds = time.perf_counter() - start
