@@ -129,6 +129,7 @@ def mmg_inflow_squared() -> sp.Expr:
 
 
 def _with_prior(terms: tuple[Term, ...], std: float) -> tuple[Term, ...]:
+    """``terms`` with a zero-mean prior of standard deviation ``std`` on each coefficient."""
     return tuple(replace(t, prior_std=std) for t in terms)
 
 
