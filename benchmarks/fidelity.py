@@ -39,13 +39,12 @@ from pathlib import Path
 
 import numpy as np
 from candidates import register_candidates
+from intervals import prediction_intervals
 from report import fitted_label, write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
-from scenarios.uncertainty.model_form import model_form_half_widths, widen
-from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
 from trials.logs import ManeuverLog
 from trials.maneuvers import Program, turning_circle, zigzag
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
@@ -176,18 +175,7 @@ class Coverage:
 def coverage(params: ModelParameters, ship: TruthShip, truth: Indices, dt_s: float) -> Coverage:
     """Intervals of ``params``' predictions (100 Monte-Carlo samples, model form) vs the truth."""
     chosen = programs()
-    result = monte_carlo_metrics(
-        params,
-        list(chosen.values()),
-        n_samples=100,
-        dt_s=dt_s,
-        rudder_rate_radps=ship.rudder_rate_radps,
-        speed_mps=ship.speed_mps,
-        n_rps=ship.n_rps,
-        n_workers=1,
-        processes=False,
-    )
-    half = model_form_half_widths(
+    intervals = prediction_intervals(
         params,
         list(chosen.values()),
         speed_mps=ship.speed_mps,
@@ -200,16 +188,14 @@ def coverage(params: ModelParameters, ship: TruthShip, truth: Indices, dt_s: flo
     widths = [0.0, 0.0]
     for column, (key, metric) in _MC_COLUMNS.items():
         true = truth.values[column]
-        s = result.summary(chosen[key].name, metric)
-        scale = math.degrees(1.0) if metric.endswith("_rad") else 1.0
-        if true is None or not (math.isfinite(s.q025) and math.isfinite(s.nominal)):
+        interval = intervals.get((chosen[key].name, metric))
+        if true is None or interval is None:
             continue
         judged += 1
-        lo, hi = scale * s.q025, scale * s.q975
-        wide = widen(scale * s.nominal, lo, hi, scale * half.get((chosen[key].name, metric), 0.0))
-        for i, (a, b) in enumerate(((lo, hi), wide)):
-            inside[i] += a <= true <= b
-            widths[i] += b - a
+        scale = math.degrees(1.0) if metric.endswith("_rad") else 1.0
+        for i, (a, b) in enumerate((interval.identification, interval.with_model_form)):
+            inside[i] += scale * a <= true <= scale * b
+            widths[i] += scale * (b - a)
     return Coverage(inside[0], inside[1], judged, widths[1] / widths[0] if widths[0] else math.nan)
 
 

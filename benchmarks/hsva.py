@@ -29,6 +29,11 @@ tactical diameter and advance in ship lengths, n/a when the turn diverges or doe
 Froude number turns with a tactical diameter of 3.11 L and an advance of 3.08 L, and the
 hull in free-running tests turns about 8 % tighter to port (``README.md`` of the data).
 
+The coverage column (issue 13, item 4; default estimate only): how many of the held-out
+runs' measured overshoots lie in the 95 % intervals of the prediction in the run's own
+condition, identification noise only / with the model-form term (``intervals.py``, the
+intervals of ``validate``), of those the intervals reach.
+
 Candidates studied for issue 13: ``benchmarks/candidates.py`` (``--model NAME``). The table
 goes into its block of ``--out`` (``report.py``: the notes around it stay).
 """
@@ -42,13 +47,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 from candidates import register_candidates
+from intervals import prediction_intervals
 from report import fitted_label, write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
 from identifier.output_error.guards import virtual_turns
-from trials.conditions import sail_again
+from trials.conditions import logged_condition, sail_again
 from trials.logs import ManeuverLog, read_log
 from trials.run import ModelPlant
 
@@ -144,6 +151,35 @@ def asymmetry(
     return diff(port.predicted[1], stbd.predicted[1]), diff(port.logged[1], stbd.logged[1])
 
 
+def held_out_coverage(
+    params: ModelParameters, logs: dict[str, ManeuverLog], errors: Sequence[RunError]
+) -> str:
+    """Held-out measured overshoots in the 95 % intervals: "id only / with model form of n"."""
+    inside, judged = [0, 0], 0
+    for run_error in errors:
+        if run_error.trained:
+            continue
+        log = logs[run_error.run]
+        condition = logged_condition(log, max_time_s=float(log.time_s[-1] - log.time_s[0]))
+        program = condition.program
+        intervals = prediction_intervals(
+            params,
+            [program],
+            speed_mps=condition.speed_mps,
+            n_rps=condition.n_rps,
+            rudder_rate_radps=condition.rudder_rate_radps,
+            dt_s=float(np.median(np.diff(log.time_s))),
+        )
+        for index, measured in zip(INDICES, run_error.logged, strict=True):
+            interval = intervals.get((program.name, index.replace("_deg", "_rad")))
+            if measured is None or interval is None:
+                continue
+            judged += 1
+            for i, (lo, hi) in enumerate((interval.identification, interval.with_model_form)):
+                inside[i] += math.degrees(lo) <= measured <= math.degrees(hi)
+    return f"{inside[0]} / {inside[1]} of {judged}" if judged else "—"
+
+
 def hard_turns(params: ModelParameters) -> str:
     """Tactical diameter / advance [L] of virtual 35° turns to starboard and port; n/a: diverged.
 
@@ -199,8 +235,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
         "| model | fold | estimate | "
         + " | ".join(f"{r.removeprefix('hsva_')} OS1 | OS2" for r in RUNS)
-        + " | worst T | worst H | asym 10/10 | asym 20/10 | 35° TD / adv stbd, port [L] | s |",
-        "|" + "---|" * (3 + 2 * len(RUNS) + 6),
+        + " | worst T | worst H | asym 10/10 | asym 20/10 | 35° TD / adv stbd, port [L] | s "
+        "| held out in 95 % (id only / with model form) |",
+        "|" + "---|" * (3 + 2 * len(RUNS) + 7),
     ]
     for model in args.models or MODELS:
         for fold in args.folds or FOLDS:
@@ -225,6 +262,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     *(f"{_deg(p)} ({_deg(m)})" for p, m in asym),
                     hard_turns(params),
                     f"{seconds:.0f}" if name == "ekf" else "",
+                    held_out_coverage(params, logs, errors) if name == "default" else "",
                 ]
                 lines.append("| " + " | ".join(row) + " |")
                 print(lines[-1], flush=True)
