@@ -55,7 +55,7 @@ from report import fitted_label, write_block
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
 from identifier.output_error.guards import virtual_turns
-from trials.conditions import logged_condition, sail_again
+from trials.conditions import LoggedCondition, sail_again
 from trials.logs import ManeuverLog, read_log
 from trials.run import ModelPlant
 
@@ -68,6 +68,7 @@ FOLDS: dict[str, tuple[str, ...]] = {
     **{f"leave out {held}": tuple(r for r in RUNS if r != held) for held in RUNS},
 }
 EXTRA_FOLDS = {"all four": RUNS}  # run only when named
+ALL_FOLDS = {**FOLDS, **EXTRA_FOLDS}
 LENGTH_M = 7.0
 RUDDER_RATE_RADPS = math.radians(15.0)  # the runs' steering gear, 14–16 °/s (README.md there)
 MODELS = ("prime-rudder",)
@@ -82,6 +83,7 @@ class RunError:
     trained: bool
     logged: tuple[float | None, ...]
     predicted: tuple[float | None, ...]
+    condition: LoggedCondition  # what was sailed
 
     @property
     def errors(self) -> tuple[float | None, ...]:
@@ -110,6 +112,7 @@ def sail_all(
                 run in train,
                 tuple(sailed.logged[k] for k in INDICES),
                 tuple(sailed.predicted[k] for k in INDICES),
+                sailed.condition,
             )
         )
     return out
@@ -159,8 +162,7 @@ def held_out_coverage(
     for run_error in errors:
         if run_error.trained:
             continue
-        log = logs[run_error.run]
-        condition = logged_condition(log, max_time_s=float(log.time_s[-1] - log.time_s[0]))
+        condition = run_error.condition
         program = condition.program
         intervals = prediction_intervals(
             params,
@@ -168,7 +170,7 @@ def held_out_coverage(
             speed_mps=condition.speed_mps,
             n_rps=condition.n_rps,
             rudder_rate_radps=condition.rudder_rate_radps,
-            dt_s=float(np.median(np.diff(log.time_s))),
+            dt_s=float(np.median(np.diff(logs[run_error.run].time_s))),
         )
         for index, measured in zip(INDICES, run_error.logged, strict=True):
             interval = intervals.get((program.name, index.replace("_deg", "_rad")))
@@ -219,7 +221,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--fold",
         action="append",
         dest="folds",
-        choices=[*FOLDS, *EXTRA_FOLDS],
+        choices=list(ALL_FOLDS),
         help="fold name (repeat; default: all but 'all four')",
     )
     parser.add_argument("--data", type=Path, default=DATA, help="directory of the runs")
@@ -241,7 +243,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ]
     for model in args.models or MODELS:
         for fold in args.folds or FOLDS:
-            train = {**FOLDS, **EXTRA_FOLDS}[fold]
+            train = ALL_FOLDS[fold]
             start = time.perf_counter()
             fits = estimates(logs, model, train)
             seconds = time.perf_counter() - start
