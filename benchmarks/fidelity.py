@@ -45,6 +45,8 @@ from report import fitted_label, write_block
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
+from scenarios.validation import logged_envelope
+from trials.envelope import Envelope, trajectory_envelope
 from trials.logs import ManeuverLog
 from trials.maneuvers import Program, turning_circle, zigzag
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
@@ -67,9 +69,14 @@ COLUMNS = ("adv", "trf", "TD", "TD port", "10/10 OS1", "10/10 OS2", "20/20 OS1",
 
 @dataclass(frozen=True)
 class Indices:
-    """Manoeuvre indices of one ship: turning [m] and overshoots [deg]; None = not reached."""
+    """Manoeuvre indices of one ship: turning [m] and overshoots [deg]; None = not reached.
+
+    ``beyond``: the programs (``programs()`` keys) sailed beyond the envelope of the
+    ship's identification logs (``trials.envelope``); empty when not judged.
+    """
 
     values: dict[str, float | None]
+    beyond: frozenset[str] = frozenset()
 
 
 def programs() -> dict[str, Program]:
@@ -82,9 +89,16 @@ def programs() -> dict[str, Program]:
     }
 
 
-def indices(plant: Plant, ship: TruthShip, dt_s: float) -> Indices:
-    """Sail the validation manoeuvres with ``plant`` at the reference approach."""
+def indices(
+    plant: Plant, ship: TruthShip, dt_s: float, envelope: Envelope | None = None
+) -> Indices:
+    """Sail the validation manoeuvres with ``plant`` at the reference approach.
+
+    With the ``envelope`` of the logs ``plant`` was identified from, say which runs
+    leave it.
+    """
     values: dict[str, float | None] = dict.fromkeys(COLUMNS)
+    beyond = set()
     for name, program in programs().items():
         try:
             with np.errstate(all="ignore"):  # a diverging model is reported as n/a
@@ -96,6 +110,8 @@ def indices(plant: Plant, ship: TruthShip, dt_s: float) -> Indices:
                     rudder_rate_radps=ship.rudder_rate_radps,
                     dt_s=dt_s,
                 )
+            if envelope is not None and envelope.beyond(trajectory_envelope(run, ship.length_m)):
+                beyond.add(name)
             if program.kind == "turning":
                 m = turning_metrics(run)
                 if name == "turning":
@@ -110,7 +126,7 @@ def indices(plant: Plant, ship: TruthShip, dt_s: float) -> Indices:
                 values[f"{name} OS2"] = z.second_overshoot_deg
         except (FloatingPointError, MetricsError):
             continue  # diverged or never reached the index: stays None
-    return Indices(values)
+    return Indices(values, frozenset(beyond))
 
 
 def index_errors(
@@ -164,15 +180,22 @@ _MC_COLUMNS = {
 
 @dataclass(frozen=True)
 class Coverage:
-    """How many reference values the 95 % intervals contain, without and with model form."""
+    """How many reference values the 95 % intervals contain, without and with model form.
+
+    ``within``: (inside with model form, judged) of the values whose manoeuvre stays
+    within the envelope of the identification logs.
+    """
 
     identification: int
     with_model_form: int
     judged: int
     width_ratio: float  # mean (with model form) / (identification only) width
+    within: tuple[int, int]
 
 
-def coverage(params: ModelParameters, ship: TruthShip, truth: Indices, dt_s: float) -> Coverage:
+def coverage(
+    params: ModelParameters, ship: TruthShip, truth: Indices, predicted: Indices, dt_s: float
+) -> Coverage:
     """Intervals of ``params``' predictions (100 Monte-Carlo samples, model form) vs the truth."""
     chosen = programs()
     intervals = prediction_intervals(
@@ -186,6 +209,7 @@ def coverage(params: ModelParameters, ship: TruthShip, truth: Indices, dt_s: flo
     inside = [0, 0]
     judged = 0
     widths = [0.0, 0.0]
+    within = [0, 0]
     for column, (key, metric) in _MC_COLUMNS.items():
         true = truth.values[column]
         interval = intervals.get((chosen[key].name, metric))
@@ -196,7 +220,12 @@ def coverage(params: ModelParameters, ship: TruthShip, truth: Indices, dt_s: flo
         for i, (a, b) in enumerate((interval.identification, interval.with_model_form)):
             inside[i] += scale * a <= true <= scale * b
             widths[i] += scale * (b - a)
-    return Coverage(inside[0], inside[1], judged, widths[1] / widths[0] if widths[0] else math.nan)
+        if key not in predicted.beyond:
+            lo, hi = interval.with_model_form
+            within[0] += scale * lo <= true <= scale * hi
+            within[1] += 1
+    ratio = widths[1] / widths[0] if widths[0] else math.nan
+    return Coverage(inside[0], inside[1], judged, ratio, (within[0], within[1]))
 
 
 def draws_table(models: Sequence[str], n_draws: int, dt_s: float) -> list[str]:
@@ -210,8 +239,9 @@ def draws_table(models: Sequence[str], n_draws: int, dt_s: float) -> list[str]:
     truth = indices(ship.plant, ship, dt_s)
     lines = [
         "| model | draw | estimate | " + " | ".join(COLUMNS) + " | worst turn | s | "
-        "in 95 % (id only / with model form) | width × |",
-        "|" + "---|" * (len(COLUMNS) + 7),
+        "in 95 % (id only / with model form) | within the logs' envelope: in 95 % | "
+        "width × |",
+        "|" + "---|" * (len(COLUMNS) + 8),
     ]
     for model in models:
         for draw in range(n_draws):
@@ -229,20 +259,21 @@ def draws_table(models: Sequence[str], n_draws: int, dt_s: float) -> list[str]:
                 "default": result.params,
             }
             for estimate, params in fits.items():
-                predicted = indices(ModelPlant(params), ship, dt_s)
+                predicted = indices(ModelPlant(params), ship, dt_s, logged_envelope(params))
                 worst = worst_turning_error(predicted, truth)
                 shown = fitted_label(model, params.model)
                 row = [shown, str(draw), estimate, *errors(predicted, truth)]
                 row += [f"{worst:.1%}" if math.isfinite(worst) else "n/a"]
                 row += [f"{seconds:.0f}" if estimate == "EKF" else ""]
                 if estimate == "default":
-                    c = coverage(params, ship, truth, dt_s)
+                    c = coverage(params, ship, truth, predicted, dt_s)
                     row += [
                         f"{c.identification} / {c.with_model_form} of {c.judged}",
+                        f"{c.within[0]} of {c.within[1]}",
                         f"{c.width_ratio:.2f}",
                     ]
                 else:
-                    row += ["", ""]
+                    row += ["", "", ""]
                 lines.append("| " + " | ".join(row) + " |")
                 print(lines[-1], flush=True)
     return lines

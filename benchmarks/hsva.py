@@ -32,7 +32,10 @@ hull in free-running tests turns about 8 % tighter to port (``README.md`` of the
 The coverage column (issue 13, item 4; default estimate only): how many of the held-out
 runs' measured overshoots lie in the 95 % intervals of the prediction in the run's own
 condition, identification noise only / with the model-form term (``intervals.py``, the
-intervals of ``validate``), of those the intervals reach.
+intervals of ``validate``), of those the intervals reach; then the same with the
+model-form term for the runs sailed within the envelope of the training runs
+(``trials.envelope``: rudder angle and yaw rate to each side, speed lost), where the
+model does not extrapolate.
 
 Candidates studied for issue 13: ``benchmarks/candidates.py`` (``--model NAME``). The table
 goes into its block of ``--out`` (``report.py``: the notes around it stay).
@@ -55,7 +58,9 @@ from report import fitted_label, write_block
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
 from identifier.output_error.guards import virtual_turns
+from scenarios.validation import logged_envelope
 from trials.conditions import LoggedCondition, sail_again
+from trials.envelope import trajectory_envelope
 from trials.logs import ManeuverLog, read_log
 from trials.run import ModelPlant
 
@@ -84,6 +89,7 @@ class RunError:
     logged: tuple[float | None, ...]
     predicted: tuple[float | None, ...]
     condition: LoggedCondition  # what was sailed
+    beyond: bool  # sailed beyond the envelope of the identification logs
 
     @property
     def errors(self) -> tuple[float | None, ...]:
@@ -103,9 +109,12 @@ def sail_all(
     params: ModelParameters, logs: dict[str, ManeuverLog], train: Sequence[str]
 ) -> list[RunError]:
     """Sail every run again with ``params``; its overshoots against the logged ones."""
+    envelope = logged_envelope(params)
+    assert envelope is not None
     out = []
     for run, log in logs.items():
         sailed = sail_again(ModelPlant(params), log)
+        sailed_envelope = trajectory_envelope(sailed.trajectory, params.length_m)
         out.append(
             RunError(
                 run,
@@ -113,6 +122,7 @@ def sail_all(
                 tuple(sailed.logged[k] for k in INDICES),
                 tuple(sailed.predicted[k] for k in INDICES),
                 sailed.condition,
+                bool(envelope.beyond(sailed_envelope)),
             )
         )
     return out
@@ -157,8 +167,12 @@ def asymmetry(
 def held_out_coverage(
     params: ModelParameters, logs: dict[str, ManeuverLog], errors: Sequence[RunError]
 ) -> str:
-    """Held-out measured overshoots in the 95 % intervals: "id only / with model form of n"."""
+    """Held-out measured overshoots in the 95 % intervals: "id only / with model form of n".
+
+    Then those of the runs sailed within the envelope of the identification logs.
+    """
     inside, judged = [0, 0], 0
+    within = [0, 0]
     for run_error in errors:
         if run_error.trained:
             continue
@@ -179,7 +193,13 @@ def held_out_coverage(
             judged += 1
             for i, (lo, hi) in enumerate((interval.identification, interval.with_model_form)):
                 inside[i] += math.degrees(lo) <= measured <= math.degrees(hi)
-    return f"{inside[0]} / {inside[1]} of {judged}" if judged else "—"
+            if not run_error.beyond:
+                lo, hi = interval.with_model_form
+                within[0] += math.degrees(lo) <= measured <= math.degrees(hi)
+                within[1] += 1
+    if not judged:
+        return "—"
+    return f"{inside[0]} / {inside[1]} of {judged}; within: {within[0]} of {within[1]}"
 
 
 def hard_turns(params: ModelParameters) -> str:
@@ -238,7 +258,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "| model | fold | estimate | "
         + " | ".join(f"{r.removeprefix('hsva_')} OS1 | OS2" for r in RUNS)
         + " | worst T | worst H | asym 10/10 | asym 20/10 | 35° TD / adv stbd, port [L] | s "
-        "| held out in 95 % (id only / with model form) |",
+        "| held out in 95 % (id only / with model form; within the logs' envelope: with model "
+        "form) |",
         "|" + "---|" * (3 + 2 * len(RUNS) + 7),
     ]
     for model in args.models or MODELS:

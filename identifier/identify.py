@@ -64,6 +64,7 @@ from identifier.shape import ShapeSelection, select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
 from trials.conditions import EXECUTE_RUDDER_RAD, execute_index
+from trials.envelope import envelope_of, union
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
 
@@ -826,6 +827,10 @@ def _fit(
             "settings": _json_safe(asdict(settings)),
             **({} if shape is None else {"shape": shape.as_dict()}),
             "environment": {"current": "none"} if current is None else current.as_dict(),
+            "envelope": union(
+                envelope_of(log.rudder_rad, t.r_radps, t.speed_mps, length)
+                for log, t in zip(logs, tracks, strict=True)
+            ).as_dict(),
             "noise": [
                 {"position_m": t.position_noise_m, "heading_deg": math.degrees(t.heading_noise_rad)}
                 for t in tracks

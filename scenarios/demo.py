@@ -218,6 +218,8 @@ def run_demo(
             scale=config.scale,
             dt_s=config.validation_dt_s,
             on_run=lambda _name: bar.update(1),
+            params=result.params,
+            params_source=str(params_path),
         )
     finally:
         bar.close()

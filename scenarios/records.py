@@ -21,6 +21,11 @@ current-corrected indices (``scenarios.imo.turning_ability_in_current``), and a 
 of turns is compared on the corrected indices when either is judged so (the label of
 the row says "current-corrected"); otherwise on the raw ones.
 
+With the envelope of the identification's logs (``Validation.envelope``, from params.json;
+``trials.envelope``) every predicted manoeuvre is also judged for extrapolation: a
+manoeuvre steered, turned or slowed beyond the logs (:attr:`Validation.extrapolation`)
+is a prediction of the structure beyond its data, whose error no interval carries.
+
 Written out by :mod:`scenarios.report`; produced by :mod:`scenarios.runs` and
 :mod:`scenarios.validation`.
 """
@@ -37,6 +42,7 @@ import numpy as np
 from scenarios.imo import Criterion, TurningJudgement, turning_ability_in_current
 from scenarios.sea import SeaEnvironment
 from trials.current_correction import DRIFT_THRESHOLD_FRACTION, CurrentCorrection
+from trials.envelope import Envelope, trajectory_envelope
 from trials.maneuvers import Program
 from trials.metrics import TurningMetrics, ZigzagMetrics
 
@@ -187,6 +193,13 @@ class ManeuverRun:
     def current_corrected(self) -> bool:
         """Whether the run's current-corrected indices count (:attr:`TurnCorrection.applied`)."""
         return self.current is not None and self.current.applied
+
+    def envelope(self, length_m: float) -> Envelope:
+        """Return how hard the run steers, turns and slows (``trials.envelope``).
+
+        The speed is through the water; ``length_m`` [m] makes r′.
+        """
+        return trajectory_envelope(self.trajectory, length_m)
 
     def metrics_dict(self, length_m: float) -> dict[str, Any]:
         """Return the metrics' JSON record (``as_dict``); ``length_m`` for the L keys [m].
@@ -386,6 +399,9 @@ class Validation:
     environment : SeaEnvironment, optional
         The current and wind both ships sailed in; None in calm water (module
         docstring).
+    envelope : Envelope, optional
+        What the predicted model's identification logs held (params.json
+        ``identification.envelope``); None when not known (no params given).
 
     """
 
@@ -403,6 +419,7 @@ class Validation:
     warnings: tuple[str, ...] = ()
     uncertainty: UncertaintyBands | None = None
     environment: SeaEnvironment | None = None
+    envelope: Envelope | None = None
     rows: tuple[ComparisonRow, ...] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -415,6 +432,19 @@ class Validation:
         """Largest |error| over the rows that have one [%]; None when none has."""
         errors = [abs(r.error_pct) for r in self.rows if r.error_pct is not None]
         return max(errors) if errors else None
+
+    @property
+    def extrapolation(self) -> dict[str, tuple[str, ...]] | None:
+        """Per predicted manoeuvre, how it leaves the logs' envelope (empty: it does not).
+
+        None when the envelope is not known.
+        """
+        if self.envelope is None:
+            return None
+        return {
+            run.program.name: self.envelope.beyond(run.envelope(self.model_length_m))
+            for run in self.predicted
+        }
 
     @property
     def imo_passed(self) -> bool:

@@ -44,7 +44,15 @@ location comes from the validation run, the spread from the samples.
      "imo_reference": {...same for the reference ship...},
      "runs": {"reference": {maneuver: metrics}, "predicted": {maneuver: metrics}},
      "warnings": [str, ...],
+     "extrapolation": {"envelope": {"rudder_max_rad", "yaw_rate_max", "speed_ratio_min"},
+                       "beyond": {maneuver: [reason, ...]},
+                       "n_in_interval_within", "n_with_interval_within"} | null,
      "environment": {"current_mps", "current_to_deg", "wind_mps", "wind_from_deg"}}
+
+``extrapolation`` when the envelope of the identification's logs is known (params
+given, ``trials.envelope``): per predicted manoeuvre how it leaves that envelope (an
+empty list: it stays inside), and the interval counts of the manoeuvres inside it
+(null without intervals).
 
 ``environment`` only at sea; its turning runs then carry ``current_corrected``
 (``scenarios.records.ManeuverRun.metrics_dict``: the corrected indices, the drift and
@@ -58,7 +66,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -197,16 +205,22 @@ def _verdict(value: bool | None) -> str:
     return "n/a" if value is None else ("yes" if value else "no")
 
 
-def comparison_table(rows: Sequence[ComparisonRow]) -> tuple[list[str], list[list[str]]]:
+def comparison_table(
+    rows: Sequence[ComparisonRow], extrapolation: Mapping[str, Sequence[str]] | None = None
+) -> tuple[list[str], list[list[str]]]:
     """Header and rows (quantity, unit, reference, predicted, error %, difference) as text.
 
     When any row has an interval, two more columns: "95 % interval" (``lo … hi``) and
-    "in interval" (``yes``/``no``: the reference inside it; ``n/a`` without one).
+    "in interval" (``yes``/``no``: the reference inside it; ``n/a`` without one). With
+    ``extrapolation`` (``Validation.extrapolation``) a last column "beyond the logs":
+    ``yes`` for the rows of a manoeuvre that leaves the logs' envelope.
     """
     header = ["quantity", "unit", "reference", "predicted", "error %", "difference"]
     banded = any(r.interval is not None for r in rows)
     if banded:
         header += ["95 % interval", "in interval"]
+    if extrapolation is not None:
+        header.append("beyond the logs")
     out = []
     for r in rows:
         digits = 1 if r.unit == "m" else 2
@@ -226,8 +240,42 @@ def comparison_table(rows: Sequence[ComparisonRow]) -> tuple[list[str], list[lis
                 else "n/a",
                 _verdict(r.in_interval),
             ]
+        if extrapolation is not None:
+            cells.append(_verdict(bool(extrapolation.get(r.maneuver))))
         out.append(cells)
     return header, out
+
+
+def extrapolation_lines(validation: Validation) -> list[str]:
+    """Say what the identification's logs reached and which predictions go beyond it.
+
+    Plain text, one item a line (the manoeuvres beyond as ``- name: reasons``); empty
+    when the envelope is not known.
+    """
+    envelope, beyond = validation.envelope, validation.extrapolation
+    if envelope is None or beyond is None:
+        return []
+    rudder, yaw_rate = envelope.rudder_max_rad, envelope.yaw_rate_max
+    reached = (
+        "The identification's logs reach a rudder angle of "
+        f"{math.degrees(rudder.port):.1f} deg to port and "
+        f"{math.degrees(rudder.starboard):.1f} deg to starboard, a yaw rate r' of "
+        f"{yaw_rate.port:.2f} to port and {yaw_rate.starboard:.2f} to starboard, and a "
+        f"speed of {envelope.speed_ratio_min:.2f} U0."
+    )
+    if not any(beyond.values()):
+        return [f"{reached} Every predicted manoeuvre stays within them."]
+    return [
+        f"{reached} These predictions go beyond them: the model structure extrapolates "
+        "there, and no interval carries the error of that:",
+        *(f"- {name}: {'; '.join(reasons)}" for name, reasons in beyond.items() if reasons),
+    ]
+
+
+def within_envelope(validation: Validation) -> list[ComparisonRow]:
+    """Return the comparison rows of the manoeuvres inside the logs' envelope (all if unknown)."""
+    beyond = validation.extrapolation or {}
+    return [r for r in validation.rows if not beyond.get(r.maneuver)]
 
 
 def _is_numeric(cell: str) -> bool:
@@ -368,7 +416,7 @@ def render_markdown(validation: Validation, max_error_pct: float | None = None) 
         "difference in degrees is given as well.",
         "",
     ]
-    lines += _markdown_table(*comparison_table(v.rows))
+    lines += _markdown_table(*comparison_table(v.rows, v.extrapolation))
     lines.append("")
     worst = v.max_abs_error_pct
     lines.append(f"Largest |error|: {_number(worst, 1)} %.")
@@ -376,8 +424,11 @@ def render_markdown(validation: Validation, max_error_pct: float | None = None) 
         failing = failing_rows(v.rows, max_error_pct)
         verdict = "PASS" if not failing else f"FAIL ({len(failing)} of {len(v.rows)} rows)"
         lines.append(f"Gate |error| ≤ {max_error_pct:g} %: **{verdict}**.")
+    extrapolation = extrapolation_lines(v)
+    if extrapolation:
+        lines += ["", *extrapolation]
     if v.uncertainty is not None:
-        lines += ["", *_uncertainty_paragraph(v.uncertainty, v.rows)]
+        lines += ["", *_uncertainty_paragraph(v)]
     lines += ["", "## IMO MSC.137(76) criteria, predicted model", ""]
     lines += _markdown_table(*criteria_table(v.criteria))
     lines += [
@@ -395,8 +446,10 @@ def render_markdown(validation: Validation, max_error_pct: float | None = None) 
     return "\n".join(lines)
 
 
-def _uncertainty_paragraph(bands: UncertaintyBands, rows: Sequence[ComparisonRow]) -> list[str]:
+def _uncertainty_paragraph(validation: Validation) -> list[str]:
     """Markdown lines saying what the intervals are, what they cover and how they came out."""
+    bands, rows = validation.uncertainty, validation.rows
+    assert bands is not None
     inside, judged = interval_counts(rows)
     source = f" in `{bands.source}`" if bands.source else ""
     lines = [
@@ -406,7 +459,9 @@ def _uncertainty_paragraph(bands: UncertaintyBands, rows: Sequence[ComparisonRow
         "by the difference between the predicted value and the Monte-Carlo run at θ̂. "
         f"They cover the {uncertainty_scope(bands)}: a reference value outside its interval "
         "is a difference the noise in the trials does not explain. "
-        f"Reference inside the interval: {inside} of {judged} quantities.",
+        f"Reference inside the interval: {inside} of {judged} quantities"
+        + _within_counts(validation)
+        + ".",
     ]
     failed = [r for r in rows if r.interval is not None and r.interval.n_failed]
     if failed:
@@ -421,6 +476,14 @@ def _uncertainty_paragraph(bands: UncertaintyBands, rows: Sequence[ComparisonRow
             f"left out of the intervals: {'; '.join(parts)}.",
         ]
     return lines
+
+
+def _within_counts(validation: Validation) -> str:
+    """Return the interval count of the manoeuvres within the envelope, when some are not."""
+    if not any((validation.extrapolation or {}).values()):
+        return ""
+    inside, judged = interval_counts(within_envelope(validation))
+    return f"; of the manoeuvres within the logs' envelope: {inside} of {judged}"
 
 
 def _finite_or_none(value: Any) -> Any:
@@ -446,6 +509,20 @@ def _uncertainty_record(validation: Validation) -> dict[str, Any]:
         "scope": uncertainty_scope(bands),
         "n_in_interval": inside,
         "n_with_interval": judged,
+    }
+
+
+def _extrapolation_record(validation: Validation) -> dict[str, Any] | None:
+    envelope, beyond = validation.envelope, validation.extrapolation
+    if envelope is None or beyond is None:
+        return None
+    inside, judged = interval_counts(within_envelope(validation))
+    banded = validation.uncertainty is not None
+    return {
+        "envelope": envelope.as_dict(),
+        "beyond": {name: list(reasons) for name, reasons in beyond.items()},
+        "n_in_interval_within": inside if banded else None,
+        "n_with_interval_within": judged if banded else None,
     }
 
 
@@ -487,6 +564,7 @@ def validation_json(validation: Validation, max_error_pct: float | None = None) 
             "predicted": {r.program.name: r.metrics_dict(v.model_length_m) for r in v.predicted},
         },
         "warnings": list(v.warnings),
+        "extrapolation": _extrapolation_record(v),
     }
     if v.environment is not None:
         doc["environment"] = environment_record(v.environment)

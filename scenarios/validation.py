@@ -34,6 +34,7 @@ from scenarios.records import ComparisonRow, Interval, UncertaintyBands, Validat
 from scenarios.runs import imo_criteria, reference_runs, run_standard_set
 from scenarios.uncertainty.model_form import model_form_half_widths, widen
 from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
+from trials.envelope import Envelope
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -83,7 +84,9 @@ def validate(
         Called with a label after each of the eight runs.
     params : ModelParameters, optional
         The parameters the FMU was built from, with their covariance; checked against
-        the FMU (:func:`check_params_match`) before anything runs.
+        the FMU (:func:`check_params_match`) before anything runs. The envelope of
+        their logs (``identification.envelope``) says which predictions extrapolate
+        (``Validation.extrapolation``).
     uncertainty_samples : int
         Monte-Carlo samples for the intervals; 0 for none.
     uncertainty_dt_s : float
@@ -169,6 +172,7 @@ def validate(
         reference_criteria=tuple(imo_criteria(ref, ref_length, condition.speed_mps)),
         warnings=tuple(warnings),
         environment=environment,
+        envelope=None if params is None else logged_envelope(params),
     )
     if params is None or uncertainty_samples <= 0:
         return validation
@@ -182,6 +186,12 @@ def validate(
         n_workers=n_workers,
         source=params_source,
     )
+
+
+def logged_envelope(params: ModelParameters) -> Envelope | None:
+    """Return the envelope of the logs ``params`` were identified from; None if not recorded."""
+    record = params.identification.get("envelope")
+    return Envelope.from_dict(record) if isinstance(record, Mapping) else None
 
 
 def with_uncertainty(

@@ -21,7 +21,9 @@ from identifier.identify import (
     thrust_warning,
 )
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
+from scenarios.validation import logged_envelope
 from tests.conftest import SEED_COEFFICIENTS
+from trials.envelope import trajectory_envelope, union
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log, write_log
 from trials.maneuvers import Leg, Program, Until, turning_circle, zigzag
@@ -307,6 +309,33 @@ def test_stages_are_named_as_they_begin_and_samples_counted_twice(log_files: lis
     assert rest[-2:] == ["EKF on every sample", "output-error refinement"]
     assert set(rest[:-2]) == {"equation-error start", *(f"current: EKF pass {k}" for k in passes)}
     assert sum(counted) == 2 * sum(log.n_samples for log in logs)
+
+
+def test_identification_records_the_envelope_of_its_logs(
+    recovered: IdentificationResult,
+) -> None:
+    """From 1 m / 0.1° noisy logs: the truth's rudder exactly, its r′ within 5 %, its
+    lowest speed ratio within 0.02 (the truth sailed noise-free through the same runs)."""
+    envelope = logged_envelope(recovered.params)
+    assert envelope is not None
+    ship = _ship()
+    truth = union(
+        trajectory_envelope(
+            run_program(
+                ship.plant,
+                MANEUVERS[name](),
+                speed_mps=ship.speed_mps,
+                n_rps=ship.n_rps,
+                rudder_rate_radps=ship.rudder_rate_radps,
+                dt_s=1.0,
+            ),
+            recovered.params.length_m,
+        )
+        for name in TRAINING
+    )
+    assert envelope.rudder_max_rad == pytest.approx(truth.rudder_max_rad, rel=1e-9)
+    assert envelope.yaw_rate_max == pytest.approx(truth.yaw_rate_max, rel=0.05)
+    assert envelope.speed_ratio_min == pytest.approx(truth.speed_ratio_min, abs=0.02)
 
 
 def test_cli_fit_on_an_nmea_recording_says_to_convert_it(tmp_path: Path, capsys) -> None:

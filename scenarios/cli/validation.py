@@ -22,7 +22,14 @@ from scenarios.cli.sea import add_sea_arguments, sea_environment
 from scenarios.cli.uncertainty import add_cluster_arguments
 from scenarios.demo import DemoConfig, run_demo
 from scenarios.records import ComparisonRow, Validation, failing_rows, interval_counts
-from scenarios.report import comparison_table, format_table, sea_lines, write_report
+from scenarios.report import (
+    comparison_table,
+    extrapolation_lines,
+    format_table,
+    sea_lines,
+    uncertainty_scope,
+    write_report,
+)
 from scenarios.validation import validate
 
 __all__ = [
@@ -166,13 +173,15 @@ def _print_validation(validation: Validation) -> None:
             ("predicted", validation.predicted, validation.model_length_m),
         ]
         print("\n".join(sea_lines(validation.environment, sides)))
-    print(format_table(*comparison_table(validation.rows)))
+    print(format_table(*comparison_table(validation.rows, validation.extrapolation)))
+    for line in extrapolation_lines(validation):
+        print(line)
     if validation.uncertainty is not None:
         inside, judged = interval_counts(validation.rows)
         print(
             f"95 % intervals: {validation.uncertainty.n_samples} Monte-Carlo samples of the "
-            f"identified coefficients (identification noise only, not model-structure "
-            f"error); reference inside for {inside} of {judged} quantities"
+            f"identified coefficients ({uncertainty_scope(validation.uncertainty)}); "
+            f"reference inside for {inside} of {judged} quantities"
         )
     for warning in validation.warnings:
         print(f"warning: {warning}")

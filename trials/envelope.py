@@ -1,0 +1,161 @@
+"""The envelope of the logged manoeuvres: how hard the ship was steered, turned and slowed.
+
+An identified model is a fit of the manoeuvres in its logs. Beyond them (a larger rudder
+angle, a faster turn, more speed lost) it extrapolates its structure, and that is where
+its predictions fail: trained on 10°/10° zig-zags, the measured HSVA 20°/10° second
+overshoots come out 4–4.5° too large; trained on zig-zags, the KVLCC2 reference's 35°
+turns 7–12 % too tight (benchmarks/hsva.md, fidelity.md). Neither the coefficient
+covariance nor the spread of the fit's own estimates measures that error, so a
+prediction outside the envelope is said to be one (``scenarios.validation``). Three
+axes, each a force the structure has to extrapolate:
+
+* the largest rudder angle |δ| to each side [rad]: the rudder's normal force (lift, stall);
+* the largest non-dimensional yaw rate r′ = |r|·L/U to each side: the hull's nonlinear
+  damping;
+* the lowest speed ratio U/U₀ (U₀ the approach speed): the propeller's loading and its
+  slipstream share of the rudder inflow.
+
+The sides count apart because a single-screw ship is not symmetric: a hard turn to port
+predicted from logs that turned hard only to starboard extrapolates the model's
+port/starboard difference (the KVLCC2 reference's port turn, trained on a starboard one).
+A run is beyond the envelope on an axis by more than :data:`MARGIN` of its value
+(:data:`SPEED_RATIO_MARGIN` for the speed ratio): noise in the smoothed logs should not
+make a repeat of a logged manoeuvre an extrapolation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+MARGIN = 0.05
+"""Relative margin of the rudder angle and yaw rate before a run counts as beyond."""
+SPEED_RATIO_MARGIN = 0.05
+"""Margin of the speed ratio U/U₀ (absolute) before a run counts as beyond."""
+MIN_SPEED_RATIO_FOR_YAW_RATE = 0.2
+"""r′ = r·L/U is taken where U ≥ this fraction of U₀ (a ship almost stopped has no r′)."""
+
+
+class Sides(NamedTuple):
+    """One magnitude per side: port (δ < 0, r < 0) and starboard (the trajectory's signs)."""
+
+    port: float
+    starboard: float
+
+    @classmethod
+    def of(cls, values: np.ndarray) -> Sides:
+        """Return the largest magnitude of the negative and the positive ``values`` (0: none)."""
+        return cls(float(np.max(-values, initial=0.0)), float(np.max(values, initial=0.0)))
+
+    @classmethod
+    def widest(cls, items: Iterable[Sides]) -> Sides:
+        """Return the largest per side of ``items``."""
+        listed = list(items)
+        return cls(max(s.port for s in listed), max(s.starboard for s in listed))
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """Largest rudder angle [rad] and yaw rate r′ [-] to each side, lowest U/U₀ [-]."""
+
+    rudder_max_rad: Sides
+    yaw_rate_max: Sides
+    speed_ratio_min: float
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the JSON record (params.json ``identification.envelope``)."""
+        return {
+            "rudder_max_rad": self.rudder_max_rad._asdict(),
+            "yaw_rate_max": self.yaw_rate_max._asdict(),
+            "speed_ratio_min": self.speed_ratio_min,
+        }
+
+    @classmethod
+    def from_dict(cls, record: Mapping[str, object]) -> Envelope | None:
+        """Read :meth:`as_dict`'s record; None when a value is missing or not a finite number."""
+
+        def number(value: object) -> float | None:
+            if isinstance(value, int | float) and math.isfinite(value):
+                return float(value)
+            return None
+
+        sides = []
+        for key in ("rudder_max_rad", "yaw_rate_max"):
+            pair = record.get(key)
+            if not isinstance(pair, Mapping):
+                return None
+            port, starboard = number(pair.get("port")), number(pair.get("starboard"))
+            if port is None or starboard is None:
+                return None
+            sides.append(Sides(port, starboard))
+        speed = number(record.get("speed_ratio_min"))
+        return None if speed is None else cls(sides[0], sides[1], speed)
+
+    def beyond(self, run: Envelope) -> tuple[str, ...]:
+        """Say on which axes ``run`` leaves this envelope (by more than the margins).
+
+        One phrase per axis and side, e.g. ``"rudder 35.0 deg to port (logs: 20.1 deg)"``;
+        empty when the run stays inside.
+        """
+        out = []
+        for side, logged, sailed in zip(
+            Sides._fields, self.rudder_max_rad, run.rudder_max_rad, strict=True
+        ):
+            if sailed > (1.0 + MARGIN) * logged:
+                out.append(
+                    f"rudder {math.degrees(sailed):.1f} deg to {side} "
+                    f"(logs: {math.degrees(logged):.1f} deg)"
+                )
+        for side, logged, sailed in zip(
+            Sides._fields, self.yaw_rate_max, run.yaw_rate_max, strict=True
+        ):
+            if sailed > (1.0 + MARGIN) * logged:
+                out.append(f"yaw rate r' {sailed:.2f} to {side} (logs: {logged:.2f})")
+        if run.speed_ratio_min < self.speed_ratio_min - SPEED_RATIO_MARGIN:
+            out.append(
+                f"speed down to {run.speed_ratio_min:.2f} U0 (logs: {self.speed_ratio_min:.2f} U0)"
+            )
+        return tuple(out)
+
+
+def envelope_of(
+    rudder_rad: np.ndarray, r_radps: np.ndarray, speed_mps: np.ndarray, length_m: float
+) -> Envelope:
+    """Return the envelope of one manoeuvre's samples (U₀: the speed of the first sample).
+
+    Parameters
+    ----------
+    rudder_rad, r_radps, speed_mps : numpy.ndarray
+        Rudder angle [rad], yaw rate [rad/s] and speed [m/s] per sample, the approach
+        first (positive to starboard).
+    length_m : float
+        Ship length [m].
+
+    """
+    ratio = speed_mps / float(speed_mps[0])
+    moving = ratio >= MIN_SPEED_RATIO_FOR_YAW_RATE
+    return Envelope(
+        rudder_max_rad=Sides.of(rudder_rad),
+        yaw_rate_max=Sides.of(r_radps[moving] * length_m / speed_mps[moving]),
+        speed_ratio_min=float(np.min(ratio)),
+    )
+
+
+def trajectory_envelope(trajectory: np.ndarray, length_m: float) -> Envelope:
+    """Return the envelope of a run (``trials.trajectory``; speed through the water)."""
+    speed_mps = np.hypot(trajectory["u_mps"], trajectory["v_mps"])
+    return envelope_of(trajectory["rudder_rad"], trajectory["r_radps"], speed_mps, length_m)
+
+
+def union(envelopes: Iterable[Envelope]) -> Envelope:
+    """Return the envelope of several manoeuvres together (the widest on every axis)."""
+    items = list(envelopes)
+    return Envelope(
+        rudder_max_rad=Sides.widest(e.rudder_max_rad for e in items),
+        yaw_rate_max=Sides.widest(e.yaw_rate_max for e in items),
+        speed_ratio_min=min(e.speed_ratio_min for e in items),
+    )
