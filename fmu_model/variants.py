@@ -170,6 +170,15 @@ class ModelFamily:
         """The shape of the bare family name."""
         return {c.name: c.default for c in self.shape}
 
+    def settled(self, fixed: Mapping[str, float]) -> dict[str, float]:
+        """Return the constants ``fixed``, and the defaults of those not searched."""
+        return {**{c.name: c.default for c in self.shape if not c.searched}, **fixed}
+
+    def to_search(self, fixed: Mapping[str, float]) -> tuple[str, ...]:
+        """Return the names of the constants the identifier chooses when ``fixed`` are given."""
+        settled = self.settled(fixed)
+        return tuple(c.name for c in self.shape if c.name not in settled)
+
     @property
     def terms(self) -> tuple[Term, ...]:
         """All terms (with shape symbols), in coefficient-vector order."""

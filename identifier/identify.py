@@ -250,7 +250,7 @@ def _structure_and_start(
     """Choose the family's shape (if one is to be chosen), fit the equation-error start."""
     family, fixed = parse_family(settings.model) or (None, {})
     shape = None
-    if family is not None and any(c.searched and c.name not in fixed for c in family.shape):
+    if family is not None and family.to_search(fixed):
         shape = select_shape(family, segments, length_m, speed_mps, n_rps, fixed=fixed)
     structure = get_model(settings.model) if shape is None else shape.structure
     ls = equation_error_fit(structure, segments, length_m, settings.prior_inflation)

@@ -126,10 +126,7 @@ def select_shape(
         searched, and of them only those ``searched`` (the rest take their defaults).
 
     """
-    fixed = {
-        **{c.name: c.default for c in family.shape if not c.searched},
-        **dict(fixed or {}),
-    }
+    fixed = family.settled(fixed or {})
     family.check(fixed)
     with threadpool_limits(limits=1, user_api="blas"):
         return _select_shape(family, segments, length_m, nominal_speed_mps, nominal_n_rps, fixed)

@@ -169,6 +169,16 @@ def test_the_thrust_slope_is_not_searched_but_can_be_given() -> None:
     np.testing.assert_allclose(phi[0], n**2 * LENGTH_M - 35.0 * u * n)  # X_T's regressor
 
 
+def test_what_is_searched_is_what_is_neither_given_nor_unsearched() -> None:
+    family = PRIME_RUDDER_THRUST
+    searched = tuple(c.name for c in family.shape if c.name != "kappa")
+    assert family.settled({}) == {"kappa": THRUST_SLOPE}
+    assert family.settled({"kappa": 35.0, "l": -0.5}) == {"kappa": 35.0, "l": -0.5}
+    assert family.to_search({}) == searched
+    assert family.to_search({"l": -0.5}) == tuple(n for n in searched if n != "l")
+    assert family.to_search(TRUE_SHAPE) == ()
+
+
 def test_identify_resolves_the_family_and_the_fmu_model_is_that_structure() -> None:
     ship = model_ship(_truth(), rudder_rate_radps=math.radians(2.3))
     logs = [
