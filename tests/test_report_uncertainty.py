@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +46,7 @@ from scenarios.uncertainty.results import (
 )
 from scenarios.validation import uncertainty_bands
 from tests.conftest import SEED_COEFFICIENTS
+from trials.envelope import Envelope, Sides
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import TurningMetrics, ZigzagMetrics
 from trials.trajectory import empty_trajectory
@@ -325,7 +327,11 @@ def ship(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
         nominal_n_rps=2.0,
     )
     folder = tmp_path_factory.mktemp("uncertain")
-    save_params(folder / "params.json", _uncertain(params))
+    # Logs steered to 20° at most (turning and slowing as much as anything sailed here):
+    # the 35° turns go beyond on the rudder, the zig-zags stay within.
+    logs = Envelope(Sides(math.radians(20.0), math.radians(20.0)), Sides(5.0, 5.0), 0.0)
+    identified = replace(_uncertain(params), identification={"envelope": logs.as_dict()})
+    save_params(folder / "params.json", identified)
     other = params.with_vector(params.to_vector() * 1.01)
     save_params(folder / "other.json", _uncertain(other))
     return build_native_fmu(params, folder / "testship.fmu"), folder
@@ -372,6 +378,8 @@ def test_validate_with_params_adds_intervals_and_figure(ship, scheduler, tmp_pat
     header = out.splitlines()[1]
     assert "95 % interval" in header and "in interval" in header
     assert "8 Monte-Carlo samples" in out
+    assert header.endswith("beyond the logs")
+    assert "- turning-35-port: rudder 35.0 deg to port (logs: 20.0 deg)" in out
 
     doc = json.loads((report / "validation.json").read_text())
     assert doc["uncertainty"]["n_samples"] == 8
@@ -382,6 +390,8 @@ def test_validate_with_params_adds_intervals_and_figure(ship, scheduler, tmp_pat
         assert row["in_interval"] is (band["lo"] <= row["reference"] <= band["hi"])
     # A 100 m ship against the 320 m KVLCC2: no turning index can be inside.
     assert not any(r["in_interval"] for r in doc["comparison"] if r["unit"] == "m")
+    beyond = doc["extrapolation"]["beyond"]
+    assert beyond["zigzag-10-10-stbd"] == [] and beyond["turning-35-stbd"]
     assert (report / "uncertainty.png").read_bytes().startswith(PNG_MAGIC)
     text = (report / "report.md").read_text()
     assert "](uncertainty.png)" in text and "not model-structure error" in text
