@@ -273,6 +273,7 @@ def test_cli_fit_summary_prints_the_kept_estimate_and_the_rates(
     regression_rows = int(rows_line.split()[2].replace(",", ""))
     assert samples - 2 * len(log_files) - 10 < regression_rows <= samples  # 1 Hz: every sample
     assert " rows at 1 s (about L/U/40)" in rows_line
+    assert "the logs reach: rudder 20.0 deg to port, 35.0 deg to starboard; r' " in printed
 
 
 @pytest.mark.parametrize("compiled", [0, 7])

@@ -28,6 +28,7 @@ from identifier.identify import (
     identify,
 )
 from identifier.wind import read_windage
+from trials.envelope import Envelope
 from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]
@@ -157,6 +158,15 @@ def _summary(result: IdentificationResult) -> str:
         rates += f"; shape search on {shape['rows']:,} of them, {shape['evaluations']} shapes"
     samples = sum(log.n_samples for log in result.logs)
     lines.append(f"{rates}); the EKF on all {samples:,} samples")
+    envelope = Envelope.from_dict(p.identification.get("envelope") or {})
+    if envelope is not None:
+        rudder, yaw_rate = envelope.rudder_max_rad, envelope.yaw_rate_max
+        lines.append(
+            f"the logs reach: rudder {math.degrees(rudder.port):.1f} deg to port, "
+            f"{math.degrees(rudder.starboard):.1f} deg to starboard; r' {yaw_rate.port:.2f} / "
+            f"{yaw_rate.starboard:.2f}; speed {envelope.speed_ratio_min:.2f} U0 (predictions "
+            "beyond extrapolate: validate --params says which)"
+        )
     return "\n".join(lines)
 
 
