@@ -33,6 +33,7 @@ bench: $(STAMP)
 	$(PY) benchmarks/uncertainty.py
 	$(PY) benchmarks/fidelity.py
 	$(PY) benchmarks/sensitivity.py
+	$(PY) benchmarks/coverage.py
 
 clean:
 	rm -rf $(VENV) build

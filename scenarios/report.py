@@ -44,7 +44,9 @@ location comes from the validation run, the spread from the samples.
      "imo_reference": {...same for the reference ship...},
      "runs": {"reference": {maneuver: metrics}, "predicted": {maneuver: metrics}},
      "warnings": [str, ...],
-     "extrapolation": {"envelope": {"rudder_max_rad", "yaw_rate_max", "speed_ratio_min"},
+     "extrapolation": {"envelope": {"rudder_max_rad": {"port", "starboard"},
+                                    "yaw_rate_max": {"port", "starboard"},
+                                    "speed_ratio_min"},
                        "beyond": {maneuver: [reason, ...]},
                        "n_in_interval_within", "n_with_interval_within"} | null,
      "environment": {"current_mps", "current_to_deg", "wind_mps", "wind_from_deg"}}
