@@ -44,8 +44,8 @@ from report import fitted_label, write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
+from scenarios.records import logged_envelope
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
-from scenarios.validation import logged_envelope
 from trials.envelope import Envelope, trajectory_envelope
 from trials.logs import ManeuverLog
 from trials.maneuvers import Program, turning_circle, zigzag

@@ -58,7 +58,7 @@ from report import fitted_label, write_block
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
 from identifier.output_error.guards import virtual_turns
-from scenarios.validation import logged_envelope
+from scenarios.records import logged_envelope
 from trials.conditions import LoggedCondition, sail_again
 from trials.envelope import trajectory_envelope
 from trials.logs import ManeuverLog, read_log

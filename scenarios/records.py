@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from fmu_model import ModelParameters
 from scenarios.imo import Criterion, TurningJudgement, turning_ability_in_current
 from scenarios.sea import SeaEnvironment
 from trials.current_correction import DRIFT_THRESHOLD_FRACTION, CurrentCorrection
@@ -54,11 +55,13 @@ __all__ = [
     "TurnCorrection",
     "UncertaintyBands",
     "Validation",
+    "beyond_logs",
     "compare_runs",
     "current_correction_record",
     "environment_record",
     "failing_rows",
     "interval_counts",
+    "logged_envelope",
     "maneuver_label",
     "turn_side",
 ]
@@ -441,15 +444,28 @@ class Validation:
         """
         if self.envelope is None:
             return None
-        return {
-            run.program.name: self.envelope.beyond(run.envelope(self.model_length_m))
-            for run in self.predicted
-        }
+        return beyond_logs(self.envelope, self.predicted, self.model_length_m)
 
     @property
     def imo_passed(self) -> bool:
         """True when the predicted model passes every evaluated IMO criterion."""
         return all(c.passed for c in self.criteria)
+
+
+def logged_envelope(params: ModelParameters) -> Envelope | None:
+    """Return the envelope of the logs ``params`` were identified from; None if not recorded."""
+    record = params.identification.get("envelope")
+    return Envelope.from_dict(record) if isinstance(record, Mapping) else None
+
+
+def beyond_logs(
+    envelope: Envelope, runs: Sequence[ManeuverRun], length_m: float
+) -> dict[str, tuple[str, ...]]:
+    """Per run (program name), how it leaves ``envelope`` (``Envelope.beyond``; empty: not).
+
+    ``length_m`` is the ship length of the runs [m] (for r′).
+    """
+    return {run.program.name: envelope.beyond(run.envelope(length_m)) for run in runs}
 
 
 def turn_side(program: Program) -> str:

@@ -98,11 +98,15 @@ from trials.current_correction import REFERENCE as CURRENT_CORRECTION_REFERENCE
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from trials.envelope import Envelope
+
 __all__ = [
     "VALIDATION_FORMAT",
     "VALIDATION_VERSION",
     "comparison_table",
     "criteria_table",
+    "extrapolation_lines",
+    "extrapolation_record",
     "figure_names",
     "format_table",
     "render_markdown",
@@ -110,6 +114,7 @@ __all__ = [
     "uncertainty_figure",
     "uncertainty_scope",
     "validation_json",
+    "within_envelope",
     "write_json",
     "write_report",
 ]
@@ -248,13 +253,15 @@ def comparison_table(
     return header, out
 
 
-def extrapolation_lines(validation: Validation) -> list[str]:
-    """Say what the identification's logs reached and which predictions go beyond it.
+def extrapolation_lines(
+    envelope: Envelope | None, beyond: Mapping[str, Sequence[str]] | None
+) -> list[str]:
+    """Say what the identification's logs reached and which runs go beyond it.
 
-    Plain text, one item a line (the manoeuvres beyond as ``- name: reasons``); empty
-    when the envelope is not known.
+    ``beyond``: per run, how it leaves the ``envelope`` (``records.beyond_logs``). Plain
+    text, one item a line (the runs beyond as ``- name: reasons``); empty when either is
+    not known.
     """
-    envelope, beyond = validation.envelope, validation.extrapolation
     if envelope is None or beyond is None:
         return []
     rudder, yaw_rate = envelope.rudder_max_rad, envelope.yaw_rate_max
@@ -426,7 +433,7 @@ def render_markdown(validation: Validation, max_error_pct: float | None = None) 
         failing = failing_rows(v.rows, max_error_pct)
         verdict = "PASS" if not failing else f"FAIL ({len(failing)} of {len(v.rows)} rows)"
         lines.append(f"Gate |error| ≤ {max_error_pct:g} %: **{verdict}**.")
-    extrapolation = extrapolation_lines(v)
+    extrapolation = extrapolation_lines(v.envelope, v.extrapolation)
     if extrapolation:
         lines += ["", *extrapolation]
     if v.uncertainty is not None:
@@ -514,18 +521,27 @@ def _uncertainty_record(validation: Validation) -> dict[str, Any]:
     }
 
 
-def _extrapolation_record(validation: Validation) -> dict[str, Any] | None:
-    envelope, beyond = validation.envelope, validation.extrapolation
+def extrapolation_record(
+    envelope: Envelope | None, beyond: Mapping[str, Sequence[str]] | None
+) -> dict[str, Any] | None:
+    """Return the JSON record of :func:`extrapolation_lines`' content; None when unknown."""
     if envelope is None or beyond is None:
         return None
-    inside, judged = interval_counts(within_envelope(validation))
-    banded = validation.uncertainty is not None
     return {
         "envelope": envelope.as_dict(),
         "beyond": {name: list(reasons) for name, reasons in beyond.items()},
-        "n_in_interval_within": inside if banded else None,
-        "n_with_interval_within": judged if banded else None,
     }
+
+
+def _extrapolation_record(validation: Validation) -> dict[str, Any] | None:
+    record = extrapolation_record(validation.envelope, validation.extrapolation)
+    if record is None:
+        return None
+    inside, judged = interval_counts(within_envelope(validation))
+    banded = validation.uncertainty is not None
+    record["n_in_interval_within"] = inside if banded else None
+    record["n_with_interval_within"] = judged if banded else None
+    return record
 
 
 def validation_json(validation: Validation, max_error_pct: float | None = None) -> dict[str, Any]:

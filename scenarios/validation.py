@@ -30,11 +30,16 @@ from scenarios.fmu_checks import (
     open_fmu,
     read_fmu_info,
 )
-from scenarios.records import ComparisonRow, Interval, UncertaintyBands, Validation
+from scenarios.records import (
+    ComparisonRow,
+    Interval,
+    UncertaintyBands,
+    Validation,
+    logged_envelope,
+)
 from scenarios.runs import imo_criteria, reference_runs, run_standard_set
 from scenarios.uncertainty.model_form import model_form_half_widths, widen
 from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
-from trials.envelope import Envelope
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -186,12 +191,6 @@ def validate(
         n_workers=n_workers,
         source=params_source,
     )
-
-
-def logged_envelope(params: ModelParameters) -> Envelope | None:
-    """Return the envelope of the logs ``params`` were identified from; None if not recorded."""
-    record = params.identification.get("envelope")
-    return Envelope.from_dict(record) if isinstance(record, Mapping) else None
 
 
 def with_uncertainty(

@@ -20,8 +20,8 @@ from identifier.identify import (
     identify,
     thrust_warning,
 )
+from scenarios.records import logged_envelope
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
-from scenarios.validation import logged_envelope
 from tests.conftest import SEED_COEFFICIENTS
 from trials.envelope import trajectory_envelope, union
 from trials.errors import IdentificationError

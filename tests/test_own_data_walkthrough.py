@@ -43,3 +43,15 @@ def test_nmea_recording_to_a_validated_fmu(tmp_path: Path) -> None:
     result = json.loads((tmp_path / "zz.json").read_text())
     # Trained on this very manoeuvre of KVLCC2 (first overshoot 5.0 deg).
     assert 3.0 < result["first_overshoot_deg"] < 8.0
+    _run(
+        "-m", "scenarios", "imo", "--fmu", str(fmu), "--params", "build/params.json",
+        "--json", "imo.json", "--quiet",
+        cwd=tmp_path,
+    )  # fmt: skip
+    beyond = json.loads((tmp_path / "imo.json").read_text())["extrapolation"]["beyond"]
+    # From one 10/10 zig-zag: the 35° turns and the 20/20 zig-zag are extrapolations.
+    assert {name for name, reasons in beyond.items() if reasons} == {
+        "turning-35-stbd",
+        "turning-35-port",
+        "zigzag-20-20-stbd",
+    }

@@ -24,6 +24,7 @@ from scenarios.runs import reference_runs
 from scenarios.synthesize import maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
+from trials.envelope import Envelope, Sides
 from trials.logs import ManeuverLog, read_log, write_log
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import turning_metrics, zigzag_metrics
@@ -360,6 +361,29 @@ def test_runs_of_absurdly_many_steps_are_refused(fmu, tmp_path, capsys, option):
     assert line.startswith(f"{PROG} turning-circle: error: turning-35-stbd: ")
     assert "steps, more than 1e+07; take a longer step or a shorter time limit" in line
     assert not out.exists()
+
+
+def test_imo_with_params_says_which_manoeuvres_go_beyond_the_logs(fmu, params, tmp_path, capsys):
+    """Logs steered to 20° (turning and slowing as much as anything here): the 35° turns
+    are extrapolations, the zig-zags not; params of another FMU are a one-line error."""
+    logs = Envelope(Sides(math.radians(20.0), math.radians(20.0)), Sides(5.0, 5.0), 0.0)
+    path = tmp_path / "params.json"
+    save_params(path, replace(params, identification={"envelope": logs.as_dict()}))
+    report = tmp_path / "imo.json"
+    argv = ["imo", "--fmu", str(fmu), "--params", str(path), "--quiet", "--json", str(report)]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "- turning-35-stbd: rudder 35.0 deg to starboard (logs: 20.0 deg)" in out
+    assert "- turning-35-port: rudder 35.0 deg to port (logs: 20.0 deg)" in out
+    beyond = json.loads(report.read_text())["extrapolation"]["beyond"]
+    assert beyond["zigzag-10-10-stbd"] == [] and beyond["zigzag-20-20-stbd"] == []
+    assert main(["imo", "--fmu", str(fmu), "--quiet", "--json", str(report)]) == 0
+    assert json.loads(report.read_text())["extrapolation"] is None  # no params: not judged
+    capsys.readouterr()
+    other = tmp_path / "other.json"
+    save_params(other, _params(c3=WIDE_TURNING_C3))
+    assert main(["imo", "--fmu", str(fmu), "--params", str(other), "--quiet"]) == 1
+    assert "other.json" in _one_line(capsys.readouterr().err)
 
 
 def test_file_that_is_not_an_fmu(tmp_path, capsys):

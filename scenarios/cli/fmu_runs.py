@@ -43,19 +43,35 @@ from typing import Any, Literal
 
 import numpy as np
 
-from fmu_model import argtypes
+from fmu_model import argtypes, load_params
 from scenarios.cli.common import EXIT_GATE_FAILED, PROG, make_bars, sim_progress
 from scenarios.cli.sea import add_sea_arguments, sea_environment
 from scenarios.errors import ScenarioError
-from scenarios.fmu_checks import FmuInfo, check_environment, check_rudder, open_fmu, read_fmu_info
+from scenarios.fmu_checks import (
+    FmuInfo,
+    check_environment,
+    check_params_match,
+    check_rudder,
+    open_fmu,
+    read_fmu_info,
+)
 from scenarios.imo import Criterion, TurningJudgement, turning_ability_in_current
 from scenarios.records import (
     Condition,
     ManeuverRun,
+    beyond_logs,
     current_correction_record,
     environment_record,
+    logged_envelope,
 )
-from scenarios.report import criteria_table, format_table, sea_lines, write_json
+from scenarios.report import (
+    criteria_table,
+    extrapolation_lines,
+    extrapolation_record,
+    format_table,
+    sea_lines,
+    write_json,
+)
 from scenarios.runs import (
     STANDARD_LIMIT_L_OVER_U,
     imo_criteria,
@@ -261,6 +277,12 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
     p = sub.add_parser("imo", parents=[fmu_run], help="IMO MSC.137(76) criteria of an FMU")
     p.add_argument("--strict", action="store_true", help="exit 3 when any criterion fails")
     p.add_argument("--json", metavar="OUT", help="write the criteria as JSON")
+    p.add_argument(
+        "--params",
+        metavar="FILE",
+        help="params.json the FMU was built from: say which manoeuvres go beyond what its "
+        "logs reached (the criteria there extrapolate the model)",
+    )
     p.add_argument(
         "--no-current-correction",
         action="store_true",
@@ -789,6 +811,11 @@ def run_imo_command(args: argparse.Namespace) -> int:
     """Run ``imo``: print the criteria; return 0, or 3 with ``--strict`` and a failure."""
     info = read_fmu_info(args.fmu)
     check_rudder(info, math.radians(35.0))
+    envelope = None
+    if args.params is not None:
+        params = load_params(args.params)
+        check_params_match(info, params, args.params)
+        envelope = logged_envelope(params)
     condition = _condition(args, info)
     environment = _at_sea(args, info)
     make = make_bars(args.quiet)
@@ -807,6 +834,7 @@ def run_imo_command(args: argparse.Namespace) -> int:
         bar.close()
     criteria = imo_criteria(runs, info.length_m, condition.speed_mps)
     passed = all(c.passed for c in criteria)
+    beyond = None if envelope is None else beyond_logs(envelope, runs, info.length_m)
     if args.json:
         write_json(
             args.json,
@@ -820,6 +848,7 @@ def run_imo_command(args: argparse.Namespace) -> int:
                     "passed": passed,
                     "criteria": [c.as_dict() for c in criteria],
                     "runs": {r.program.name: r.metrics_dict(info.length_m) for r in runs},
+                    "extrapolation": extrapolation_record(envelope, beyond),
                 },
             ),
         )
@@ -832,6 +861,8 @@ def run_imo_command(args: argparse.Namespace) -> int:
         for line in _sea_text(args, info)[1:]:
             print(line.strip())
     print(_criteria_text(criteria))
+    for line in extrapolation_lines(envelope, beyond):
+        print(line)
     n_pass = sum(c.passed for c in criteria)
     print(f"verdict: {'PASS' if passed else 'FAIL'} ({n_pass} of {len(criteria)} criteria pass)")
     if args.strict and not passed:

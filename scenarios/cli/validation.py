@@ -61,13 +61,14 @@ def add_validate_command(sub: Any, common: argparse.ArgumentParser) -> None:
     add_sea_arguments(p, correction=True)
     band = p.add_argument_group(
         "uncertainty",
-        "95 % intervals of the predicted quantities from the coefficient covariance "
-        "(identification noise only, not model-structure error)",
+        "95 % intervals of the predicted quantities from the coefficient covariance and "
+        "the spread of the fit's alternative estimates; which manoeuvres go beyond the logs",
     )
     band.add_argument(
         "--params",
         metavar="FILE",
-        help="params.json the FMU was built from, with its covariance: adds the intervals",
+        help="params.json the FMU was built from, with its covariance: adds the intervals "
+        "and says which manoeuvres go beyond what its logs reached",
     )
     band.add_argument(
         "--uncertainty-samples",
@@ -174,7 +175,7 @@ def _print_validation(validation: Validation) -> None:
         ]
         print("\n".join(sea_lines(validation.environment, sides)))
     print(format_table(*comparison_table(validation.rows, validation.extrapolation)))
-    for line in extrapolation_lines(validation):
+    for line in extrapolation_lines(validation.envelope, validation.extrapolation):
         print(line)
     if validation.uncertainty is not None:
         inside, judged = interval_counts(validation.rows)
