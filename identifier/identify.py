@@ -64,7 +64,7 @@ from identifier.shape import ShapeSelection, select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
 from trials.conditions import EXECUTE_RUDDER_RAD, execute_index
-from trials.envelope import envelope_of, union
+from trials.envelope import Envelope, envelope_of, union
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
 
@@ -238,6 +238,26 @@ def _nominal(logs: Sequence[ManeuverLog], segments: Sequence[EkfSegment]) -> tup
         speeds.append(float(np.mean(segment.velocities[:end, 0])))
         revs.append(float(np.mean(log.n_rps[:end])))
     return float(np.mean(speeds)), float(np.mean(revs))
+
+
+def _envelope(
+    logs: Sequence[ManeuverLog], segments: Sequence[EkfSegment], length_m: float
+) -> Envelope:
+    """Return what the logs reached (``trials.envelope``), from their smoothed velocities.
+
+    ``segments`` with the velocities through the water (the current taken out); U₀ is
+    the mean speed before the execute, as the nominal speed (:func:`_nominal`).
+    """
+    return union(
+        envelope_of(
+            seg.rudder_rad,
+            seg.velocities[:, 2],
+            np.hypot(seg.velocities[:, 0], seg.velocities[:, 1]),
+            length_m,
+            approach_samples=max(execute_index(log), 3),
+        )
+        for log, seg in zip(logs, segments, strict=True)
+    )
 
 
 def _structure_and_start(
@@ -763,6 +783,7 @@ def _fit(
     current = None
     if settings.current == "none":
         nominal_speed_mps, nominal_n_rps = _nominal(logs, segments)
+        envelope = _envelope(logs, segments, length)
         stage("equation-error start")
         shape, structure, ls = _structure_and_start(
             settings, segments, length, nominal_speed_mps, nominal_n_rps
@@ -773,9 +794,10 @@ def _fit(
         shape, structure, ls, ekf, current = _estimate_current(
             settings, segments, tracks, logs, length, progress, stage
         )
-        nominal_speed_mps, nominal_n_rps = _nominal(
-            logs, water_segments(segments, tracks, current.vector)
-        )
+        water = water_segments(segments, tracks, current.vector)
+        nominal_speed_mps, nominal_n_rps = _nominal(logs, water)
+        envelope = _envelope(logs, water, length)
+        del water  # a copy of every velocity: not held through the refinement
         if heading_span_rad(tracks) < MIN_HEADING_SPAN_RAD:
             warnings.append(
                 f"the logs' headings span {math.degrees(heading_span_rad(tracks)):.0f} deg: "
@@ -827,10 +849,7 @@ def _fit(
             "settings": _json_safe(asdict(settings)),
             **({} if shape is None else {"shape": shape.as_dict()}),
             "environment": {"current": "none"} if current is None else current.as_dict(),
-            "envelope": union(
-                envelope_of(log.rudder_rad, t.r_radps, t.speed_mps, length)
-                for log, t in zip(logs, tracks, strict=True)
-            ).as_dict(),
+            "envelope": envelope.as_dict(),
             "noise": [
                 {"position_m": t.position_noise_m, "heading_deg": math.degrees(t.heading_noise_rad)}
                 for t in tracks

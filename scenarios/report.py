@@ -46,7 +46,8 @@ location comes from the validation run, the spread from the samples.
      "warnings": [str, ...],
      "extrapolation": {"envelope": {"rudder_max_rad": {"port", "starboard"},
                                     "yaw_rate_max": {"port", "starboard"},
-                                    "speed_ratio_min"},
+                                    "speed_ratio_min",
+                                    "approach_speed_mps": {"low", "high"}},
                        "beyond": {maneuver: [reason, ...]},
                        "n_in_interval_within", "n_with_interval_within"} | null,
      "environment": {"current_mps", "current_to_deg", "wind_mps", "wind_from_deg"}}
@@ -264,13 +265,18 @@ def extrapolation_lines(
     """
     if envelope is None or beyond is None:
         return []
-    rudder, yaw_rate = envelope.rudder_max_rad, envelope.yaw_rate_max
+    rudder, yaw_rate, approach = (
+        envelope.rudder_max_rad,
+        envelope.yaw_rate_max,
+        envelope.approach_speed_mps,
+    )
     reached = (
         "The identification's logs reach a rudder angle of "
         f"{math.degrees(rudder.port):.1f} deg to port and "
         f"{math.degrees(rudder.starboard):.1f} deg to starboard, a yaw rate r' of "
         f"{yaw_rate.port:.2f} to port and {yaw_rate.starboard:.2f} to starboard, and a "
-        f"speed of {envelope.speed_ratio_min:.2f} U0."
+        f"speed of {envelope.speed_ratio_min:.2f} U0, from approach speeds U0 of "
+        f"{approach.low:.3g}-{approach.high:.3g} m/s."
     )
     if not any(beyond.values()):
         return [f"{reached} Every predicted manoeuvre stays within them."]

@@ -22,12 +22,19 @@ from trials.envelope import (
     SPEED_RATIO_MARGIN,
     Envelope,
     Sides,
+    Span,
     envelope_of,
     union,
 )
 from trials.trajectory import empty_trajectory
 
-LOGGED = Envelope(rudder_max_rad=Sides(0.2, 0.3), yaw_rate_max=Sides(0.5, 0.4), speed_ratio_min=0.8)
+LOGGED = Envelope(
+    rudder_max_rad=Sides(0.2, 0.3),
+    yaw_rate_max=Sides(0.5, 0.4),
+    speed_ratio_min=0.8,
+    approach_speed_mps=Span(5.0, 6.0),
+)
+ANY_SPEED = Span(0.01, 100.0)
 
 
 def test_the_envelope_of_samples_by_hand() -> None:
@@ -39,13 +46,15 @@ def test_the_envelope_of_samples_by_hand() -> None:
     assert e.rudder_max_rad == pytest.approx(Sides(0.2, 0.3))
     assert e.yaw_rate_max == pytest.approx(Sides(0.02 * 100.0 / 4.0, 0.01 * 100.0 / 5.0))
     assert e.speed_ratio_min == pytest.approx(0.1)
+    assert e.approach_speed_mps == Span(5.0, 5.0)
     one_sided = envelope_of(np.array([0.0, 0.2]), np.array([0.0, 0.01]), np.ones(2), 10.0)
     assert one_sided.rudder_max_rad.port == 0.0 and one_sided.yaw_rate_max.port == 0.0
 
 
 def test_union_is_the_widest_on_every_axis() -> None:
-    other = Envelope(Sides(0.35, 0.1), Sides(0.2, 0.6), 0.9)
-    assert union([LOGGED, other]) == Envelope(Sides(0.35, 0.3), Sides(0.5, 0.6), 0.8)
+    other = Envelope(Sides(0.35, 0.1), Sides(0.2, 0.6), 0.9, Span(5.5, 7.0))
+    widest = Envelope(Sides(0.35, 0.3), Sides(0.5, 0.6), 0.8, Span(5.0, 7.0))
+    assert union([LOGGED, other]) == widest
 
 
 @pytest.mark.parametrize(
@@ -69,9 +78,18 @@ def test_union_is_the_widest_on_every_axis() -> None:
             replace(LOGGED, speed_ratio_min=0.6),
             ("speed down to 0.60 U0 (logs: 0.80 U0)",),
         ),
+        (replace(LOGGED, approach_speed_mps=Span(4.76, 6.29)), ()),
         (
-            Envelope(Sides(0.6, 0.6), Sides(0.9, 0.9), 0.4),
-            ("rudder", "rudder", "yaw rate", "yaw rate", "speed"),
+            replace(LOGGED, approach_speed_mps=Span(4.7, 4.7)),
+            ("approach speed 4.7 m/s (logs: 5-6 m/s)",),
+        ),
+        (
+            replace(LOGGED, approach_speed_mps=Span(5.0, 6.4)),
+            ("approach speed 5-6.4 m/s (logs: 5-6 m/s)",),
+        ),
+        (
+            Envelope(Sides(0.6, 0.6), Sides(0.9, 0.9), 0.4, Span(9.0, 9.0)),
+            ("rudder", "rudder", "yaw rate", "yaw rate", "speed down", "approach speed"),
         ),
     ],
     ids=[
@@ -81,6 +99,9 @@ def test_union_is_the_widest_on_every_axis() -> None:
         "yaw-rate-starboard",
         "speed-inside-margin",
         "speed-beyond",
+        "approach-inside-margin",
+        "approach-slower",
+        "approach-faster",
         "every-axis",
     ],
 )
@@ -98,6 +119,7 @@ def test_the_record_survives_json_and_bad_records_are_none() -> None:
     assert Envelope.from_dict({**record, "speed_ratio_min": math.nan}) is None
     assert Envelope.from_dict({**record, "yaw_rate_max": {"port": 0.1}}) is None
     assert Envelope.from_dict({**record, "rudder_max_rad": "wide"}) is None
+    assert Envelope.from_dict({**record, "approach_speed_mps": {"low": 5.0, "high": "6"}}) is None
     assert Envelope.from_dict({}) is None
 
 
@@ -121,7 +143,7 @@ def _sailed(validation: Validation) -> Validation:
 def test_a_validation_marks_the_manoeuvres_beyond_the_logs() -> None:
     """Logs of 10° zig-zags (r′ 0.3, speed 0.95 U0): the turn goes beyond on its side's
     rudder and yaw rate and in speed; the zig-zag stays inside."""
-    logs = Envelope(Sides(math.radians(10.0), math.radians(10.0)), Sides(0.3, 0.3), 0.95)
+    logs = Envelope(Sides(math.radians(10.0), math.radians(10.0)), Sides(0.3, 0.3), 0.95, ANY_SPEED)
     v = replace(_sailed(_validation(BANDS)), envelope=logs)
     assert v.extrapolation == {
         "turning-35-stbd": (
@@ -151,5 +173,5 @@ def test_without_an_envelope_nothing_is_judged() -> None:
     assert comparison_table(v.rows, v.extrapolation)[0][-1] == "difference"
     assert "beyond" not in render_markdown(v)
     assert validation_json(v)["extrapolation"] is None
-    inside = replace(v, envelope=Envelope(Sides(1.0, 1.0), Sides(1.0, 1.0), 0.1))
+    inside = replace(v, envelope=Envelope(Sides(1.0, 1.0), Sides(1.0, 1.0), 0.1, ANY_SPEED))
     assert "Every predicted manoeuvre stays within them." in render_markdown(inside)

@@ -337,6 +337,7 @@ def test_identification_records_the_envelope_of_its_logs(
     assert envelope.rudder_max_rad == pytest.approx(truth.rudder_max_rad, rel=1e-9)
     assert envelope.yaw_rate_max == pytest.approx(truth.yaw_rate_max, rel=0.05)
     assert envelope.speed_ratio_min == pytest.approx(truth.speed_ratio_min, abs=0.02)
+    assert envelope.approach_speed_mps == pytest.approx(truth.approach_speed_mps, rel=0.01)
 
 
 def test_cli_fit_on_an_nmea_recording_says_to_convert_it(tmp_path: Path, capsys) -> None:

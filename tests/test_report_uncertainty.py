@@ -46,7 +46,7 @@ from scenarios.uncertainty.results import (
 )
 from scenarios.validation import uncertainty_bands
 from tests.conftest import SEED_COEFFICIENTS
-from trials.envelope import Envelope, Sides
+from trials.envelope import Envelope, Sides, Span
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import TurningMetrics, ZigzagMetrics
 from trials.trajectory import empty_trajectory
@@ -329,7 +329,8 @@ def ship(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     folder = tmp_path_factory.mktemp("uncertain")
     # Logs steered to 20° at most (turning and slowing as much as anything sailed here):
     # the 35° turns go beyond on the rudder, the zig-zags stay within.
-    logs = Envelope(Sides(math.radians(20.0), math.radians(20.0)), Sides(5.0, 5.0), 0.0)
+    rudder = Sides(math.radians(20.0), math.radians(20.0))
+    logs = Envelope(rudder, Sides(5.0, 5.0), 0.0, Span(0.1, 100.0))
     identified = replace(_uncertain(params), identification={"envelope": logs.as_dict()})
     save_params(folder / "params.json", identified)
     other = params.with_vector(params.to_vector() * 1.01)

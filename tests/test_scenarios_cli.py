@@ -24,7 +24,7 @@ from scenarios.runs import reference_runs
 from scenarios.synthesize import maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
-from trials.envelope import Envelope, Sides
+from trials.envelope import Envelope, Sides, Span
 from trials.logs import ManeuverLog, read_log, write_log
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import turning_metrics, zigzag_metrics
@@ -366,7 +366,8 @@ def test_runs_of_absurdly_many_steps_are_refused(fmu, tmp_path, capsys, option):
 def test_imo_with_params_says_which_manoeuvres_go_beyond_the_logs(fmu, params, tmp_path, capsys):
     """Logs steered to 20° (turning and slowing as much as anything here): the 35° turns
     are extrapolations, the zig-zags not; params of another FMU are a one-line error."""
-    logs = Envelope(Sides(math.radians(20.0), math.radians(20.0)), Sides(5.0, 5.0), 0.0)
+    rudder = Sides(math.radians(20.0), math.radians(20.0))
+    logs = Envelope(rudder, Sides(5.0, 5.0), 0.0, Span(0.1, 100.0))
     path = tmp_path / "params.json"
     save_params(path, replace(params, identification={"envelope": logs.as_dict()}))
     report = tmp_path / "imo.json"

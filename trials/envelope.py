@@ -13,14 +13,17 @@ axes, each a force the structure has to extrapolate:
 * the largest non-dimensional yaw rate r′ = |r|·L/U to each side: the hull's nonlinear
   damping;
 * the lowest speed ratio U/U₀ (U₀ the approach speed): the propeller's loading and its
-  slipstream share of the rudder inflow.
+  slipstream share of the rudder inflow;
+* the range of the approach speeds U₀ [m/s]: the Froude number, and the point at which
+  the speed-scaled coefficients were fitted.
 
 The sides count apart because a single-screw ship is not symmetric: a hard turn to port
 predicted from logs that turned hard only to starboard extrapolates the model's
 port/starboard difference (the KVLCC2 reference's port turn, trained on a starboard one).
 A run is beyond the envelope on an axis by more than :data:`MARGIN` of its value
 (:data:`SPEED_RATIO_MARGIN` for the speed ratio): noise in the smoothed logs should not
-make a repeat of a logged manoeuvre an extrapolation.
+make a repeat of a logged manoeuvre an extrapolation. Speeds are through the water (the
+identification's estimate of them when it estimates a current).
 """
 
 from __future__ import annotations
@@ -58,13 +61,46 @@ class Sides(NamedTuple):
         return cls(max(s.port for s in listed), max(s.starboard for s in listed))
 
 
+class Span(NamedTuple):
+    """The lowest and the highest of some values."""
+
+    low: float
+    high: float
+
+    @classmethod
+    def widest(cls, items: Iterable[Span]) -> Span:
+        """Return the span of all ``items``."""
+        listed = list(items)
+        return cls(min(s.low for s in listed), max(s.high for s in listed))
+
+
+def _number(value: object) -> float | None:
+    """Return ``value`` as a float when it is a finite number, else None."""
+    if isinstance(value, int | float) and math.isfinite(value):
+        return float(value)
+    return None
+
+
+def _pair(record: object, names: tuple[str, str]) -> tuple[float, float] | None:
+    """Read a JSON object of two finite numbers named ``names``; None when it is not one."""
+    if not isinstance(record, Mapping):
+        return None
+    first, second = (_number(record.get(name)) for name in names)
+    return None if first is None or second is None else (first, second)
+
+
 @dataclass(frozen=True)
 class Envelope:
-    """Largest rudder angle [rad] and yaw rate r′ [-] to each side, lowest U/U₀ [-]."""
+    """What some manoeuvres reached: the axes of the module docstring.
+
+    Largest rudder angle [rad] and yaw rate r′ [-] to each side, lowest speed ratio U/U₀
+    [-], and the span of the approach speeds U₀ [m/s].
+    """
 
     rudder_max_rad: Sides
     yaw_rate_max: Sides
     speed_ratio_min: float
+    approach_speed_mps: Span
 
     def as_dict(self) -> dict[str, object]:
         """Return the JSON record (params.json ``identification.envelope``)."""
@@ -72,28 +108,19 @@ class Envelope:
             "rudder_max_rad": self.rudder_max_rad._asdict(),
             "yaw_rate_max": self.yaw_rate_max._asdict(),
             "speed_ratio_min": self.speed_ratio_min,
+            "approach_speed_mps": self.approach_speed_mps._asdict(),
         }
 
     @classmethod
     def from_dict(cls, record: Mapping[str, object]) -> Envelope | None:
         """Read :meth:`as_dict`'s record; None when a value is missing or not a finite number."""
-
-        def number(value: object) -> float | None:
-            if isinstance(value, int | float) and math.isfinite(value):
-                return float(value)
+        rudder = _pair(record.get("rudder_max_rad"), Sides._fields)
+        yaw_rate = _pair(record.get("yaw_rate_max"), Sides._fields)
+        ratio = _number(record.get("speed_ratio_min"))
+        approach = _pair(record.get("approach_speed_mps"), Span._fields)
+        if rudder is None or yaw_rate is None or ratio is None or approach is None:
             return None
-
-        sides = []
-        for key in ("rudder_max_rad", "yaw_rate_max"):
-            pair = record.get(key)
-            if not isinstance(pair, Mapping):
-                return None
-            port, starboard = number(pair.get("port")), number(pair.get("starboard"))
-            if port is None or starboard is None:
-                return None
-            sides.append(Sides(port, starboard))
-        speed = number(record.get("speed_ratio_min"))
-        return None if speed is None else cls(sides[0], sides[1], speed)
+        return cls(Sides(*rudder), Sides(*yaw_rate), ratio, Span(*approach))
 
     def beyond(self, run: Envelope) -> tuple[str, ...]:
         """Say on which axes ``run`` leaves this envelope (by more than the margins).
@@ -119,13 +146,24 @@ class Envelope:
             out.append(
                 f"speed down to {run.speed_ratio_min:.2f} U0 (logs: {self.speed_ratio_min:.2f} U0)"
             )
+        known, sailed_span = self.approach_speed_mps, run.approach_speed_mps
+        slower = sailed_span.low < (1.0 - MARGIN) * known.low
+        if slower or sailed_span.high > (1.0 + MARGIN) * known.high:
+            speeds = f"{sailed_span.low:.3g}"
+            if sailed_span.high != sailed_span.low:
+                speeds += f"-{sailed_span.high:.3g}"
+            out.append(f"approach speed {speeds} m/s (logs: {known.low:.3g}-{known.high:.3g} m/s)")
         return tuple(out)
 
 
 def envelope_of(
-    rudder_rad: np.ndarray, r_radps: np.ndarray, speed_mps: np.ndarray, length_m: float
+    rudder_rad: np.ndarray,
+    r_radps: np.ndarray,
+    speed_mps: np.ndarray,
+    length_m: float,
+    approach_samples: int = 1,
 ) -> Envelope:
-    """Return the envelope of one manoeuvre's samples (U₀: the speed of the first sample).
+    """Return the envelope of one manoeuvre's samples.
 
     Parameters
     ----------
@@ -134,14 +172,19 @@ def envelope_of(
         first (positive to starboard).
     length_m : float
         Ship length [m].
+    approach_samples : int
+        How many samples the approach takes: U₀ is their mean speed (a log's smoothed
+        speed is noisy; a simulated run's first sample is its approach).
 
     """
-    ratio = speed_mps / float(speed_mps[0])
+    approach = float(np.mean(speed_mps[: max(approach_samples, 1)]))
+    ratio = speed_mps / approach
     moving = ratio >= MIN_SPEED_RATIO_FOR_YAW_RATE
     return Envelope(
         rudder_max_rad=Sides.of(rudder_rad),
         yaw_rate_max=Sides.of(r_radps[moving] * length_m / speed_mps[moving]),
         speed_ratio_min=float(np.min(ratio)),
+        approach_speed_mps=Span(approach, approach),
     )
 
 
@@ -158,4 +201,5 @@ def union(envelopes: Iterable[Envelope]) -> Envelope:
         rudder_max_rad=Sides.widest(e.rudder_max_rad for e in items),
         yaw_rate_max=Sides.widest(e.yaw_rate_max for e in items),
         speed_ratio_min=min(e.speed_ratio_min for e in items),
+        approach_speed_mps=Span.widest(e.approach_speed_mps for e in items),
     )
