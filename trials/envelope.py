@@ -89,6 +89,19 @@ def _pair(record: object, names: tuple[str, str]) -> tuple[float, float] | None:
     return None if first is None or second is None else (first, second)
 
 
+def _past_sides(label: str, logged: Sides, sailed: Sides, *, angle: bool) -> list[str]:
+    """Phrases for the sides on which ``sailed`` exceeds ``logged`` by more than the margin.
+
+    An ``angle`` [rad] is said in degrees with one decimal; anything else with two.
+    """
+    scale, digits, unit = (math.degrees(1.0), 1, " deg") if angle else (1.0, 2, "")
+    return [
+        f"{label} {scale * s:.{digits}f}{unit} to {side} (logs: {scale * known:.{digits}f}{unit})"
+        for side, known, s in zip(Sides._fields, logged, sailed, strict=True)
+        if s > (1.0 + MARGIN) * known
+    ]
+
+
 @dataclass(frozen=True)
 class Envelope:
     """What some manoeuvres reached: the axes of the module docstring.
@@ -128,20 +141,10 @@ class Envelope:
         One phrase per axis and side, e.g. ``"rudder 35.0 deg to port (logs: 20.1 deg)"``;
         empty when the run stays inside.
         """
-        out = []
-        for side, logged, sailed in zip(
-            Sides._fields, self.rudder_max_rad, run.rudder_max_rad, strict=True
-        ):
-            if sailed > (1.0 + MARGIN) * logged:
-                out.append(
-                    f"rudder {math.degrees(sailed):.1f} deg to {side} "
-                    f"(logs: {math.degrees(logged):.1f} deg)"
-                )
-        for side, logged, sailed in zip(
-            Sides._fields, self.yaw_rate_max, run.yaw_rate_max, strict=True
-        ):
-            if sailed > (1.0 + MARGIN) * logged:
-                out.append(f"yaw rate r' {sailed:.2f} to {side} (logs: {logged:.2f})")
+        out = [
+            *_past_sides("rudder", self.rudder_max_rad, run.rudder_max_rad, angle=True),
+            *_past_sides("yaw rate r'", self.yaw_rate_max, run.yaw_rate_max, angle=False),
+        ]
         if run.speed_ratio_min < self.speed_ratio_min - SPEED_RATIO_MARGIN:
             out.append(
                 f"speed down to {run.speed_ratio_min:.2f} U0 (logs: {self.speed_ratio_min:.2f} U0)"
