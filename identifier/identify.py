@@ -230,11 +230,16 @@ def _json_safe(settings: dict[str, object]) -> dict[str, object]:
     }
 
 
+def _approach_samples(log: ManeuverLog) -> int:
+    """Return how many of the log's first samples make its approach (at least 3)."""
+    return max(execute_index(log), 3)
+
+
 def _nominal(logs: Sequence[ManeuverLog], segments: Sequence[EkfSegment]) -> tuple[float, float]:
     """Approach speed u [m/s] and propeller speed [rev/s]: means over the logs' approaches."""
     speeds, revs = [], []
     for log, segment in zip(logs, segments, strict=True):
-        end = max(execute_index(log), 3)
+        end = _approach_samples(log)
         speeds.append(float(np.mean(segment.velocities[:end, 0])))
         revs.append(float(np.mean(log.n_rps[:end])))
     return float(np.mean(speeds)), float(np.mean(revs))
@@ -254,7 +259,7 @@ def _envelope(
             seg.velocities[:, 2],
             np.hypot(seg.velocities[:, 0], seg.velocities[:, 1]),
             length_m,
-            approach_samples=max(execute_index(log), 3),
+            approach_samples=_approach_samples(log),
         )
         for log, seg in zip(logs, segments, strict=True)
     )
