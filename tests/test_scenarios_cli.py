@@ -363,9 +363,10 @@ def test_runs_of_absurdly_many_steps_are_refused(fmu, tmp_path, capsys, option):
     assert not out.exists()
 
 
-def test_imo_with_params_says_which_manoeuvres_go_beyond_the_logs(fmu, params, tmp_path, capsys):
+def test_imo_and_runs_with_params_say_which_go_beyond_the_logs(fmu, params, tmp_path, capsys):
     """Logs steered to 20° (turning and slowing as much as anything here): the 35° turns
-    are extrapolations, the zig-zags not; params of another FMU are a one-line error."""
+    are extrapolations, the zig-zags not, in imo and in a single run; params of another
+    FMU are a one-line error."""
     rudder = Sides(math.radians(20.0), math.radians(20.0))
     logs = Envelope(rudder, Sides(5.0, 5.0), 0.0, Span(0.1, 100.0))
     path = tmp_path / "params.json"
@@ -381,6 +382,15 @@ def test_imo_with_params_says_which_manoeuvres_go_beyond_the_logs(fmu, params, t
     assert main(["imo", "--fmu", str(fmu), "--quiet", "--json", str(report)]) == 0
     assert json.loads(report.read_text())["extrapolation"] is None  # no params: not judged
     capsys.readouterr()
+    # The single-run commands say it of their run.
+    turn = ["turning-circle", "--fmu", str(fmu), "--rudder-deg", "-35", "--params", str(path)]
+    assert main([*turn, "--quiet", "--json", str(report)]) == 0
+    assert "- turning-35-port: rudder 35.0 deg to port (logs: 20.0 deg)" in capsys.readouterr().out
+    assert json.loads(report.read_text())["extrapolation"]["beyond"]["turning-35-port"]
+    zz = ["zigzag", "--fmu", str(fmu), "--params", str(path), "--quiet", "--json", str(report)]
+    assert main(zz) == 0
+    assert "Every predicted manoeuvre stays within them." in capsys.readouterr().out
+    assert json.loads(report.read_text())["extrapolation"]["beyond"] == {"zigzag-10-10-stbd": []}
     other = tmp_path / "other.json"
     save_params(other, _params(c3=WIDE_TURNING_C3))
     assert main(["imo", "--fmu", str(fmu), "--params", str(other), "--quiet"]) == 1

@@ -91,6 +91,7 @@ from trials.current_correction import (
     CurrentCorrection,
     correct_turning_circle,
 )
+from trials.envelope import Envelope, trajectory_envelope
 from trials.logs import ManeuverLog, read_log
 from trials.maneuvers import (
     DEFAULT_RUDDER_RATE_DEG_S,
@@ -181,6 +182,12 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
     )
     fmu_run.add_argument(
         "--dt-s", type=argtypes.positive, default=0.1, metavar="S", help="communication step [s]"
+    )
+    fmu_run.add_argument(
+        "--params",
+        metavar="FILE",
+        help="params.json the FMU was built from: say which runs go beyond what its logs "
+        "reached (the model extrapolates there)",
     )
     add_sea_arguments(fmu_run)
 
@@ -277,12 +284,6 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
     p = sub.add_parser("imo", parents=[fmu_run], help="IMO MSC.137(76) criteria of an FMU")
     p.add_argument("--strict", action="store_true", help="exit 3 when any criterion fails")
     p.add_argument("--json", metavar="OUT", help="write the criteria as JSON")
-    p.add_argument(
-        "--params",
-        metavar="FILE",
-        help="params.json the FMU was built from: say which manoeuvres go beyond what its "
-        "logs reached (the criteria there extrapolate the model)",
-    )
     p.add_argument(
         "--no-current-correction",
         action="store_true",
@@ -596,6 +597,30 @@ def _save_outputs(
         save_png(figure(), args.plot)
 
 
+def _params_envelope(args: argparse.Namespace, info: FmuInfo) -> Envelope | None:
+    """Return the envelope of the logs of ``--params`` (checked against the FMU), if given."""
+    if args.params is None:
+        return None
+    params = load_params(args.params)
+    check_params_match(info, params, args.params)
+    return logged_envelope(params)
+
+
+def _extrapolation(
+    envelope: Envelope | None,
+    program: Program,
+    trajectory: np.ndarray,
+    info: FmuInfo,
+    record: dict[str, Any],
+) -> list[str]:
+    """Judge one run against the logs' ``envelope``: into ``record``; the lines to print."""
+    if envelope is None:
+        return []
+    beyond = {program.name: envelope.beyond(trajectory_envelope(trajectory, info.length_m))}
+    record["extrapolation"] = extrapolation_record(envelope, beyond)
+    return extrapolation_lines(envelope, beyond)
+
+
 def _header(info: FmuInfo, program: Program, condition: Condition) -> str:
     return (
         f"{program.name} on {info.model_name} (L = {info.length_m:g} m): U = "
@@ -616,6 +641,7 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
     info = read_fmu_info(args.fmu)
     rudder = math.radians(args.rudder_deg)
     check_rudder(info, rudder)
+    envelope = _params_envelope(args, info)
     condition = _condition(args, info)
     program = turning_circle(
         rudder,
@@ -645,6 +671,7 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
             [("", [(info.model_name, trajectory)])], info.length_m, title=_title(info, program)
         )
 
+    beyond_lines = _extrapolation(envelope, program, trajectory, info, record)
     _save_outputs(args, info, program, condition, trajectory, record, figure)
     lines = [_header(info, program, condition), *_sea_text(args, info)]
     for key, label in _TURNING_LINES:
@@ -652,7 +679,7 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
             lines.append(f"  {label:<18} {record[f'{key}_m']:9.1f} m  {record[f'{key}_L']:7.3f} L")
     lines.append(f"  {'time to 90 deg':<18} {record['time_to_90_s']:9.1f} s")
     lines.append(f"  {'speed loss':<18} {record['speed_loss_pct']:9.1f} %")
-    print("\n".join(lines + current_lines + logged_lines + _logged_lines(record)))
+    print("\n".join(lines + current_lines + logged_lines + _logged_lines(record) + beyond_lines))
     return 0
 
 
@@ -661,6 +688,7 @@ def run_zigzag_command(args: argparse.Namespace) -> int:
     info = read_fmu_info(args.fmu)
     rudder = math.radians(args.rudder_deg) * (-1.0 if args.port_first else 1.0)
     check_rudder(info, rudder)
+    envelope = _params_envelope(args, info)
     condition = _condition(args, info)
     program = zigzag(
         rudder,
@@ -675,6 +703,7 @@ def run_zigzag_command(args: argparse.Namespace) -> int:
 
         return zigzag_figure([(info.model_name, trajectory)], title=_title(info, program))
 
+    beyond_lines = _extrapolation(envelope, program, trajectory, info, record)
     _save_outputs(args, info, program, condition, trajectory, record, figure)
     lines = [_header(info, program, condition), *_sea_text(args, info)]
     if sea_environment(args) is not None:
@@ -689,7 +718,7 @@ def run_zigzag_command(args: argparse.Namespace) -> int:
     ):
         if key in record:
             lines.append(f"  {label:<18} {record[key]:9.2f} {unit}")
-    print("\n".join(lines + _logged_lines(record)))
+    print("\n".join(lines + _logged_lines(record) + beyond_lines))
     return 0
 
 
@@ -699,6 +728,7 @@ def run_spiral_command(args: argparse.Namespace) -> int:
     steps = tuple(math.radians(d) for d in args.rudder_steps_deg)
     for step in steps:
         check_rudder(info, step)
+    envelope = _params_envelope(args, info)
     condition = _condition(args, info)
     hold = _hold_s(args.hold_s, info, condition)
     program = replace(spiral(steps, hold_s=hold), approach_s=args.approach_s)
@@ -736,6 +766,7 @@ def run_spiral_command(args: argparse.Namespace) -> int:
             title=_title(info, program),
         )
 
+    beyond_lines = _extrapolation(envelope, program, trajectory, info, record)
     _save_outputs(args, info, program, condition, trajectory, record, figure)
     lines = [
         _header(info, program, condition),
@@ -751,7 +782,7 @@ def run_spiral_command(args: argparse.Namespace) -> int:
         lines.append(f"  {d:12.1f}  {r:16.4f}  {rn:9.4f}")
     verdict = "stable (no loop)" if metrics.is_stable else f"loop {metrics.loop_width_deg:.1f} deg"
     lines.append(f"  hysteresis: {verdict}")
-    print("\n".join(lines))
+    print("\n".join(lines + beyond_lines))
     return 0
 
 
@@ -760,6 +791,7 @@ def run_pullout_command(args: argparse.Namespace) -> int:
     info = read_fmu_info(args.fmu)
     rudder = math.radians(args.rudder_deg)
     check_rudder(info, rudder)
+    envelope = _params_envelope(args, info)
     condition = _condition(args, info)
     turn_s = _hold_s(args.turn_s, info, condition)
     release_s = _hold_s(args.release_s, info, condition)
@@ -788,13 +820,14 @@ def run_pullout_command(args: argparse.Namespace) -> int:
 
         return pullout_figure([(info.model_name, trajectory)], title=_title(info, program))
 
+    beyond_lines = _extrapolation(envelope, program, trajectory, info, record)
     _save_outputs(args, info, program, condition, trajectory, record, figure)
     lines = [_header(info, program, condition), *_sea_text(args, info)]
     lines.append(f"  {'yaw rate at release':<26} {record['initial_yaw_rate_degps']:9.4f} deg/s")
     lines.append(f"  {'residual yaw rate':<26} {record['residual_yaw_rate_degps']:9.4f} deg/s")
     if metrics.time_constant_s is not None:
         lines.append(f"  {'decay time constant':<26} {metrics.time_constant_s:9.1f} s")
-    print("\n".join(lines))
+    print("\n".join(lines + beyond_lines))
     return 0
 
 
@@ -811,11 +844,7 @@ def run_imo_command(args: argparse.Namespace) -> int:
     """Run ``imo``: print the criteria; return 0, or 3 with ``--strict`` and a failure."""
     info = read_fmu_info(args.fmu)
     check_rudder(info, math.radians(35.0))
-    envelope = None
-    if args.params is not None:
-        params = load_params(args.params)
-        check_params_match(info, params, args.params)
-        envelope = logged_envelope(params)
+    envelope = _params_envelope(args, info)
     condition = _condition(args, info)
     environment = _at_sea(args, info)
     make = make_bars(args.quiet)
