@@ -29,6 +29,12 @@ JSON record gains ``environment`` (``current_mps``, ``current_to_deg``, ``wind_m
 drift a wind adds is taken out with the current's, as on a trial); ``imo`` continues
 its 35° turns to 720° and judges them so, and says which values it judged. Without
 these options every command sails in calm water, as before.
+
+With ``--params`` (the params.json the FMU was built from, checked against it) every
+command also says whether its runs go beyond what the identification's logs reached
+(``trials.envelope``): the axes and sides after the metrics, and ``extrapolation`` in
+the JSON (``scenarios.report.extrapolation_record``; ``imo`` writes it as null without
+``--params``).
 """
 
 from __future__ import annotations
