@@ -406,6 +406,14 @@ class Validation:
         What the predicted model's identification logs held (params.json
         ``identification.envelope``); None when not known (no params given).
 
+    Attributes
+    ----------
+    rows : tuple of ComparisonRow
+        The comparison (:func:`compare_runs`), with the intervals.
+    extrapolation : dict or None
+        Per predicted manoeuvre, how it leaves the envelope (:func:`beyond_logs`; empty:
+        it does not); None when the envelope is not known.
+
     """
 
     fmu_path: str
@@ -424,27 +432,24 @@ class Validation:
     environment: SeaEnvironment | None = None
     envelope: Envelope | None = None
     rows: tuple[ComparisonRow, ...] = field(init=False)
+    extrapolation: dict[str, tuple[str, ...]] | None = field(init=False)
 
     def __post_init__(self) -> None:
         intervals = None if self.uncertainty is None else self.uncertainty.intervals
         rows = compare_runs(self.reference, self.predicted, intervals=intervals)
         object.__setattr__(self, "rows", tuple(rows))
+        extrapolation = (
+            None
+            if self.envelope is None
+            else beyond_logs(self.envelope, self.predicted, self.model_length_m)
+        )
+        object.__setattr__(self, "extrapolation", extrapolation)
 
     @property
     def max_abs_error_pct(self) -> float | None:
         """Largest |error| over the rows that have one [%]; None when none has."""
         errors = [abs(r.error_pct) for r in self.rows if r.error_pct is not None]
         return max(errors) if errors else None
-
-    @property
-    def extrapolation(self) -> dict[str, tuple[str, ...]] | None:
-        """Per predicted manoeuvre, how it leaves the logs' envelope (empty: it does not).
-
-        None when the envelope is not known.
-        """
-        if self.envelope is None:
-            return None
-        return beyond_logs(self.envelope, self.predicted, self.model_length_m)
 
     @property
     def imo_passed(self) -> bool:

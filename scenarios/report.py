@@ -265,19 +265,7 @@ def extrapolation_lines(
     """
     if envelope is None or beyond is None:
         return []
-    rudder, yaw_rate, approach = (
-        envelope.rudder_max_rad,
-        envelope.yaw_rate_max,
-        envelope.approach_speed_mps,
-    )
-    reached = (
-        "The identification's logs reach a rudder angle of "
-        f"{math.degrees(rudder.port):.1f} deg to port and "
-        f"{math.degrees(rudder.starboard):.1f} deg to starboard, a yaw rate r' of "
-        f"{yaw_rate.port:.2f} to port and {yaw_rate.starboard:.2f} to starboard, and a "
-        f"speed of {envelope.speed_ratio_min:.2f} U0, from approach speeds U0 of "
-        f"{approach.low:.3g}-{approach.high:.3g} m/s."
-    )
+    reached = f"The identification's logs reach: {envelope.describe()}."
     if not any(beyond.values()):
         return [f"{reached} Every predicted manoeuvre stays within them."]
     return [

@@ -135,6 +135,21 @@ class Envelope:
             return None
         return cls(Sides(*rudder), Sides(*yaw_rate), ratio, Span(*approach))
 
+    def describe(self) -> str:
+        """Say what the envelope holds, one line of text.
+
+        E.g. ``"rudder 20.0 deg to port, 35.0 deg to starboard; r' 0.50 to port, 0.89 to
+        starboard; speed down to 0.37 U0 from approach speeds of 7.96-7.97 m/s"``.
+        """
+        rudder, yaw_rate, approach = self.rudder_max_rad, self.yaw_rate_max, self.approach_speed_mps
+        return (
+            f"rudder {math.degrees(rudder.port):.1f} deg to port, "
+            f"{math.degrees(rudder.starboard):.1f} deg to starboard; r' {yaw_rate.port:.2f} to "
+            f"port, {yaw_rate.starboard:.2f} to starboard; speed down to "
+            f"{self.speed_ratio_min:.2f} U0 from approach speeds of {approach.low:.3g}-"
+            f"{approach.high:.3g} m/s"
+        )
+
     def beyond(self, run: Envelope) -> tuple[str, ...]:
         """Say on which axes ``run`` leaves this envelope (by more than the margins).
 

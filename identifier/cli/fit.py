@@ -160,14 +160,9 @@ def _summary(result: IdentificationResult) -> str:
     lines.append(f"{rates}); the EKF on all {samples:,} samples")
     envelope = Envelope.from_dict(p.identification.get("envelope") or {})
     if envelope is not None:
-        rudder, yaw_rate = envelope.rudder_max_rad, envelope.yaw_rate_max
-        low, high = envelope.approach_speed_mps
         lines.append(
-            f"the logs reach: rudder {math.degrees(rudder.port):.1f} deg to port, "
-            f"{math.degrees(rudder.starboard):.1f} deg to starboard; r' {yaw_rate.port:.2f} / "
-            f"{yaw_rate.starboard:.2f}; speed {envelope.speed_ratio_min:.2f} U0 from U0 "
-            f"{low:.3g}-{high:.3g} m/s (predictions beyond extrapolate: validate --params "
-            "says which)"
+            f"the logs reach: {envelope.describe()} (predictions beyond extrapolate: "
+            "validate --params says which)"
         )
     return "\n".join(lines)
 
