@@ -258,6 +258,7 @@ def _envelope(
             seg.rudder_rad,
             seg.velocities[:, 2],
             np.hypot(seg.velocities[:, 0], seg.velocities[:, 1]),
+            seg.n_rps,
             length_m,
             approach_samples=_approach_samples(log),
         )

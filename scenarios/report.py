@@ -47,7 +47,8 @@ location comes from the validation run, the spread from the samples.
      "extrapolation": {"envelope": {"rudder_max_rad": {"port", "starboard"},
                                     "yaw_rate_max": {"port", "starboard"},
                                     "speed_ratio_min",
-                                    "approach_speed_mps": {"low", "high"}},
+                                    "approach_speed_mps": {"low", "high"},
+                                    "propeller_rate_rps": {"low", "high"}},
                        "beyond": {maneuver: [reason, ...]},
                        "n_in_interval_within", "n_with_interval_within"} | null,
      "environment": {"current_mps", "current_to_deg", "wind_mps", "wind_from_deg"}}

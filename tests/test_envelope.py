@@ -33,8 +33,10 @@ LOGGED = Envelope(
     yaw_rate_max=Sides(0.5, 0.4),
     speed_ratio_min=0.8,
     approach_speed_mps=Span(5.0, 6.0),
+    propeller_rate_rps=Span(1.0, 1.0),
 )
 ANY_SPEED = Span(0.01, 100.0)
+ANY_RATE = Span(0.0, 100.0)
 
 
 def test_the_envelope_of_samples_by_hand() -> None:
@@ -42,18 +44,21 @@ def test_the_envelope_of_samples_by_hand() -> None:
     rudder = np.array([0.0, 0.1, -0.2, 0.3])
     r = np.array([0.0, 0.01, -0.02, 0.005])
     speed = np.array([5.0, 5.0, 4.0, 0.5])
-    e = envelope_of(rudder, r, speed, 100.0)
+    n = np.array([1.5, 1.5, 1.0, 0.0])
+    e = envelope_of(rudder, r, speed, n, 100.0)
     assert e.rudder_max_rad == pytest.approx(Sides(0.2, 0.3))
     assert e.yaw_rate_max == pytest.approx(Sides(0.02 * 100.0 / 4.0, 0.01 * 100.0 / 5.0))
     assert e.speed_ratio_min == pytest.approx(0.1)
     assert e.approach_speed_mps == Span(5.0, 5.0)
-    one_sided = envelope_of(np.array([0.0, 0.2]), np.array([0.0, 0.01]), np.ones(2), 10.0)
+    assert e.propeller_rate_rps == Span(0.0, 1.5)
+    ones = np.ones(2)
+    one_sided = envelope_of(np.array([0.0, 0.2]), np.array([0.0, 0.01]), ones, ones, 10.0)
     assert one_sided.rudder_max_rad.port == 0.0 and one_sided.yaw_rate_max.port == 0.0
 
 
 def test_union_is_the_widest_on_every_axis() -> None:
-    other = Envelope(Sides(0.35, 0.1), Sides(0.2, 0.6), 0.9, Span(5.5, 7.0))
-    widest = Envelope(Sides(0.35, 0.3), Sides(0.5, 0.6), 0.8, Span(5.0, 7.0))
+    other = Envelope(Sides(0.35, 0.1), Sides(0.2, 0.6), 0.9, Span(5.5, 7.0), Span(0.5, 0.8))
+    widest = Envelope(Sides(0.35, 0.3), Sides(0.5, 0.6), 0.8, Span(5.0, 7.0), Span(0.5, 1.0))
     assert union([LOGGED, other]) == widest
 
 
@@ -87,9 +92,26 @@ def test_union_is_the_widest_on_every_axis() -> None:
             replace(LOGGED, approach_speed_mps=Span(5.0, 6.4)),
             ("approach speed 5-6.4 m/s (logs: 5-6 m/s)",),
         ),
+        (replace(LOGGED, propeller_rate_rps=Span(0.951, 1.049)), ()),
         (
-            Envelope(Sides(0.6, 0.6), Sides(0.9, 0.9), 0.4, Span(9.0, 9.0)),
-            ("rudder", "rudder", "yaw rate", "yaw rate", "speed down", "approach speed"),
+            replace(LOGGED, propeller_rate_rps=Span(1.2, 1.2)),
+            ("propeller 72 rpm (logs: 60-60 rpm)",),
+        ),
+        (
+            replace(LOGGED, propeller_rate_rps=Span(0.0, 1.0)),
+            ("propeller 0-60 rpm (logs: 60-60 rpm)",),
+        ),
+        (
+            Envelope(Sides(0.6, 0.6), Sides(0.9, 0.9), 0.4, Span(9.0, 9.0), Span(2.0, 2.0)),
+            (
+                "rudder",
+                "rudder",
+                "yaw rate",
+                "yaw rate",
+                "speed down",
+                "approach speed",
+                "propeller",
+            ),
         ),
     ],
     ids=[
@@ -102,6 +124,9 @@ def test_union_is_the_widest_on_every_axis() -> None:
         "approach-inside-margin",
         "approach-slower",
         "approach-faster",
+        "rpm-inside-margin",
+        "rpm-higher",
+        "rpm-stopped",
         "every-axis",
     ],
 )
@@ -120,6 +145,7 @@ def test_the_record_survives_json_and_bad_records_are_none() -> None:
     assert Envelope.from_dict({**record, "yaw_rate_max": {"port": 0.1}}) is None
     assert Envelope.from_dict({**record, "rudder_max_rad": "wide"}) is None
     assert Envelope.from_dict({**record, "approach_speed_mps": {"low": 5.0, "high": "6"}}) is None
+    assert Envelope.from_dict({**record, "propeller_rate_rps": None}) is None
     assert Envelope.from_dict({}) is None
 
 
@@ -143,7 +169,8 @@ def _sailed(validation: Validation) -> Validation:
 def test_a_validation_marks_the_manoeuvres_beyond_the_logs() -> None:
     """Logs of 10° zig-zags (r′ 0.3, speed 0.95 U0): the turn goes beyond on its side's
     rudder and yaw rate and in speed; the zig-zag stays inside."""
-    logs = Envelope(Sides(math.radians(10.0), math.radians(10.0)), Sides(0.3, 0.3), 0.95, ANY_SPEED)
+    ten_deg = Sides(math.radians(10.0), math.radians(10.0))
+    logs = Envelope(ten_deg, Sides(0.3, 0.3), 0.95, ANY_SPEED, ANY_RATE)
     v = replace(_sailed(_validation(BANDS)), envelope=logs)
     assert v.extrapolation == {
         "turning-35-stbd": (
@@ -173,5 +200,6 @@ def test_without_an_envelope_nothing_is_judged() -> None:
     assert comparison_table(v.rows, v.extrapolation)[0][-1] == "difference"
     assert "beyond" not in render_markdown(v)
     assert validation_json(v)["extrapolation"] is None
-    inside = replace(v, envelope=Envelope(Sides(1.0, 1.0), Sides(1.0, 1.0), 0.1, ANY_SPEED))
+    everything = Envelope(Sides(1.0, 1.0), Sides(1.0, 1.0), 0.1, ANY_SPEED, ANY_RATE)
+    inside = replace(v, envelope=everything)
     assert "Every predicted manoeuvre stays within them." in render_markdown(inside)

@@ -315,8 +315,8 @@ def test_stages_are_named_as_they_begin_and_samples_counted_twice(log_files: lis
 def test_identification_records_the_envelope_of_its_logs(
     recovered: IdentificationResult,
 ) -> None:
-    """From 1 m / 0.1° noisy logs: the truth's rudder exactly, its r′ within 5 %, its
-    lowest speed ratio within 0.02 (the truth sailed noise-free through the same runs)."""
+    """From 1 m / 0.1° noisy logs: the truth's rudder and rpm exactly, its r′ within 5 %,
+    its lowest speed ratio within 0.02 (the truth sailed noise-free through the same runs)."""
     envelope = logged_envelope(recovered.params)
     assert envelope is not None
     ship = _ship()
@@ -338,6 +338,7 @@ def test_identification_records_the_envelope_of_its_logs(
     assert envelope.yaw_rate_max == pytest.approx(truth.yaw_rate_max, rel=0.05)
     assert envelope.speed_ratio_min == pytest.approx(truth.speed_ratio_min, abs=0.02)
     assert envelope.approach_speed_mps == pytest.approx(truth.approach_speed_mps, rel=0.01)
+    assert envelope.propeller_rate_rps == (ship.n_rps, ship.n_rps)  # the logs' constant rpm
 
 
 def test_cli_fit_on_an_nmea_recording_says_to_convert_it(tmp_path: Path, capsys) -> None:

@@ -330,7 +330,7 @@ def ship(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     # Logs steered to 20° at most (turning and slowing as much as anything sailed here):
     # the 35° turns go beyond on the rudder, the zig-zags stay within.
     rudder = Sides(math.radians(20.0), math.radians(20.0))
-    logs = Envelope(rudder, Sides(5.0, 5.0), 0.0, Span(0.1, 100.0))
+    logs = Envelope(rudder, Sides(5.0, 5.0), 0.0, Span(0.1, 100.0), Span(0.0, 100.0))
     identified = replace(_uncertain(params), identification={"envelope": logs.as_dict()})
     save_params(folder / "params.json", identified)
     other = params.with_vector(params.to_vector() * 1.01)

@@ -364,11 +364,11 @@ def test_runs_of_absurdly_many_steps_are_refused(fmu, tmp_path, capsys, option):
 
 
 def test_imo_and_runs_with_params_say_which_go_beyond_the_logs(fmu, params, tmp_path, capsys):
-    """Logs steered to 20° (turning and slowing as much as anything here): the 35° turns
-    are extrapolations, the zig-zags not, in imo and in a single run; params of another
-    FMU are a one-line error."""
+    """Logs steered to 20° at the FMU's 120 rpm (turning and slowing as much as anything
+    here): the 35° turns are extrapolations, the zig-zags not, in imo and in a single
+    run, unless driven at another rpm; params of another FMU are a one-line error."""
     rudder = Sides(math.radians(20.0), math.radians(20.0))
-    logs = Envelope(rudder, Sides(5.0, 5.0), 0.0, Span(0.1, 100.0))
+    logs = Envelope(rudder, Sides(5.0, 5.0), 0.0, Span(0.1, 100.0), Span(2.0, 2.0))
     path = tmp_path / "params.json"
     save_params(path, replace(params, identification={"envelope": logs.as_dict()}))
     report = tmp_path / "imo.json"
@@ -391,6 +391,8 @@ def test_imo_and_runs_with_params_say_which_go_beyond_the_logs(fmu, params, tmp_
     assert main(zz) == 0
     assert "Every predicted manoeuvre stays within them." in capsys.readouterr().out
     assert json.loads(report.read_text())["extrapolation"]["beyond"] == {"zigzag-10-10-stbd": []}
+    assert main([*zz, "--rpm", "150"]) == 0
+    assert "- zigzag-10-10-stbd: propeller 150 rpm (logs: 120-120 rpm)" in capsys.readouterr().out
     other = tmp_path / "other.json"
     save_params(other, _params(c3=WIDE_TURNING_C3))
     assert main(["imo", "--fmu", str(fmu), "--params", str(other), "--quiet"]) == 1

@@ -6,7 +6,7 @@ its predictions fail: trained on 10°/10° zig-zags, the measured HSVA 20°/10°
 overshoots come out 4–4.5° too large; trained on zig-zags, the KVLCC2 reference's 35°
 turns 7–12 % too tight (benchmarks/hsva.md, fidelity.md). Neither the coefficient
 covariance nor the spread of the fit's own estimates measures that error, so a
-prediction outside the envelope is said to be one (``scenarios.validation``). Three
+prediction outside the envelope is said to be one (``scenarios.validation``). Five
 axes, each a force the structure has to extrapolate:
 
 * the largest rudder angle |δ| to each side [rad]: the rudder's normal force (lift, stall);
@@ -15,15 +15,19 @@ axes, each a force the structure has to extrapolate:
 * the lowest speed ratio U/U₀ (U₀ the approach speed): the propeller's loading and its
   slipstream share of the rudder inflow;
 * the range of the approach speeds U₀ [m/s]: the Froude number, and the point at which
-  the speed-scaled coefficients were fitted.
+  the speed-scaled coefficients were fitted;
+* the range of the propeller rates n [rev/s; said in rpm]: the thrust and slipstream
+  terms, which logs at one rpm fix at that rpm only (a fit of constant-rpm zig-zags
+  driven at another rpm through the FMU's input extrapolates its thrust split).
 
 The sides count apart because a single-screw ship is not symmetric: a hard turn to port
 predicted from logs that turned hard only to starboard extrapolates the model's
 port/starboard difference (the KVLCC2 reference's port turn, trained on a starboard one).
 A run is beyond the envelope on an axis by more than :data:`MARGIN` of its value
-(:data:`SPEED_RATIO_MARGIN` for the speed ratio): noise in the smoothed logs should not
-make a repeat of a logged manoeuvre an extrapolation. Speeds are through the water (the
-identification's estimate of them when it estimates a current).
+(:data:`SPEED_RATIO_MARGIN` for the speed ratio; either end of a range): noise in the
+smoothed logs should not make a repeat of a logged manoeuvre an extrapolation. Speeds
+are through the water (the identification's estimate of them when it estimates a
+current).
 """
 
 from __future__ import annotations
@@ -36,9 +40,11 @@ from typing import NamedTuple
 import numpy as np
 
 MARGIN = 0.05
-"""Relative margin of the rudder angle and yaw rate before a run counts as beyond."""
+"""Relative margin of the rudder angle, yaw rate and ranges before a run counts as beyond."""
 SPEED_RATIO_MARGIN = 0.05
 """Margin of the speed ratio U/U₀ (absolute) before a run counts as beyond."""
+RPM_PER_RPS = 60.0
+"""Propeller rates are said in rpm, as the logs and the FMU's input give them."""
 MIN_SPEED_RATIO_FOR_YAW_RATE = 0.2
 """r′ = r·L/U is taken where U ≥ this fraction of U₀ (a ship almost stopped has no r′)."""
 
@@ -66,6 +72,11 @@ class Span(NamedTuple):
 
     low: float
     high: float
+
+    @classmethod
+    def of(cls, values: np.ndarray) -> Span:
+        """Return the span of ``values``."""
+        return cls(float(np.min(values)), float(np.max(values)))
 
     @classmethod
     def widest(cls, items: Iterable[Span]) -> Span:
@@ -102,18 +113,33 @@ def _past_sides(label: str, logged: Sides, sailed: Sides, *, angle: bool) -> lis
     ]
 
 
+def _past_span(label: str, logged: Span, sailed: Span, *, scale: float, unit: str) -> list[str]:
+    """Say it when ``sailed`` reaches below or above ``logged`` by more than the margin.
+
+    Values are said ×``scale`` in ``unit`` with three significant digits.
+    """
+    if (1.0 - MARGIN) * logged.low <= sailed.low and sailed.high <= (1.0 + MARGIN) * logged.high:
+        return []
+    said = f"{scale * sailed.low:.3g}"
+    if sailed.high != sailed.low:
+        said += f"-{scale * sailed.high:.3g}"
+    logs = f"{scale * logged.low:.3g}-{scale * logged.high:.3g}"
+    return [f"{label} {said} {unit} (logs: {logs} {unit})"]
+
+
 @dataclass(frozen=True)
 class Envelope:
     """What some manoeuvres reached: the axes of the module docstring.
 
     Largest rudder angle [rad] and yaw rate r′ [-] to each side, lowest speed ratio U/U₀
-    [-], and the span of the approach speeds U₀ [m/s].
+    [-], the span of the approach speeds U₀ [m/s] and of the propeller rates [rev/s].
     """
 
     rudder_max_rad: Sides
     yaw_rate_max: Sides
     speed_ratio_min: float
     approach_speed_mps: Span
+    propeller_rate_rps: Span
 
     def as_dict(self) -> dict[str, object]:
         """Return the JSON record (params.json ``identification.envelope``)."""
@@ -122,6 +148,7 @@ class Envelope:
             "yaw_rate_max": self.yaw_rate_max._asdict(),
             "speed_ratio_min": self.speed_ratio_min,
             "approach_speed_mps": self.approach_speed_mps._asdict(),
+            "propeller_rate_rps": self.propeller_rate_rps._asdict(),
         }
 
     @classmethod
@@ -131,23 +158,29 @@ class Envelope:
         yaw_rate = _pair(record.get("yaw_rate_max"), Sides._fields)
         ratio = _number(record.get("speed_ratio_min"))
         approach = _pair(record.get("approach_speed_mps"), Span._fields)
-        if rudder is None or yaw_rate is None or ratio is None or approach is None:
+        propeller = _pair(record.get("propeller_rate_rps"), Span._fields)
+        if rudder is None or yaw_rate is None or ratio is None:
             return None
-        return cls(Sides(*rudder), Sides(*yaw_rate), ratio, Span(*approach))
+        if approach is None or propeller is None:
+            return None
+        return cls(Sides(*rudder), Sides(*yaw_rate), ratio, Span(*approach), Span(*propeller))
 
     def describe(self) -> str:
         """Say what the envelope holds, one line of text.
 
         E.g. ``"rudder 20.0 deg to port, 35.0 deg to starboard; r' 0.50 to port, 0.89 to
-        starboard; speed down to 0.37 U0 from approach speeds of 7.96-7.97 m/s"``.
+        starboard; speed down to 0.37 U0 from approach speeds of 7.96-7.97 m/s; propeller
+        at 80.7-80.7 rpm"``.
         """
-        rudder, yaw_rate, approach = self.rudder_max_rad, self.yaw_rate_max, self.approach_speed_mps
+        rudder, yaw_rate = self.rudder_max_rad, self.yaw_rate_max
+        approach, propeller = self.approach_speed_mps, self.propeller_rate_rps
         return (
             f"rudder {math.degrees(rudder.port):.1f} deg to port, "
             f"{math.degrees(rudder.starboard):.1f} deg to starboard; r' {yaw_rate.port:.2f} to "
             f"port, {yaw_rate.starboard:.2f} to starboard; speed down to "
             f"{self.speed_ratio_min:.2f} U0 from approach speeds of {approach.low:.3g}-"
-            f"{approach.high:.3g} m/s"
+            f"{approach.high:.3g} m/s; propeller at {RPM_PER_RPS * propeller.low:.3g}-"
+            f"{RPM_PER_RPS * propeller.high:.3g} rpm"
         )
 
     def beyond(self, run: Envelope) -> tuple[str, ...]:
@@ -164,13 +197,20 @@ class Envelope:
             out.append(
                 f"speed down to {run.speed_ratio_min:.2f} U0 (logs: {self.speed_ratio_min:.2f} U0)"
             )
-        known, sailed_span = self.approach_speed_mps, run.approach_speed_mps
-        slower = sailed_span.low < (1.0 - MARGIN) * known.low
-        if slower or sailed_span.high > (1.0 + MARGIN) * known.high:
-            speeds = f"{sailed_span.low:.3g}"
-            if sailed_span.high != sailed_span.low:
-                speeds += f"-{sailed_span.high:.3g}"
-            out.append(f"approach speed {speeds} m/s (logs: {known.low:.3g}-{known.high:.3g} m/s)")
+        out += _past_span(
+            "approach speed",
+            self.approach_speed_mps,
+            run.approach_speed_mps,
+            scale=1.0,
+            unit="m/s",
+        )
+        out += _past_span(
+            "propeller",
+            self.propeller_rate_rps,
+            run.propeller_rate_rps,
+            scale=RPM_PER_RPS,
+            unit="rpm",
+        )
         return tuple(out)
 
 
@@ -178,6 +218,7 @@ def envelope_of(
     rudder_rad: np.ndarray,
     r_radps: np.ndarray,
     speed_mps: np.ndarray,
+    n_rps: np.ndarray,
     length_m: float,
     approach_samples: int = 1,
 ) -> Envelope:
@@ -185,9 +226,9 @@ def envelope_of(
 
     Parameters
     ----------
-    rudder_rad, r_radps, speed_mps : numpy.ndarray
-        Rudder angle [rad], yaw rate [rad/s] and speed [m/s] per sample, the approach
-        first (positive to starboard).
+    rudder_rad, r_radps, speed_mps, n_rps : numpy.ndarray
+        Rudder angle [rad], yaw rate [rad/s], speed [m/s] and propeller rate [rev/s] per
+        sample, the approach first (positive to starboard).
     length_m : float
         Ship length [m].
     approach_samples : int
@@ -203,13 +244,16 @@ def envelope_of(
         yaw_rate_max=Sides.of(r_radps[moving] * length_m / speed_mps[moving]),
         speed_ratio_min=float(np.min(ratio)),
         approach_speed_mps=Span(approach, approach),
+        propeller_rate_rps=Span.of(n_rps),
     )
 
 
 def trajectory_envelope(trajectory: np.ndarray, length_m: float) -> Envelope:
     """Return the envelope of a run (``trials.trajectory``; speed through the water)."""
     speed_mps = np.hypot(trajectory["u_mps"], trajectory["v_mps"])
-    return envelope_of(trajectory["rudder_rad"], trajectory["r_radps"], speed_mps, length_m)
+    return envelope_of(
+        trajectory["rudder_rad"], trajectory["r_radps"], speed_mps, trajectory["n_rps"], length_m
+    )
 
 
 def union(envelopes: Iterable[Envelope]) -> Envelope:
@@ -220,4 +264,5 @@ def union(envelopes: Iterable[Envelope]) -> Envelope:
         yaw_rate_max=Sides.widest(e.yaw_rate_max for e in items),
         speed_ratio_min=min(e.speed_ratio_min for e in items),
         approach_speed_mps=Span.widest(e.approach_speed_mps for e in items),
+        propeller_rate_rps=Span.widest(e.propeller_rate_rps for e in items),
     )
