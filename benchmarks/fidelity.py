@@ -44,7 +44,7 @@ from report import fitted_label, write_block
 
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
-from scenarios.records import logged_envelope
+from scenarios.records import Condition, logged_envelope
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
 from trials.envelope import Envelope, trajectory_envelope
 from trials.logs import ManeuverLog
@@ -201,10 +201,7 @@ def coverage(
     intervals = prediction_intervals(
         params,
         list(chosen.values()),
-        speed_mps=ship.speed_mps,
-        n_rps=ship.n_rps,
-        rudder_rate_radps=ship.rudder_rate_radps,
-        dt_s=dt_s,
+        Condition(ship.speed_mps, ship.n_rps, ship.rudder_rate_radps, dt_s),
     )
     inside = [0, 0]
     judged = 0

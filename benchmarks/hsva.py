@@ -58,7 +58,7 @@ from report import fitted_label, write_block
 from fmu_model import ModelParameters
 from identifier.identify import FitSettings, identify
 from identifier.output_error.guards import virtual_turns
-from scenarios.records import logged_envelope
+from scenarios.records import Condition, logged_envelope
 from trials.conditions import LoggedCondition, sail_again
 from trials.envelope import trajectory_envelope
 from trials.logs import ManeuverLog, read_log
@@ -178,13 +178,11 @@ def held_out_coverage(
             continue
         condition = run_error.condition
         program = condition.program
+        dt_s = float(np.median(np.diff(logs[run_error.run].time_s)))
         intervals = prediction_intervals(
             params,
             [program],
-            speed_mps=condition.speed_mps,
-            n_rps=condition.n_rps,
-            rudder_rate_radps=condition.rudder_rate_radps,
-            dt_s=float(np.median(np.diff(logs[run_error.run].time_s))),
+            Condition(condition.speed_mps, condition.n_rps, condition.rudder_rate_radps, dt_s),
         )
         for index, measured in zip(INDICES, run_error.logged, strict=True):
             interval = intervals.get((program.name, index.replace("_deg", "_rad")))

@@ -1,10 +1,10 @@
 """95 % prediction intervals of a fit's manoeuvre metrics, for the coverage columns.
 
-The intervals of ``validate`` (issue 13, item 4): 100 Monte-Carlo samples of the
-identified coefficients (``scenarios.uncertainty.monte_carlo``), alone and widened by
-the model-form term, the spread of the fit's own alternative estimates
-(``scenarios.uncertainty.model_form``). Used by ``fidelity.py`` (the reference) and
-``hsva.py`` (the measured runs, each in its own condition).
+The intervals of ``validate`` (issue 13, item 4; ``scenarios.uncertainty.model_form.
+interval_terms``): 100 Monte-Carlo samples of the identified coefficients, alone and
+widened by the model-form term, the spread of the fit's own alternative estimates. Used
+by ``fidelity.py`` (the reference) and ``hsva.py`` (the measured runs, each in its own
+condition).
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from fmu_model import ModelParameters
-from scenarios.uncertainty.model_form import model_form_half_widths, widen
-from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
+from scenarios.records import Condition
+from scenarios.uncertainty.model_form import interval_terms, widen
 from scenarios.uncertainty.results import METRICS
 from trials.maneuvers import Program
 
@@ -32,36 +32,19 @@ class Interval:
 
 
 def prediction_intervals(
-    params: ModelParameters,
-    programs: Sequence[Program],
-    *,
-    speed_mps: float,
-    n_rps: float,
-    rudder_rate_radps: float,
-    dt_s: float,
+    params: ModelParameters, programs: Sequence[Program], condition: Condition
 ) -> dict[tuple[str, str], Interval]:
     """Intervals per (program name, metric) of ``params`` sailing ``programs``.
 
     Metrics the nominal run or the samples do not reach are left out.
     """
-    result = monte_carlo_metrics(
+    result, half = interval_terms(
         params,
-        list(programs),
+        programs,
+        condition,
         n_samples=MONTE_CARLO_SAMPLES,
-        dt_s=dt_s,
-        rudder_rate_radps=rudder_rate_radps,
-        speed_mps=speed_mps,
-        n_rps=n_rps,
         n_workers=1,
         processes=False,
-    )
-    half = model_form_half_widths(
-        params,
-        list(programs),
-        speed_mps=speed_mps,
-        n_rps=n_rps,
-        rudder_rate_radps=rudder_rate_radps,
-        dt_s=dt_s,
     )
     out = {}
     for program in programs:

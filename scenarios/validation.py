@@ -38,8 +38,7 @@ from scenarios.records import (
     logged_envelope,
 )
 from scenarios.runs import imo_criteria, reference_runs, run_standard_set
-from scenarios.uncertainty.model_form import model_form_half_widths, widen
-from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
+from scenarios.uncertainty.model_form import interval_terms, widen
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -209,9 +208,9 @@ def with_uncertainty(
 ) -> Validation:
     """Return ``validation`` with the 95 % intervals of its predicted quantities.
 
-    Runs ``scenarios.uncertainty.monte_carlo.monte_carlo_metrics`` on the validation's programs at
-    its approach condition (the reference ship's speed, propeller speed and rudder
-    rate) and locates each interval at the predicted value
+    Runs the Monte-Carlo sampling (``scenarios.uncertainty.model_form.interval_terms``) on
+    the validation's programs at its approach condition (the reference ship's speed,
+    propeller speed and rudder rate) and locates each interval at the predicted value
     (:func:`uncertainty_bands`). When the parameters carry the fit's alternative
     estimates (``identification["estimates"]``), each interval is widened by the
     model-form term, the spread of their predictions
@@ -253,19 +252,15 @@ def with_uncertainty(
 
     """
     check_params_match(read_fmu_info(validation.fmu_path), params, source)
-    c = validation.condition
     if chunk_size is None and scheduler is None and client is None:
         chunk_size = max(1, math.ceil(n_samples / max(1, n_workers)) if processes else n_samples)
     try:
-        result = monte_carlo_metrics(
+        result, model_form = interval_terms(
             params,
             [run.program for run in validation.predicted],
+            replace(validation.condition, dt_s=dt_s),
             n_samples=n_samples,
             seed=seed,
-            dt_s=dt_s,
-            rudder_rate_radps=c.rudder_rate_radps,
-            speed_mps=c.speed_mps,
-            n_rps=c.n_rps,
             scheduler=scheduler,
             client=client,
             n_workers=n_workers,
@@ -274,14 +269,6 @@ def with_uncertainty(
         )
     except UncertaintyError as exc:
         raise ScenarioError(f"{source or 'uncertainty'}: {exc}") from None
-    model_form = model_form_half_widths(
-        params,
-        [run.program for run in validation.predicted],
-        speed_mps=c.speed_mps,
-        n_rps=c.n_rps,
-        rudder_rate_radps=c.rudder_rate_radps,
-        dt_s=dt_s,
-    )
     bands = uncertainty_bands(result, validation.rows, source=source, model_form=model_form)
     return replace(validation, uncertainty=bands)
 

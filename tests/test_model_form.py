@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters
-from scenarios.records import ComparisonRow
+from scenarios.records import ComparisonRow, Condition
 from scenarios.report import uncertainty_scope
 from scenarios.uncertainty.model_form import (
     alternative_estimates,
@@ -51,14 +51,7 @@ def test_the_half_width_is_the_alternative_estimates_distance_by_hand() -> None:
         output_error=ship.to_vector(),
     )
     assert set(alternative_estimates(params)) == {"ekf", "equation-error"}  # kept one left out
-    half = model_form_half_widths(
-        params,
-        [TURN],
-        speed_mps=SPEED_MPS,
-        n_rps=0.0,
-        rudder_rate_radps=math.radians(5.0),
-        dt_s=0.5,
-    )
+    half = model_form_half_widths(params, [TURN], Condition(SPEED_MPS, 0.0, math.radians(5.0), 0.5))
     expected = max(abs(K_DIAMETER / (f * C3) - K_DIAMETER / C3) for f in (1.1, 0.95))
     assert half[TURN.name, "steady_diameter_m"] == pytest.approx(expected, rel=1e-6)
 
@@ -68,12 +61,7 @@ def test_without_alternative_estimates_there_is_no_term() -> None:
     assert alternative_estimates(ship) == {}
     wrong_names = replace(ship, identification={"estimates": {"ekf": {"a1": 1.0}}})
     assert alternative_estimates(wrong_names) == {}
-    assert (
-        model_form_half_widths(
-            ship, [TURN], speed_mps=SPEED_MPS, n_rps=0.0, rudder_rate_radps=0.1, dt_s=0.5
-        )
-        == {}
-    )
+    assert model_form_half_widths(ship, [TURN], Condition(SPEED_MPS, 0.0, 0.1, 0.5)) == {}
 
 
 def test_widen_adds_each_side_in_quadrature() -> None:

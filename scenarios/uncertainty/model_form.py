@@ -24,12 +24,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from fmu_model import ModelParameters
-from scenarios.uncertainty.monte_carlo import RunSetup, simulate_chunk
-from scenarios.uncertainty.results import METRICS, STATUS_OK
+from scenarios.records import Condition
+from scenarios.uncertainty.monte_carlo import RunSetup, monte_carlo_metrics, simulate_chunk
+from scenarios.uncertainty.results import METRICS, STATUS_OK, UncertaintyResult
 from trials.maneuvers import Program
 
 
@@ -54,14 +56,14 @@ def alternative_estimates(params: ModelParameters) -> dict[str, np.ndarray]:
 def model_form_half_widths(
     params: ModelParameters,
     programs: Sequence[Program],
+    condition: Condition,
     *,
-    speed_mps: float,
-    n_rps: float,
-    rudder_rate_radps: float,
-    dt_s: float,
     divergence_factor: float = 10.0,
 ) -> dict[tuple[str, str], float]:
     """Half-width of the model-form term per (program name, metric), in the metric's unit.
+
+    Each estimate sails ``programs`` at ``condition`` (approach speed, propeller rate,
+    rudder rate, step).
 
     The largest |m(θ_alt) − m(θ̂)| over the alternative estimates whose run reaches the
     metric (``scenarios.uncertainty.monte_carlo.METRICS`` names and units: metres and
@@ -74,10 +76,10 @@ def model_form_half_widths(
     setup = RunSetup(
         params=params,
         programs=tuple(programs),
-        speed_mps=speed_mps,
-        n_rps=n_rps,
-        rudder_rate_radps=rudder_rate_radps,
-        dt_s=dt_s,
+        speed_mps=condition.speed_mps,
+        n_rps=condition.n_rps,
+        rudder_rate_radps=condition.rudder_rate_radps,
+        dt_s=condition.dt_s,
         divergence_factor=divergence_factor,
     )
     theta = np.column_stack([params.to_vector(), *alternatives.values()])
@@ -99,3 +101,34 @@ def widen(predicted: float, lo: float, hi: float, half_width: float) -> tuple[fl
     """
     below, above = predicted - lo, hi - predicted
     return predicted - math.hypot(below, half_width), predicted + math.hypot(above, half_width)
+
+
+def interval_terms(
+    params: ModelParameters,
+    programs: Sequence[Program],
+    condition: Condition,
+    **monte_carlo_options: Any,
+) -> tuple[UncertaintyResult, dict[tuple[str, str], float]]:
+    """Both terms of the 95 % intervals of ``programs`` sailed at one ``condition``.
+
+    The Monte-Carlo run of the coefficient covariance (``monte_carlo_metrics``, which
+    gets ``monte_carlo_options``: samples, seed, cluster) and the model-form half-widths
+    (:func:`model_form_half_widths`), from the same approach speed, propeller rate,
+    rudder rate and step; combine them per metric with :func:`widen`.
+
+    Raises
+    ------
+    scenarios.errors.UncertaintyError
+        From ``monte_carlo_metrics``.
+
+    """
+    result = monte_carlo_metrics(
+        params,
+        programs,
+        speed_mps=condition.speed_mps,
+        n_rps=condition.n_rps,
+        rudder_rate_radps=condition.rudder_rate_radps,
+        dt_s=condition.dt_s,
+        **monte_carlo_options,
+    )
+    return result, model_form_half_widths(params, programs, condition)
