@@ -95,11 +95,11 @@ def test_union_is_the_widest_on_every_axis() -> None:
         (replace(LOGGED, propeller_rate_rps=Span(0.951, 1.049)), ()),
         (
             replace(LOGGED, propeller_rate_rps=Span(1.2, 1.2)),
-            ("propeller 72 rpm (logs: 60-60 rpm)",),
+            ("propeller 72 rpm (logs: 60 rpm)",),
         ),
         (
             replace(LOGGED, propeller_rate_rps=Span(0.0, 1.0)),
-            ("propeller 0-60 rpm (logs: 60-60 rpm)",),
+            ("propeller 0-60 rpm (logs: 60 rpm)",),
         ),
         (
             Envelope(Sides(0.6, 0.6), Sides(0.9, 0.9), 0.4, Span(9.0, 9.0), Span(2.0, 2.0)),
@@ -136,6 +136,14 @@ def test_beyond_names_each_axis_and_side_past_its_margin(
     said = LOGGED.beyond(run)
     assert len(said) == len(reasons)
     assert all(s.startswith(r) for s, r in zip(said, reasons, strict=True))
+
+
+def test_describe_says_every_axis_in_the_units_of_the_logs() -> None:
+    assert LOGGED.describe() == (
+        "rudder 11.5 deg to port, 17.2 deg to starboard; r' 0.50 to port, 0.40 to starboard; "
+        "speed down to 0.80 U0 from approach speeds of 5-6 m/s; propeller at 60 rpm"
+    )
+    assert Span(1.0, 1.0004).said(60.0, "rpm") == "60 rpm"  # ends that read the same: one
 
 
 def test_the_record_survives_json_and_bad_records_are_none() -> None:

@@ -78,6 +78,14 @@ class Span(NamedTuple):
         """Return the span of ``values``."""
         return cls(float(np.min(values)), float(np.max(values)))
 
+    def said(self, scale: float, unit: str) -> str:
+        """Say the span ×``scale`` in ``unit``, three significant digits: ``"5-6.4 m/s"``.
+
+        One value when both ends read the same (``"614 rpm"``).
+        """
+        low, high = f"{scale * self.low:.3g}", f"{scale * self.high:.3g}"
+        return f"{low} {unit}" if low == high else f"{low}-{high} {unit}"
+
     @classmethod
     def widest(cls, items: Iterable[Span]) -> Span:
         """Return the span of all ``items``."""
@@ -116,15 +124,11 @@ def _past_sides(label: str, logged: Sides, sailed: Sides, *, angle: bool) -> lis
 def _past_span(label: str, logged: Span, sailed: Span, *, scale: float, unit: str) -> list[str]:
     """Say it when ``sailed`` reaches below or above ``logged`` by more than the margin.
 
-    Values are said ×``scale`` in ``unit`` with three significant digits.
+    Values are said ×``scale`` in ``unit`` (:meth:`Span.said`).
     """
     if (1.0 - MARGIN) * logged.low <= sailed.low and sailed.high <= (1.0 + MARGIN) * logged.high:
         return []
-    said = f"{scale * sailed.low:.3g}"
-    if sailed.high != sailed.low:
-        said += f"-{scale * sailed.high:.3g}"
-    logs = f"{scale * logged.low:.3g}-{scale * logged.high:.3g}"
-    return [f"{label} {said} {unit} (logs: {logs} {unit})"]
+    return [f"{label} {sailed.said(scale, unit)} (logs: {logged.said(scale, unit)})"]
 
 
 @dataclass(frozen=True)
@@ -170,17 +174,16 @@ class Envelope:
 
         E.g. ``"rudder 20.0 deg to port, 35.0 deg to starboard; r' 0.50 to port, 0.89 to
         starboard; speed down to 0.37 U0 from approach speeds of 7.96-7.97 m/s; propeller
-        at 80.7-80.7 rpm"``.
+        at 80.7 rpm"``.
         """
         rudder, yaw_rate = self.rudder_max_rad, self.yaw_rate_max
-        approach, propeller = self.approach_speed_mps, self.propeller_rate_rps
         return (
             f"rudder {math.degrees(rudder.port):.1f} deg to port, "
             f"{math.degrees(rudder.starboard):.1f} deg to starboard; r' {yaw_rate.port:.2f} to "
             f"port, {yaw_rate.starboard:.2f} to starboard; speed down to "
-            f"{self.speed_ratio_min:.2f} U0 from approach speeds of {approach.low:.3g}-"
-            f"{approach.high:.3g} m/s; propeller at {RPM_PER_RPS * propeller.low:.3g}-"
-            f"{RPM_PER_RPS * propeller.high:.3g} rpm"
+            f"{self.speed_ratio_min:.2f} U0 from approach speeds of "
+            f"{self.approach_speed_mps.said(1.0, 'm/s')}; propeller at "
+            f"{self.propeller_rate_rps.said(RPM_PER_RPS, 'rpm')}"
         )
 
     def beyond(self, run: Envelope) -> tuple[str, ...]:
