@@ -8,7 +8,7 @@ native FMU, ``validate`` against the reference with ``--params``. The intervals 
 twice from the same Monte-Carlo seed: from the identification noise only (the params
 without their alternative estimates) and with the model-form term (as ``validate``
 gives them). Per seed: the reference values inside, of those with an interval; the same
-for the manoeuvres within the envelope of the logs (``trials.envelope``) and beyond it;
+for the manoeuvres within the envelope of the logs (``fmu_model.envelope``) and beyond it;
 the mean width ratio with / without the model-form term; and which manoeuvres went
 beyond the logs. The table goes into its block of ``--out`` (``report.py``).
 """

@@ -43,10 +43,11 @@ from intervals import prediction_intervals
 from report import fitted_label, write_block
 
 from fmu_model import ModelParameters
+from fmu_model.envelope import Envelope, trajectory_envelope
+from fmu_model.interface import logged_envelope
 from identifier.identify import FitSettings, identify
-from scenarios.records import Condition, logged_envelope
+from scenarios.records import Condition
 from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
-from trials.envelope import Envelope, trajectory_envelope
 from trials.logs import ManeuverLog
 from trials.maneuvers import Program, turning_circle, zigzag
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
@@ -72,7 +73,7 @@ class Indices:
     """Manoeuvre indices of one ship: turning [m] and overshoots [deg]; None = not reached.
 
     ``beyond``: the programs (``programs()`` keys) sailed beyond the envelope of the
-    ship's identification logs (``trials.envelope``); empty when not judged.
+    ship's identification logs (``fmu_model.envelope``); empty when not judged.
     """
 
     values: dict[str, float | None]

@@ -34,7 +34,7 @@ runs' measured overshoots lie in the 95 % intervals of the prediction in the run
 condition, identification noise only / with the model-form term (``intervals.py``, the
 intervals of ``validate``), of those the intervals reach; then the same with the
 model-form term for the runs sailed within the envelope of the training runs
-(``trials.envelope``: rudder angle and yaw rate to each side, speed lost), where the
+(``fmu_model.envelope``: rudder angle and yaw rate to each side, speed lost), where the
 model does not extrapolate.
 
 Candidates studied for issue 13: ``benchmarks/candidates.py`` (``--model NAME``). The table
@@ -56,11 +56,12 @@ from intervals import prediction_intervals
 from report import fitted_label, write_block
 
 from fmu_model import ModelParameters
+from fmu_model.envelope import trajectory_envelope
+from fmu_model.interface import logged_envelope
 from identifier.identify import FitSettings, identify
 from identifier.output_error.guards import virtual_turns
-from scenarios.records import Condition, logged_envelope
+from scenarios.records import Condition
 from trials.conditions import LoggedCondition, sail_again
-from trials.envelope import trajectory_envelope
 from trials.logs import ManeuverLog, read_log
 from trials.run import ModelPlant
 

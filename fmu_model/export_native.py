@@ -40,6 +40,22 @@ from pathlib import Path
 
 from fmu_model.atomic import write_atomic
 from fmu_model.codegen import generate_model_c
+from fmu_model.envelope import (
+    DEG_PER_RAD,
+    EXTRAPOLATION_FORMAT,
+    MARGIN,
+    MIN_SPEED_RATIO_FOR_YAW_RATE,
+    RPM_PER_RPS,
+    RUDDER_FORMAT,
+    SPAN_FORMAT,
+    SPAN_VALUE_FORMAT,
+    SPEED_RATIO_FORMAT,
+    SPEED_RATIO_MARGIN,
+    YAW_RATE_FORMAT,
+    Envelope,
+    Sides,
+    Span,
+)
 from fmu_model.errors import FmuBuildError
 from fmu_model.fmi_rules import (
     DIVERGED_STATE_FORMAT,
@@ -64,6 +80,7 @@ from fmu_model.interface import (
     WINDAGE_NAMES,
     derivative_name,
     fmu_variables,
+    logged_envelope,
     min_start_speed_mps,
 )
 from fmu_model.model_description import (
@@ -200,12 +217,52 @@ def _layout(variables: tuple[FmuVariable, ...], structure: ModelStructure) -> di
     return layout
 
 
+def _envelope_lines(envelope: Envelope | None) -> list[str]:
+    """Return the envelope block of ``model_config.h`` (without one: zeros, not used)."""
+    nothing, none = Sides(0.0, 0.0), Span(0.0, 0.0)
+    known = envelope or Envelope(nothing, nothing, 0.0, none, none)
+    values = {
+        "RUDDER_PORT": known.rudder_max_rad.port,
+        "RUDDER_STARBOARD": known.rudder_max_rad.starboard,
+        "YAW_RATE_PORT": known.yaw_rate_max.port,
+        "YAW_RATE_STARBOARD": known.yaw_rate_max.starboard,
+        "SPEED_RATIO_MIN": known.speed_ratio_min,
+        "APPROACH_LOW": known.approach_speed_mps.low,
+        "APPROACH_HIGH": known.approach_speed_mps.high,
+        "PROPELLER_LOW": known.propeller_rate_rps.low,
+        "PROPELLER_HIGH": known.propeller_rate_rps.high,
+        "MARGIN": MARGIN,
+        "SPEED_RATIO_MARGIN": SPEED_RATIO_MARGIN,
+        "MIN_SPEED_RATIO_FOR_YAW_RATE": MIN_SPEED_RATIO_FOR_YAW_RATE,
+        "DEG_PER_RAD": DEG_PER_RAD,
+        "RPM_PER_RPS": RPM_PER_RPS,
+    }
+    formats = {
+        "ENVELOPE_RUDDER_FORMAT": RUDDER_FORMAT,
+        "ENVELOPE_YAW_RATE_FORMAT": YAW_RATE_FORMAT,
+        "ENVELOPE_SPEED_RATIO_FORMAT": SPEED_RATIO_FORMAT,
+        "ENVELOPE_SPAN_VALUE_FORMAT": SPAN_VALUE_FORMAT,
+        "ENVELOPE_SPAN_FORMAT": SPAN_FORMAT,
+        "EXTRAPOLATION_FORMAT": EXTRAPOLATION_FORMAT,
+    }
+    return [
+        "/* The envelope of the identification's logs (fmu_model.envelope, params.json",
+        "   identification.envelope): rudder [rad] and r' to port and starboard, lowest U/U0,",
+        "   approach speeds [m/s] and propeller speeds [rev/s]; DoStep warns once per axis",
+        "   beyond it. MODEL_HAS_ENVELOPE 0: none recorded, no warnings. */",
+        f"#define MODEL_HAS_ENVELOPE {0 if envelope is None else 1}",
+        *(f"#define ENVELOPE_{key} {_c_double(value)}" for key, value in values.items()),
+        *(f"#define {key} {_c_string(text)}" for key, text in formats.items()),
+    ]
+
+
 def _config_header(
     identifier: str,
     guid: str,
     variables: tuple[FmuVariable, ...],
     layout: dict[str, int],
     min_start_speed: float,
+    envelope: Envelope | None,
 ) -> str:
     causality = {
         "input": "SHIP_INPUT",
@@ -249,6 +306,8 @@ def _config_header(
         "/* Messages of a restored FMU state with a value fmi2SetReal would refuse. */",
         f"#define STATE_RANGE_FORMAT {_c_string(STATE_RANGE_FORMAT)}",
         f"#define STATE_NONFINITE_FORMAT {_c_string(STATE_NONFINITE_FORMAT)}",
+        "",
+        *_envelope_lines(envelope),
         "",
         "/* name, causality, start, has_min, min, has_max, max; index = value reference */",
         "static const ShipVariable MODEL_VARIABLES[MODEL_N_VARIABLES] = {",
@@ -325,7 +384,12 @@ def generate_sources(
         COMMON_SOURCE: (C_DIR / COMMON_SOURCE).read_text(encoding="utf-8"),
         LAYER_HEADER: (C_DIR / LAYER_HEADER).read_text(encoding="utf-8"),
         CONFIG_HEADER: _config_header(
-            identifier, guid, variables, layout, min_start_speed_mps(structure)
+            identifier,
+            guid,
+            variables,
+            layout,
+            min_start_speed_mps(structure),
+            logged_envelope(params),
         ),
         EQUATIONS_HEADER: generate_model_c(structure),
     }

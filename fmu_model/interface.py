@@ -29,10 +29,12 @@ computed without them, bit for bit.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from functools import cache
 
 import numpy as np
 
+from fmu_model.envelope import Envelope
 from fmu_model.environment import WINDAGE_FIELDS, Windage
 from fmu_model.errors import FmuBuildError
 from fmu_model.fmi_rules import (
@@ -482,3 +484,12 @@ def ground_dependencies() -> tuple[str, ...]:
     """
     symbols = set().union(*(e.free_symbols for e in ground_terms()))
     return tuple(name for symbol, name in _KNOWNS.items() if symbol in symbols)
+
+
+def logged_envelope(params: ModelParameters) -> Envelope | None:
+    """Return the envelope of the logs ``params`` were identified from; None if not recorded.
+
+    (params.json ``identification.envelope``; the FMU warns when it goes beyond it.)
+    """
+    record = params.identification.get("envelope")
+    return Envelope.from_dict(record) if isinstance(record, Mapping) else None

@@ -62,6 +62,7 @@ import numpy as np
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
 from pythonfmu.enums import Fmi2Status
 
+from fmu_model.envelope import Envelope, ExtrapolationWatch, instant_envelope
 from fmu_model.fmi_rules import (
     FmuVariable,
     divergence_message,
@@ -137,6 +138,9 @@ class ShipManoeuvringSlave(Fmi2Slave):
         interface = json.loads((resources / INTERFACE_RESOURCE).read_text(encoding="utf-8"))
         self._variables = tuple(FmuVariable.from_json(v) for v in interface["variables"])
         self._min_start_speed = float(interface["min_start_speed_mps"])
+        logged = interface.get("envelope")
+        envelope = None if logged is None else Envelope.from_dict(logged)
+        self._watch = None if envelope is None else ExtrapolationWatch(envelope)
         self._equations = load_equations(resources / EQUATIONS_RESOURCE)
         self.modelName = interface["model_identifier"]  # names the binary
 
@@ -274,6 +278,8 @@ class ShipManoeuvringSlave(Fmi2Slave):
         self._windage = [self._values[k] for k in self._vr_windage]
         self._state = np.array([self._values[k] for k in self._vr_initial])
         self._initialised = True
+        if self._watch is not None:
+            self._watch.warned.clear()
         message = self._start_speed_problem()
         if message is not None:
             self._problems[_START_SPEED] = message
@@ -334,7 +340,20 @@ class ShipManoeuvringSlave(Fmi2Slave):
                     return False
         self._state = state
         self._time = current_time + step_size
+        self._warn_beyond_logs()
         return True
+
+    def _warn_beyond_logs(self) -> None:
+        """Log the axes the step went beyond the logs on for the first time (as warnings)."""
+        if self._watch is None:
+            return
+        rudder, n_rps, _ = self._inputs()
+        u0, v0 = (self._values[k] for k in self._vr_initial[:2])
+        start_speed = math.sqrt(u0 * u0 + v0 * v0)
+        length = self._values[self._vr_length]
+        instant = instant_envelope(rudder, n_rps, self._state, start_speed, length)
+        for message in self._watch.news("fmi2DoStep", self._time, instant):
+            self.log(message, Fmi2Status.warning)
 
     # -- FMU state (fmi2Get/SetFMUstate, serialisation as JSON by pythonfmu) --------------
 

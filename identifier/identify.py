@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from fmu_model import DEFAULT_MODEL, ModelParameters, ModelStructure, get_model
+from fmu_model.envelope import Envelope, envelope_of, union
 from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
@@ -64,7 +65,6 @@ from identifier.shape import ShapeSelection, select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
 from trials.conditions import EXECUTE_RUDDER_RAD, execute_index
-from trials.envelope import Envelope, envelope_of, union
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
 
@@ -248,7 +248,7 @@ def _nominal(logs: Sequence[ManeuverLog], segments: Sequence[EkfSegment]) -> tup
 def _envelope(
     logs: Sequence[ManeuverLog], segments: Sequence[EkfSegment], length_m: float
 ) -> Envelope:
-    """Return what the logs reached (``trials.envelope``), from their smoothed velocities.
+    """Return what the logs reached (``fmu_model.envelope``), from their smoothed velocities.
 
     ``segments`` with the velocities through the water (the current taken out); U₀ is
     the mean speed before the execute, as the nominal speed (:func:`_nominal`).

@@ -22,7 +22,7 @@ of turns is compared on the corrected indices when either is judged so (the labe
 the row says "current-corrected"); otherwise on the raw ones.
 
 With the envelope of the identification's logs (``Validation.envelope``, from params.json;
-``trials.envelope``) every predicted manoeuvre is also judged for extrapolation: a
+``fmu_model.envelope``) every predicted manoeuvre is also judged for extrapolation: a
 manoeuvre steered, turned or slowed beyond the logs (:attr:`Validation.extrapolation`)
 is a prediction of the structure beyond its data, whose error no interval carries.
 
@@ -39,11 +39,10 @@ from typing import Any
 
 import numpy as np
 
-from fmu_model import ModelParameters
+from fmu_model.envelope import Envelope, trajectory_envelope
 from scenarios.imo import Criterion, TurningJudgement, turning_ability_in_current
 from scenarios.sea import SeaEnvironment
 from trials.current_correction import DRIFT_THRESHOLD_FRACTION, CurrentCorrection
-from trials.envelope import Envelope, trajectory_envelope
 from trials.maneuvers import Program
 from trials.metrics import TurningMetrics, ZigzagMetrics
 
@@ -61,7 +60,6 @@ __all__ = [
     "environment_record",
     "failing_rows",
     "interval_counts",
-    "logged_envelope",
     "maneuver_label",
     "turn_side",
 ]
@@ -198,7 +196,7 @@ class ManeuverRun:
         return self.current is not None and self.current.applied
 
     def envelope(self, length_m: float) -> Envelope:
-        """Return how hard the run steers, turns and slows (``trials.envelope``).
+        """Return how hard the run steers, turns and slows (``fmu_model.envelope``).
 
         The speed is through the water; ``length_m`` [m] makes r′.
         """
@@ -455,12 +453,6 @@ class Validation:
     def imo_passed(self) -> bool:
         """True when the predicted model passes every evaluated IMO criterion."""
         return all(c.passed for c in self.criteria)
-
-
-def logged_envelope(params: ModelParameters) -> Envelope | None:
-    """Return the envelope of the logs ``params`` were identified from; None if not recorded."""
-    record = params.identification.get("envelope")
-    return Envelope.from_dict(record) if isinstance(record, Mapping) else None
 
 
 def beyond_logs(

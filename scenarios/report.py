@@ -54,7 +54,7 @@ location comes from the validation run, the spread from the samples.
      "environment": {"current_mps", "current_to_deg", "wind_mps", "wind_from_deg"}}
 
 ``extrapolation`` when the envelope of the identification's logs is known (params
-given, ``trials.envelope``): per predicted manoeuvre how it leaves that envelope (an
+given, ``fmu_model.envelope``): per predicted manoeuvre how it leaves that envelope (an
 empty list: it stays inside), and the interval counts of the manoeuvres inside it
 (null without intervals).
 
@@ -100,7 +100,7 @@ from trials.current_correction import REFERENCE as CURRENT_CORRECTION_REFERENCE
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from trials.envelope import Envelope
+    from fmu_model.envelope import Envelope
 
 __all__ = [
     "VALIDATION_FORMAT",

@@ -22,6 +22,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
+from fmu_model.interface import logged_envelope
 from scenarios.errors import ScenarioError, UncertaintyError
 from scenarios.fmu_checks import (
     check_environment,
@@ -35,7 +36,6 @@ from scenarios.records import (
     Interval,
     UncertaintyBands,
     Validation,
-    logged_envelope,
 )
 from scenarios.runs import imo_criteria, reference_runs, run_standard_set
 from scenarios.uncertainty.model_form import interval_terms, widen

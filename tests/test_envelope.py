@@ -1,6 +1,6 @@
 """The envelope of the logged manoeuvres, and where validation says a prediction leaves it.
 
-The envelope of samples is checked by hand (``trials.envelope``); a validation with an
+The envelope of samples is checked by hand (``fmu_model.envelope``); a validation with an
 envelope marks the manoeuvres beyond it in its table, report and JSON. (That the
 identification records the envelope of its logs: ``test_identify``.)
 """
@@ -14,10 +14,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from scenarios.records import Validation
-from scenarios.report import comparison_table, render_markdown, validation_json
-from tests.test_report_uncertainty import BANDS, _validation
-from trials.envelope import (
+from fmu_model.envelope import (
     MARGIN,
     SPEED_RATIO_MARGIN,
     Envelope,
@@ -26,6 +23,9 @@ from trials.envelope import (
     envelope_of,
     union,
 )
+from scenarios.records import Validation
+from scenarios.report import comparison_table, render_markdown, validation_json
+from tests.test_report_uncertainty import BANDS, _validation
 from trials.trajectory import empty_trajectory
 
 LOGGED = Envelope(

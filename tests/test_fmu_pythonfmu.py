@@ -387,11 +387,13 @@ def test_build_writes_atomically_and_rejects_a_bad_max_step(tmp_path: Path) -> N
     with zipfile.ZipFile(target) as archive:
         names = set(archive.namelist())
         interface = json.loads(archive.read("resources/fmu_interface.json"))
-    runtime = {f"resources/fmu_model/{n}" for n in ("__init__.py", "fmi_rules.py", "integrate.py")}
+    carried = ("__init__.py", "fmi_rules.py", "integrate.py", "envelope.py")
+    runtime = {f"resources/fmu_model/{n}" for n in carried}
     assert {"modelDescription.xml", "resources/model_equations.py"} | runtime <= names
     assert {n for n in names if n.startswith("resources/fmu_model/")} == runtime
     starts = {v["name"]: v["start"] for v in interface["variables"]}
     assert {name: starts[name] for name in COEFFICIENTS} == COEFFICIENTS
+    assert interface["envelope"] is None  # PARAMS record no logs' envelope
 
 
 def test_a_model_family_runs_in_the_pythonfmu_backend_as_in_python(tmp_path: Path) -> None:

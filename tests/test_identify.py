@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters, get_model, load_params
+from fmu_model.envelope import trajectory_envelope, union
+from fmu_model.interface import logged_envelope
 from fmu_model.variants import THRUST_SLOPE
 from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
@@ -20,10 +22,8 @@ from identifier.identify import (
     identify,
     thrust_warning,
 )
-from scenarios.records import logged_envelope
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
-from trials.envelope import trajectory_envelope, union
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log, write_log
 from trials.maneuvers import Leg, Program, Until, turning_circle, zigzag

@@ -18,6 +18,7 @@ import pytest
 from distributed import LocalCluster
 
 from fmu_model import ModelParameters, save_params
+from fmu_model.envelope import Envelope, Sides, Span
 from fmu_model.export_native import build_native_fmu
 from scenarios.cli import main
 from scenarios.errors import ScenarioError
@@ -46,7 +47,6 @@ from scenarios.uncertainty.results import (
 )
 from scenarios.validation import uncertainty_bands
 from tests.conftest import SEED_COEFFICIENTS
-from trials.envelope import Envelope, Sides, Span
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import TurningMetrics, ZigzagMetrics
 from trials.trajectory import empty_trajectory

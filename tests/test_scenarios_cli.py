@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters, get_model, save_params
+from fmu_model.envelope import Envelope, Sides, Span
 from fmu_model.export_native import build_native_fmu
 from scenarios.cli import PROG, main
 from scenarios.errors import ScenarioError
@@ -24,7 +25,6 @@ from scenarios.runs import reference_runs
 from scenarios.synthesize import maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
-from trials.envelope import Envelope, Sides, Span
 from trials.logs import ManeuverLog, read_log, write_log
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import turning_metrics, zigzag_metrics

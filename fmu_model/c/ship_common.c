@@ -64,6 +64,15 @@
  *   time, and only the getters, SetFMUState, Reset, Terminate and FreeInstance allowed
  *   ("step failed"); in model exchange the derivatives of a diverged state are a discard,
  *   so that the host's solver can retry with a smaller step.
+ * - Beyond the logs (fmu_model.envelope.ExtrapolationWatch; MODEL_HAS_ENVELOPE and the
+ *   ENVELOPE_* values of model_config.h, from params.json identification.envelope):
+ *   after every completed DoStep, the step's rudder angle and propeller speed and the
+ *   state at its end (r' = r L / U where U >= ENVELOPE_MIN_SPEED_RATIO_FOR_YAW_RATE U0,
+ *   U / U0, U0 = sqrt(u0^2 + v0^2)) are judged against what the identification's logs
+ *   reached; the first time since ExitInitializationMode that they go beyond it on an
+ *   axis and side, by more than the margins, is one warning (status warning, category
+ *   logStatusWarning, EXTRAPOLATION_FORMAT). The step itself is OK: the model
+ *   extrapolates, it does not fail. Model exchange does not judge.
  * - Logging: the categories logStatusWarning, logStatusDiscard, logStatusError and
  *   logStatusFatal are on from instantiation (they report failures, not debug output);
  *   logAll (a trace of every call) follows the loggingOn argument. SetDebugLogging
@@ -181,6 +190,7 @@ typedef struct Instance {
     char *instance_name;
     ShipApi api;
     int log_enabled[N_LOG_CATEGORIES];
+    unsigned warned_beyond; /* bit k: axis k of BeyondAxis warned about since the start */
 } Instance;
 
 typedef struct {
@@ -212,6 +222,7 @@ static void log_message(const Instance *inst, ShipStatus status, LogCategory cat
     api_log(inst, status, LOG_CATEGORY_NAMES[category], buffer);
 }
 
+#define LOG_WARNING(inst, ...) log_message((inst), SHIP_WARNING, LOG_STATUS_WARNING, __VA_ARGS__)
 #define LOG_ERROR(inst, ...) log_message((inst), SHIP_ERROR, LOG_STATUS_ERROR, __VA_ARGS__)
 #define LOG_DISCARD(inst, ...) log_message((inst), SHIP_DISCARD, LOG_STATUS_DISCARD, __VA_ARGS__)
 #define LOG_TRACE(inst, ...) log_message((inst), SHIP_OK, LOG_ALL, __VA_ARGS__)
@@ -452,6 +463,7 @@ static Instance *ship_instantiate(const char *instance_name, ShipKind kind, cons
         inst->log_enabled[k] = 1;
     }
     inst->log_enabled[LOG_ALL] = logging_on ? 1 : 0;
+    inst->warned_beyond = 0u;
     set_start_values(inst);
     LOG_TRACE(inst, "Instantiate: %s (%s), GUID %s", MODEL_IDENTIFIER_NAME,
               kind == KIND_CO_SIMULATION ? "co-simulation" : "model exchange", MODEL_GUID);
@@ -541,6 +553,7 @@ static ShipStatus ship_exit_initialization_mode(Instance *inst, const char *func
     reset_state_from_parameters(inst);
     inst->s.last_successful_time = inst->s.time;
     inst->s.state = inst->kind == KIND_CO_SIMULATION ? STATE_STEP_COMPLETE : STATE_EVENT_MODE;
+    inst->warned_beyond = 0u;
     return SHIP_OK;
 }
 
@@ -672,6 +685,121 @@ static ShipStatus ship_set_real(Instance *inst, const char *function, const unsi
 }
 
 /* ---------------------------------------------------------------------------------- */
+/* Beyond the identification's logs (fmu_model.envelope)                               */
+/* ---------------------------------------------------------------------------------- */
+
+/* The axes and sides, in the order of fmu_model.envelope.AXES. */
+typedef enum {
+    BEYOND_RUDDER_PORT = 0,
+    BEYOND_RUDDER_STARBOARD,
+    BEYOND_YAW_RATE_PORT,
+    BEYOND_YAW_RATE_STARBOARD,
+    BEYOND_SPEED,
+    BEYOND_APPROACH_SPEED,
+    BEYOND_PROPELLER
+} BeyondAxis;
+
+static const char *const SIDE_NAMES[2] = {"port", "starboard"};
+
+/* Warn about `axis` with `phrase`, unless it was warned about since the start. */
+static void warn_beyond(Instance *inst, const char *function, BeyondAxis axis, const char *phrase)
+{
+    if (inst->warned_beyond & (1u << axis)) {
+        return;
+    }
+    inst->warned_beyond |= 1u << axis;
+    LOG_WARNING(inst, EXTRAPOLATION_FORMAT, function, inst->s.time, phrase);
+}
+
+/* Envelope._past_sides: each side (port, starboard) on which `sailed` exceeds `logged`
+   by more than the margin, said x`scale` with the printf format `format`. */
+static void past_sides(Instance *inst, const char *function, BeyondAxis port_axis,
+                       const char *format, double scale, const double logged[2],
+                       const double sailed[2])
+{
+    char phrase[160];
+    int side;
+    for (side = 0; side < 2; side++) {
+        if (sailed[side] > (1.0 + ENVELOPE_MARGIN) * logged[side]) {
+            snprintf(phrase, sizeof phrase, format, scale * sailed[side], SIDE_NAMES[side],
+                     scale * logged[side]);
+            warn_beyond(inst, function, (BeyondAxis)(port_axis + side), phrase);
+        }
+    }
+}
+
+/* Span.said: "low-high unit", or "value unit" when both ends read the same. */
+static void span_said(char *out, size_t size, double low, double high, double scale,
+                      const char *unit)
+{
+    char a[32], b[32];
+    snprintf(a, sizeof a, ENVELOPE_SPAN_VALUE_FORMAT, scale * low);
+    snprintf(b, sizeof b, ENVELOPE_SPAN_VALUE_FORMAT, scale * high);
+    if (strcmp(a, b) == 0) {
+        snprintf(out, size, "%s %s", a, unit);
+    } else {
+        snprintf(out, size, "%s-%s %s", a, b, unit);
+    }
+}
+
+/* Envelope._past_span of one value: outside [low, high] by more than the margin. */
+static void past_span(Instance *inst, const char *function, BeyondAxis axis, const char *label,
+                      double low, double high, double value, double scale, const char *unit)
+{
+    char sailed[48], logged[80], phrase[200];
+    if ((1.0 - ENVELOPE_MARGIN) * low <= value && value <= (1.0 + ENVELOPE_MARGIN) * high) {
+        return;
+    }
+    span_said(sailed, sizeof sailed, value, value, scale, unit);
+    span_said(logged, sizeof logged, low, high, scale, unit);
+    snprintf(phrase, sizeof phrase, ENVELOPE_SPAN_FORMAT, label, sailed, logged);
+    warn_beyond(inst, function, axis, phrase);
+}
+
+/* ExtrapolationWatch.news of the instant after a step: its instant_envelope (the step's
+   inputs, the state at its end, U0 from u0 and v0) against the logs' envelope. */
+static void warn_beyond_logs(Instance *inst, const char *function)
+{
+    static const double logged_rudder[2] = {ENVELOPE_RUDDER_PORT, ENVELOPE_RUDDER_STARBOARD};
+    static const double logged_yaw_rate[2] = {ENVELOPE_YAW_RATE_PORT, ENVELOPE_YAW_RATE_STARBOARD};
+    const double *x = &inst->s.values[VR_STATE];
+    const double u0 = inst->s.values[VR_INITIAL_STATE];
+    const double v0 = inst->s.values[VR_INITIAL_STATE + 1];
+    const double start_speed = sqrt(u0 * u0 + v0 * v0);
+    const double speed = sqrt(x[0] * x[0] + x[1] * x[1]);
+    const double rudder = rudder_of(inst);
+    double ratio = 1.0, yaw_rate = 0.0;
+    double sailed[2];
+    char phrase[160];
+    if (!MODEL_HAS_ENVELOPE) {
+        return;
+    }
+    if (start_speed > 0.0) {
+        ratio = speed / start_speed;
+        if (ratio >= ENVELOPE_MIN_SPEED_RATIO_FOR_YAW_RATE) {
+            yaw_rate = x[2] * inst->s.values[VR_LENGTH] / speed;
+        }
+    }
+    sailed[0] = rudder < 0.0 ? -rudder : 0.0;
+    sailed[1] = rudder > 0.0 ? rudder : 0.0;
+    past_sides(inst, function, BEYOND_RUDDER_PORT, ENVELOPE_RUDDER_FORMAT, ENVELOPE_DEG_PER_RAD,
+               logged_rudder, sailed);
+    sailed[0] = yaw_rate < 0.0 ? -yaw_rate : 0.0;
+    sailed[1] = yaw_rate > 0.0 ? yaw_rate : 0.0;
+    past_sides(inst, function, BEYOND_YAW_RATE_PORT, ENVELOPE_YAW_RATE_FORMAT, 1.0,
+               logged_yaw_rate, sailed);
+    if (ratio < ENVELOPE_SPEED_RATIO_MIN - ENVELOPE_SPEED_RATIO_MARGIN) {
+        snprintf(phrase, sizeof phrase, ENVELOPE_SPEED_RATIO_FORMAT, ratio,
+                 ENVELOPE_SPEED_RATIO_MIN);
+        warn_beyond(inst, function, BEYOND_SPEED, phrase);
+    }
+    past_span(inst, function, BEYOND_APPROACH_SPEED, "approach speed", ENVELOPE_APPROACH_LOW,
+              ENVELOPE_APPROACH_HIGH, start_speed, 1.0, "m/s");
+    past_span(inst, function, BEYOND_PROPELLER, "propeller", ENVELOPE_PROPELLER_LOW,
+              ENVELOPE_PROPELLER_HIGH, n_rps_of(inst), ENVELOPE_RPM_PER_RPS, "rpm");
+}
+
+/* ---------------------------------------------------------------------------------- */
 /* Co-simulation                                                                       */
 /* ---------------------------------------------------------------------------------- */
 
@@ -728,6 +856,7 @@ static ShipStatus ship_do_step(Instance *inst, const char *function, double t, d
     }
     inst->s.time = end;
     inst->s.last_successful_time = inst->s.time;
+    warn_beyond_logs(inst, function);
     return SHIP_OK;
 }
 

@@ -57,6 +57,19 @@
  *     STATE_RANGE_FORMAT      printf formats of the error of a restored FMU state with a
  *     STATE_NONFINITE_FORMAT  value out of range or not finite: function (string), variable
  *                             name (string), value, and (range) min, max (double)
+ *     MODEL_HAS_ENVELOPE      1 when the identification's logs' envelope is known
+ *                             (fmu_model.envelope), 0 otherwise (the values below are 0)
+ *     ENVELOPE_RUDDER_PORT, ENVELOPE_RUDDER_STARBOARD, ENVELOPE_YAW_RATE_PORT,
+ *     ENVELOPE_YAW_RATE_STARBOARD, ENVELOPE_SPEED_RATIO_MIN, ENVELOPE_APPROACH_LOW,
+ *     ENVELOPE_APPROACH_HIGH, ENVELOPE_PROPELLER_LOW, ENVELOPE_PROPELLER_HIGH
+ *                             its axes [rad, -, -, m/s, rev/s], and ENVELOPE_MARGIN,
+ *                             ENVELOPE_SPEED_RATIO_MARGIN,
+ *                             ENVELOPE_MIN_SPEED_RATIO_FOR_YAW_RATE, ENVELOPE_DEG_PER_RAD,
+ *                             ENVELOPE_RPM_PER_RPS its rule's numbers
+ *     ENVELOPE_RUDDER_FORMAT, ENVELOPE_YAW_RATE_FORMAT, ENVELOPE_SPEED_RATIO_FORMAT,
+ *     ENVELOPE_SPAN_VALUE_FORMAT, ENVELOPE_SPAN_FORMAT
+ *                             printf formats of its phrases, and EXTRAPOLATION_FORMAT the
+ *                             warning: function (string), time [s], phrase (string)
  *
  *   model_equations.h  (fmu_model.codegen.generate_model_c, from the symbolic structure)
  *     MODEL_N_COEFFICIENTS, MODEL_COEFFICIENT_NAMES and

@@ -11,6 +11,7 @@ import numpy as np
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
+from fmu_model.envelope import Envelope
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from fmu_model.kernels import numba_compilations
 from fmu_model.variants import family_name
@@ -28,7 +29,6 @@ from identifier.identify import (
     identify,
 )
 from identifier.wind import read_windage
-from trials.envelope import Envelope
 from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]

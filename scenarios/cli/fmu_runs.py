@@ -32,7 +32,7 @@ these options every command sails in calm water, as before.
 
 With ``--params`` (the params.json the FMU was built from, checked against it) every
 command also says whether its runs go beyond what the identification's logs reached
-(``trials.envelope``): the axes and sides after the metrics, and ``extrapolation`` in
+(``fmu_model.envelope``): the axes and sides after the metrics, and ``extrapolation`` in
 the JSON (``scenarios.report.extrapolation_record``; ``imo`` writes it as null without
 ``--params``).
 """
@@ -50,6 +50,8 @@ from typing import Any, Literal
 import numpy as np
 
 from fmu_model import argtypes, load_params
+from fmu_model.envelope import Envelope, trajectory_envelope
+from fmu_model.interface import logged_envelope
 from scenarios.cli.common import EXIT_GATE_FAILED, PROG, make_bars, sim_progress
 from scenarios.cli.sea import add_sea_arguments, sea_environment
 from scenarios.errors import ScenarioError
@@ -68,7 +70,6 @@ from scenarios.records import (
     beyond_logs,
     current_correction_record,
     environment_record,
-    logged_envelope,
 )
 from scenarios.report import (
     criteria_table,
@@ -97,7 +98,6 @@ from trials.current_correction import (
     CurrentCorrection,
     correct_turning_circle,
 )
-from trials.envelope import Envelope, trajectory_envelope
 from trials.logs import ManeuverLog, read_log
 from trials.maneuvers import (
     DEFAULT_RUDDER_RATE_DEG_S,

@@ -28,13 +28,21 @@ A run is beyond the envelope on an axis by more than :data:`MARGIN` of its value
 smoothed logs should not make a repeat of a logged manoeuvre an extrapolation. Speeds
 are through the water (the identification's estimate of them when it estimates a
 current).
+
+Two users: the scenarios judge whole runs (``Envelope.beyond`` of a run's
+:func:`trajectory_envelope`), and every FMU built from parameters that record the
+envelope judges itself while it runs (:class:`ExtrapolationWatch`, one warning per axis
+and side in the host's log), so that a co-simulation in any tool learns where the model
+extrapolates. This module is on the FMU's floor for that reason: it imports only the
+standard library and numpy, and the pythonfmu FMU carries it; the native FMU's C layer
+follows the same rule with the numbers and formats written into its ``model_config.h``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
@@ -47,6 +55,37 @@ RPM_PER_RPS = 60.0
 """Propeller rates are said in rpm, as the logs and the FMU's input give them."""
 MIN_SPEED_RATIO_FOR_YAW_RATE = 0.2
 """r′ = r·L/U is taken where U ≥ this fraction of U₀ (a ship almost stopped has no r′)."""
+DEG_PER_RAD = math.degrees(1.0)
+"""Rudder angles are said in degrees."""
+
+# What :meth:`Envelope.beyond` says, as printf formats: the native FMU's C layer says the
+# same (``model_config.h``), so both backends log the same text.
+RUDDER_FORMAT = "rudder %.1f deg to %s (logs: %.1f deg)"
+"""A rudder angle past the logs': the angle [deg], the side, the logs' largest [deg]."""
+YAW_RATE_FORMAT = "yaw rate r' %.2f to %s (logs: %.2f)"
+"""A yaw rate past the logs': r′, the side, the logs' largest r′."""
+SPEED_RATIO_FORMAT = "speed down to %.2f U0 (logs: %.2f U0)"
+"""A speed below the logs': U/U₀, the logs' lowest U/U₀."""
+SPAN_VALUE_FORMAT = "%.3g"
+"""One end of a span (:meth:`Span.said`)."""
+SPAN_FORMAT = "%s %s (logs: %s)"
+"""A value outside the logs' span: the axis, the value said, the logs' span said."""
+AXES = (
+    "rudder to port",
+    "rudder to starboard",
+    "yaw rate to port",
+    "yaw rate to starboard",
+    "speed",
+    "approach speed",
+    "propeller",
+)
+"""The axes and sides :meth:`Envelope.beyond` judges, in its order (bit k of the native
+FMU's record of the axes it has warned about)."""
+EXTRAPOLATION_FORMAT = "%s: t = %.9g s: beyond the identification logs, the model extrapolates: %s"
+"""The warning an FMU logs (status warning, category ``logStatusWarning``) the first time
+one of its steps goes beyond the envelope of its logs on an axis and side
+(:class:`ExtrapolationWatch`): the FMI function, the time at the end of the step [s] and
+:meth:`Envelope.beyond`'s phrase."""
 
 
 class Sides(NamedTuple):
@@ -83,7 +122,7 @@ class Span(NamedTuple):
 
         One value when both ends read the same (``"614 rpm"``).
         """
-        low, high = f"{scale * self.low:.3g}", f"{scale * self.high:.3g}"
+        low, high = (SPAN_VALUE_FORMAT % (scale * end) for end in self)
         return f"{low} {unit}" if low == high else f"{low}-{high} {unit}"
 
     @classmethod
@@ -108,27 +147,30 @@ def _pair(record: object, names: tuple[str, str]) -> tuple[float, float] | None:
     return None if first is None or second is None else (first, second)
 
 
-def _past_sides(label: str, logged: Sides, sailed: Sides, *, angle: bool) -> list[str]:
-    """Phrases for the sides on which ``sailed`` exceeds ``logged`` by more than the margin.
+def _past_sides(
+    axis: str, logged: Sides, sailed: Sides, *, phrase: str, scale: float
+) -> list[tuple[str, str]]:
+    """(axis and side, phrase) for the sides on which ``sailed`` exceeds ``logged``.
 
-    An ``angle`` [rad] is said in degrees with one decimal; anything else with two.
+    By more than the margin; values said ×``scale`` with the printf format ``phrase``.
     """
-    scale, digits, unit = (math.degrees(1.0), 1, " deg") if angle else (1.0, 2, "")
     return [
-        f"{label} {scale * s:.{digits}f}{unit} to {side} (logs: {scale * known:.{digits}f}{unit})"
+        (f"{axis} to {side}", phrase % (scale * s, side, scale * known))
         for side, known, s in zip(Sides._fields, logged, sailed, strict=True)
         if s > (1.0 + MARGIN) * known
     ]
 
 
-def _past_span(label: str, logged: Span, sailed: Span, *, scale: float, unit: str) -> list[str]:
-    """Say it when ``sailed`` reaches below or above ``logged`` by more than the margin.
+def _past_span(
+    axis: str, logged: Span, sailed: Span, *, scale: float, unit: str
+) -> list[tuple[str, str]]:
+    """(axis, phrase) when ``sailed`` reaches below or above ``logged`` by more than the margin.
 
     Values are said ×``scale`` in ``unit`` (:meth:`Span.said`).
     """
     if (1.0 - MARGIN) * logged.low <= sailed.low and sailed.high <= (1.0 + MARGIN) * logged.high:
         return []
-    return [f"{label} {sailed.said(scale, unit)} (logs: {logged.said(scale, unit)})"]
+    return [(axis, SPAN_FORMAT % (axis, sailed.said(scale, unit), logged.said(scale, unit)))]
 
 
 @dataclass(frozen=True)
@@ -192,14 +234,24 @@ class Envelope:
         One phrase per axis and side, e.g. ``"rudder 35.0 deg to port (logs: 20.1 deg)"``;
         empty when the run stays inside.
         """
+        return tuple(phrase for _, phrase in self.beyond_by_axis(run))
+
+    def beyond_by_axis(self, run: Envelope) -> list[tuple[str, str]]:
+        """:meth:`beyond`'s phrases, each with its axis and side (one of :data:`AXES`)."""
         out = [
-            *_past_sides("rudder", self.rudder_max_rad, run.rudder_max_rad, angle=True),
-            *_past_sides("yaw rate r'", self.yaw_rate_max, run.yaw_rate_max, angle=False),
+            *_past_sides(
+                "rudder",
+                self.rudder_max_rad,
+                run.rudder_max_rad,
+                phrase=RUDDER_FORMAT,
+                scale=DEG_PER_RAD,
+            ),
+            *_past_sides(
+                "yaw rate", self.yaw_rate_max, run.yaw_rate_max, phrase=YAW_RATE_FORMAT, scale=1.0
+            ),
         ]
         if run.speed_ratio_min < self.speed_ratio_min - SPEED_RATIO_MARGIN:
-            out.append(
-                f"speed down to {run.speed_ratio_min:.2f} U0 (logs: {self.speed_ratio_min:.2f} U0)"
-            )
+            out.append(("speed", SPEED_RATIO_FORMAT % (run.speed_ratio_min, self.speed_ratio_min)))
         out += _past_span(
             "approach speed",
             self.approach_speed_mps,
@@ -214,7 +266,7 @@ class Envelope:
             scale=RPM_PER_RPS,
             unit="rpm",
         )
-        return tuple(out)
+        return out
 
 
 def envelope_of(
@@ -269,3 +321,65 @@ def union(envelopes: Iterable[Envelope]) -> Envelope:
         approach_speed_mps=Span.widest(e.approach_speed_mps for e in items),
         propeller_rate_rps=Span.widest(e.propeller_rate_rps for e in items),
     )
+
+
+def instant_envelope(
+    rudder_rad: float,
+    n_rps: float,
+    state: Sequence[float] | np.ndarray,
+    start_speed_mps: float,
+    length_m: float,
+) -> Envelope:
+    """Return the envelope of one instant of a run that started at ``start_speed_mps``.
+
+    ``state`` begins with u [m/s], v [m/s], r [rad/s]; U₀ = ``start_speed_mps``. What
+    :func:`trajectory_envelope` makes of that sample in a run whose first sample moves at
+    U₀; a run from rest (U₀ = 0) has no speed ratio (1 here) and no r′ (0).
+    """
+    u, v, r = (float(x) for x in state[:3])
+    speed = math.sqrt(u * u + v * v)  # as the C layer computes it
+    ratio, yaw_rate = 1.0, 0.0
+    if start_speed_mps > 0.0:
+        ratio = speed / start_speed_mps
+        if ratio >= MIN_SPEED_RATIO_FOR_YAW_RATE:
+            yaw_rate = r * length_m / speed
+    return Envelope(
+        rudder_max_rad=Sides(max(-rudder_rad, 0.0), max(rudder_rad, 0.0)),
+        yaw_rate_max=Sides(max(-yaw_rate, 0.0), max(yaw_rate, 0.0)),
+        speed_ratio_min=ratio,
+        approach_speed_mps=Span(start_speed_mps, start_speed_mps),
+        propeller_rate_rps=Span(n_rps, n_rps),
+    )
+
+
+@dataclass
+class ExtrapolationWatch:
+    """The run-time rule of both FMU backends: warn once per axis beyond the logs.
+
+    After every co-simulation step the step's inputs (rudder angle, propeller rate) and
+    the state at its end make an :func:`instant_envelope`, with U₀ the start speed
+    √(u0² + v0²); each axis and side of :data:`AXES` on which it leaves the envelope of
+    the identification's logs for the first time since the start is one warning
+    (:data:`EXTRAPOLATION_FORMAT`). ``warned`` holds those axes; a new start clears it.
+    """
+
+    envelope: Envelope
+    warned: set[str] = field(default_factory=set)
+
+    def news(
+        self,
+        function: str,
+        time_s: float,
+        instant: Envelope,
+    ) -> list[str]:
+        """Return the warnings of the axes ``instant`` leaves for the first time.
+
+        ``function`` is the FMI function and ``time_s`` the end of its step [s], for the
+        message.
+        """
+        out = []
+        for axis, phrase in self.envelope.beyond_by_axis(instant):
+            if axis not in self.warned:
+                self.warned.add(axis)
+                out.append(EXTRAPOLATION_FORMAT % (function, time_s, phrase))
+        return out
