@@ -28,6 +28,7 @@ import sys
 import sysconfig
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,7 @@ from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave
 
 from fmu_model import ModelParameters, load_params
+from fmu_model.envelope import Envelope, Sides, Span
 from fmu_model.export_native import build_native_fmu, fmi_headers_dir
 from fmu_model.export_pythonfmu import build_pythonfmu_fmu
 
@@ -55,7 +57,8 @@ DEMO_COEFFICIENTS = (
 
 
 def demo_params() -> ModelParameters:
-    """Parameters of the built-in demo ship."""
+    """Parameters of the built-in demo ship, with an envelope of logs the loop stays in."""
+    logs = Envelope(Sides(0.5, 0.5), Sides(2.0, 2.0), 0.0, Span(0.0, 10.0), Span(0.0, 4.0))
     return ModelParameters(
         model="shi2009",
         coefficients=np.array(DEMO_COEFFICIENTS),
@@ -63,15 +66,29 @@ def demo_params() -> ModelParameters:
         vessel_name="Benchmark Ship",
         nominal_speed_mps=5.0,
         nominal_n_rps=2.0,
+        identification={"envelope": logs.as_dict()},
     )
 
 
+def without_envelope(params: ModelParameters) -> ModelParameters:
+    """``params`` without the envelope of their logs: an FMU that judges nothing."""
+    kept = {k: v for k, v in params.identification.items() if k != "envelope"}
+    return replace(params, identification=kept)
+
+
 def backends(params: ModelParameters, workdir: Path) -> list[tuple[str, Path]]:
-    """(label, FMU path) of every backend to compare; one line per backend."""
+    """(label, FMU path) of every backend to compare; one line per backend.
+
+    The ``no envelope`` rows are the same FMUs built without the envelope of the logs:
+    what the check beyond the logs (``fmu_model.envelope``) costs per step.
+    """
+    bare = without_envelope(params)
     return [
         ("native C", build_native_fmu(params, workdir / "native" / "ship.fmu")),
+        ("C, no envelope", build_native_fmu(bare, workdir / "bare" / "ship.fmu")),
         ("native FMI3", build_native_fmu(params, workdir / "fmi3" / "ship.fmu", fmi_version="3")),
         ("pythonfmu", build_pythonfmu_fmu(params, workdir / "pythonfmu" / "ship.fmu")),
+        ("py, no envelope", build_pythonfmu_fmu(bare, workdir / "pybare" / "ship.fmu")),
     ]
 
 
@@ -196,14 +213,14 @@ def main() -> int:
             rows.append((label, fmpy_loop_us(path, args.steps), in_host, cs_hour, me_hour))
     base_label, base_us = rows[0][0], rows[0][1]
     print(
-        f"{'backend':<12} {'fmpy µs/step':>13} {f'x {base_label}':>12} {'C host µs/step':>15} "
+        f"{'backend':<16} {'fmpy µs/step':>13} {f'x {base_label}':>12} {'C host µs/step':>15} "
         f"{'1 h CS s':>9} {'1 h ME CVode s':>15}"
     )
     for label, fmpy_us, c_us, cs_hour, me_hour in rows:
         c_text = "n/a" if c_us is None else f"{c_us:.3f}"
         me_text = "n/a" if me_hour is None else f"{me_hour:.2f}"
         print(
-            f"{label:<12} {fmpy_us:>13.2f} {fmpy_us / base_us:>12.2f} {c_text:>15} "
+            f"{label:<16} {fmpy_us:>13.2f} {fmpy_us / base_us:>12.2f} {c_text:>15} "
             f"{cs_hour:>9.2f} {me_text:>15}"
         )
     print(
