@@ -220,8 +220,8 @@ class Envelope:
         """
         rudder, yaw_rate = self.rudder_max_rad, self.yaw_rate_max
         return (
-            f"rudder {math.degrees(rudder.port):.1f} deg to port, "
-            f"{math.degrees(rudder.starboard):.1f} deg to starboard; r' {yaw_rate.port:.2f} to "
+            f"rudder {DEG_PER_RAD * rudder.port:.1f} deg to port, "
+            f"{DEG_PER_RAD * rudder.starboard:.1f} deg to starboard; r' {yaw_rate.port:.2f} to "
             f"port, {yaw_rate.starboard:.2f} to starboard; speed down to "
             f"{self.speed_ratio_min:.2f} U0 from approach speeds of "
             f"{self.approach_speed_mps.said(1.0, 'm/s')}; propeller at "
@@ -366,12 +366,7 @@ class ExtrapolationWatch:
     envelope: Envelope
     warned: set[str] = field(default_factory=set)
 
-    def news(
-        self,
-        function: str,
-        time_s: float,
-        instant: Envelope,
-    ) -> list[str]:
+    def news(self, function: str, time_s: float, instant: Envelope) -> list[str]:
         """Return the warnings of the axes ``instant`` leaves for the first time.
 
         ``function`` is the FMI function and ``time_s`` the end of its step [s], for the

@@ -15,12 +15,15 @@ import numpy as np
 import pytest
 
 from fmu_model.envelope import (
+    AXES,
     MARGIN,
     SPEED_RATIO_MARGIN,
     Envelope,
+    ExtrapolationWatch,
     Sides,
     Span,
     envelope_of,
+    instant_envelope,
     union,
 )
 from scenarios.records import Validation
@@ -136,6 +139,14 @@ def test_beyond_names_each_axis_and_side_past_its_margin(
     said = LOGGED.beyond(run)
     assert len(said) == len(reasons)
     assert all(s.startswith(r) for s, r in zip(said, reasons, strict=True))
+    axes = [axis for axis, _ in LOGGED.beyond_by_axis(run)]
+    assert axes == [axis for axis in AXES if axis in axes]  # named as, and in the order of, AXES
+
+
+def test_every_axis_and_side_is_one_of_the_axes() -> None:
+    """All seven at once, in AXES order: the FMU's warnings are keyed (bits) by them."""
+    run = Envelope(Sides(0.6, 0.6), Sides(0.9, 0.9), 0.4, Span(9.0, 9.0), Span(2.0, 2.0))
+    assert [axis for axis, _ in LOGGED.beyond_by_axis(run)] == list(AXES)
 
 
 def test_describe_says_every_axis_in_the_units_of_the_logs() -> None:
@@ -144,6 +155,27 @@ def test_describe_says_every_axis_in_the_units_of_the_logs() -> None:
         "speed down to 0.80 U0 from approach speeds of 5-6 m/s; propeller at 60 rpm"
     )
     assert Span(1.0, 1.0004).said(60.0, "rpm") == "60 rpm"  # ends that read the same: one
+
+
+def test_an_instant_by_hand_and_the_watch_says_each_axis_once() -> None:
+    """L = 100 m, U0 = 5 m/s: at u = 4, v = 3 (U = 5), r = 0.03 rad/s, r' = 0.6 > 0.4 × 1.05
+    to starboard; the rudder 0.1 rad to port is inside 0.2; 1.2 rev/s is past 1.0 × 1.05."""
+    instant = instant_envelope(-0.1, 1.2, [4.0, 3.0, 0.03], 5.0, 100.0)
+    assert instant == Envelope(
+        Sides(0.1, 0.0), Sides(0.0, 0.6), 1.0, Span(5.0, 5.0), Span(1.2, 1.2)
+    )
+    watch = ExtrapolationWatch(LOGGED)
+    prefix = "fmi2DoStep: t = 2.5 s: beyond the identification logs, the model extrapolates: "
+    assert watch.news("fmi2DoStep", 2.5, instant) == [
+        prefix + "yaw rate r' 0.60 to starboard (logs: 0.40)",
+        prefix + "propeller 72 rpm (logs: 60 rpm)",
+    ]
+    assert watch.news("fmi2DoStep", 3.0, instant) == []  # once per axis and side
+    assert watch.warned == {"yaw rate to starboard", "propeller"}
+    # Below 0.2 U0 there is no r'; from rest (U0 = 0) no speed ratio either.
+    assert instant_envelope(0.0, 1.0, [0.5, 0.0, 0.1], 5.0, 100.0).yaw_rate_max == (0.0, 0.0)
+    from_rest = instant_envelope(0.0, 1.0, [1.0, 0.0, 0.1], 0.0, 100.0)
+    assert (from_rest.speed_ratio_min, from_rest.yaw_rate_max) == (1.0, (0.0, 0.0))
 
 
 def test_the_record_survives_json_and_bad_records_are_none() -> None:
