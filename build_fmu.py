@@ -6,9 +6,10 @@
 
 The native backend builds FMI 2.0 (default) or 3.0, co-simulation, model exchange or
 both in one FMU (default); the pythonfmu backend builds FMI 2.0 co-simulation only.
-Prints the path of the FMU written. Exit status 0 on success, 1 on a data or build
-error (one line on stderr, nothing written), 2 on a usage error. The native backend
-compiles with ``$CC`` when it is set.
+Prints the path of the FMU written (on stderr, a note of what its logs reached when the
+params record it: the FMU warns beyond that, ``fmu_model.envelope``). Exit status 0 on
+success, 1 on a data or build error (one line on stderr, nothing written), 2 on a usage
+error. The native backend compiles with ``$CC`` when it is set.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from pathlib import Path
 
 from fmu_model import argtypes
 from fmu_model.errors import FmuBuildError
+from fmu_model.interface import logged_envelope
 from fmu_model.params import ParamsFormatError, load_params
 
 DEFAULT_PARAMS = Path("build") / "params.json"
@@ -107,6 +109,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         return _fail(f"{exc.filename}: {exc.strerror}" if exc.filename else str(exc))
     print(written)
+    envelope = logged_envelope(params)
+    if envelope is not None:
+        print(
+            "build_fmu.py: note: the FMU warns in its host's log when a step goes beyond what "
+            f"its logs reached: {envelope.describe()}",
+            file=sys.stderr,
+        )
     return 0
 
 

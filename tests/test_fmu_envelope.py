@@ -17,7 +17,8 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from fmu_model import ModelParameters
+import build_fmu
+from fmu_model import ModelParameters, save_params
 from fmu_model.envelope import Envelope, Sides, Span
 from fmu_model.export_native import build_native_fmu
 from fmu_model.export_pythonfmu import build_pythonfmu_fmu
@@ -145,3 +146,20 @@ def test_the_scenario_commands_print_none_of_it(tmp_path: Path, capfd) -> None:
     assert main(["turning-circle", "--fmu", str(fmu), "--rudder-deg", "35", "--quiet"]) == 0
     out = capfd.readouterr().out
     assert "beyond the identification logs" not in out and "[WARNING]" not in out
+
+
+def test_build_fmu_says_what_the_fmu_will_warn_beyond(tmp_path: Path, capsys) -> None:
+    """stdout stays the FMU's path alone; the note goes to stderr; none without an envelope."""
+    for params, name in ((IDENTIFIED, "identified"), (PARAMS, "plain")):
+        save_params(tmp_path / f"{name}.json", params)
+        argv = ["--params", str(tmp_path / f"{name}.json"), "-o", str(tmp_path / f"{name}.fmu")]
+        assert build_fmu.main([*argv, "--kind", "cs"]) == 0
+        out, err = capsys.readouterr()
+        assert out == f"{tmp_path / f'{name}.fmu'}\n"
+        if params is IDENTIFIED:
+            assert err == (
+                "build_fmu.py: note: the FMU warns in its host's log when a step goes beyond "
+                f"what its logs reached: {LOGS.describe()}\n"
+            )
+        else:
+            assert err == ""
