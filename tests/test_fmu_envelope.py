@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi3 import FMU3Slave
 
 import build_fmu
 from fmu_model import ModelParameters, save_params
@@ -130,6 +131,43 @@ def test_both_backends_say_the_same(tmp_path: Path) -> None:
     said = {name: _sail(unzipdir, -35.0, 100.0, 90) for name, unzipdir in unpacked.items()}
     assert said["native"][0] == said["pythonfmu"][0]
     assert len(said["native"][0]) >= 3  # rudder, propeller, yaw rate to port at least
+
+
+def test_fmi3_says_it_as_fmi2_does(tmp_path: Path) -> None:
+    """The native FMI 3.0 FMU shares the C rule: the same warnings, from fmi3DoStep."""
+    fmi2 = str(extract(str(build_native_fmu(IDENTIFIED, tmp_path / "fmi2.fmu"))))
+    expected = [
+        text.replace("fmi2DoStep", "fmi3DoStep") for _, text in _sail(fmi2, 35.0, 130.0, 30)[0]
+    ]
+    unzipdir = str(
+        extract(str(build_native_fmu(IDENTIFIED, tmp_path / "fmi3.fmu", fmi_version="3")))
+    )
+    md = read_model_description(unzipdir)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    said: list[tuple[int, str]] = []
+
+    def record(_env: object, status: int, _category: bytes, message: bytes) -> None:
+        said.append((status, message.decode()))
+
+    slave = FMU3Slave(
+        guid=md.instantiationToken,
+        unzipDirectory=unzipdir,
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="ship",
+    )
+    slave.instantiate(loggingOn=False, logMessage=record)
+    try:
+        slave.setFloat64([vr["u0"]], [5.0])
+        slave.enterInitializationMode(startTime=0.0)
+        slave.exitInitializationMode()
+        for k in range(30):
+            slave.setFloat64([vr["rudder_angle"], vr["propeller_rpm"]], [math.radians(35.0), 130.0])
+            slave.doStep(float(k), 1.0)
+        slave.terminate()
+    finally:
+        slave.freeInstance()
+    assert [text for status, text in said if status == FMI_WARNING] == expected
+    assert len(expected) == 3  # rudder, propeller, yaw rate
 
 
 def test_without_a_recorded_envelope_nothing_is_judged(tmp_path: Path) -> None:
