@@ -47,6 +47,12 @@ step and, as in the native state "step failed", every further ``fmi2DoStep`` is 
 until ``fmi2SetFMUstate`` restores a state. The status queries are answered by
 pythonfmu's wrapper: ``fmi2GetStatus`` gives ``fmi2Error`` where the native FMU gives
 ``fmi2Discard``.
+
+Beyond the logs: with the envelope of the identification's logs in
+``fmu_interface.json``, every completed step is judged by
+:class:`fmu_model.envelope.ExtrapolationWatch` and each axis and side gone beyond for the
+first time is logged with status warning, the native FMU's text; the step is still
+``fmi2OK``. (pythonfmu 0.7 passes messages on only when logging is on.)
 """
 
 from __future__ import annotations
