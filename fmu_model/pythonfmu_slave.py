@@ -10,12 +10,12 @@ and the native C FMU do. The rules (value, step, start, divergence, restored sta
 are those of :mod:`fmu_model.fmi_rules`, with the native FMU's messages.
 
 What the slave imports at run time is the FMU's own ``resources/``: ``fmu_model``'s
-``fmi_rules`` and ``integrate`` (standard library and numpy) and the generated
-``model_equations.py`` (standard library ``math`` only, from
+``fmi_rules``, ``integrate`` and ``envelope`` (standard library and numpy) and the
+generated ``model_equations.py`` (standard library ``math`` only, from
 :func:`fmu_model.codegen.generate_model_py`): the host Python needs **numpy** and nothing
 else of this project's dependencies (no sympy). Resources read at instantiation:
-``fmu_interface.json`` (the variable table, the modelIdentifier, the least start speed)
-and ``model_equations.py``.
+``fmu_interface.json`` (the variable table, the modelIdentifier, the least start speed,
+the envelope of the logs or null) and ``model_equations.py``.
 
 Status mapping. pythonfmu 0.7's wrapper turns every Python exception into ``fmi2Fatal``
 and a ``False`` from ``do_step`` into ``fmi2Discard``; it has no way to return
