@@ -15,8 +15,10 @@ printed to 1e-12 (relative to each output's range). The FMI 2.0 host's self-test
 from __future__ import annotations
 
 import io
+import math
 import shutil
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +26,7 @@ import pytest
 from fmpy import extract
 
 from fmu_model import ModelParameters, simulate
+from fmu_model.envelope import Envelope, Sides, Span
 from fmu_model.environment import (
     course_over_ground,
     current_velocity_ne,
@@ -165,3 +168,46 @@ def test_hosts_refuse_an_unknown_manoeuvre(
             [str(host), str(libraries[version]), "--run", "spiral"], capture_output=True, text=True
         )
         assert (done.returncode, done.stderr) == (2, "unknown manoeuvre spiral\n")
+
+
+def test_both_hosts_hear_the_warnings_beyond_the_logs_under_valgrind(
+    hosts: dict[str, Path], params: ModelParameters, tmp_path: Path
+) -> None:
+    """An FMU of logs steered to 20° and turned to r' 0.2: in the 35° turn the C layer
+    formats one warning per axis, in FMI 2.0 and 3.0 the same, without a memory error."""
+    valgrind = shutil.which("valgrind")
+    if valgrind is None:
+        pytest.skip("valgrind not installed")
+    logs = Envelope(
+        Sides(math.radians(20.0), math.radians(20.0)),
+        Sides(0.2, 0.2),
+        0.0,
+        Span(params.nominal_speed_mps, params.nominal_speed_mps),
+        Span(RUN_RPM / 60.0, RUN_RPM / 60.0),
+    )
+    identified = replace(params, identification={"envelope": logs.as_dict()})
+    heard = {}
+    for version, library in LIBRARIES.items():
+        fmu = build_native_fmu(
+            identified, tmp_path / f"fmi{version}" / "Test_Ship.fmu", fmi_version=version
+        )
+        unpacked = Path(extract(str(fmu), str(tmp_path / f"x{version}"))) / library
+        done = subprocess.run(
+            [
+                *(valgrind, "--leak-check=full", "--error-exitcode=3", "-q"),
+                *(str(hosts[version]), str(unpacked), "--run", "turn-35"),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert done.returncode == 0, done.stderr
+        heard[version] = [
+            line.split("logStatusWarning (1): ", 1)[1].replace(f"fmi{version}DoStep", "DoStep")
+            for line in done.stderr.splitlines()
+        ]
+    assert heard["3"] == heard["2"]
+    said = sorted(line.split(", the model extrapolates: ", 1)[1] for line in heard["2"])
+    assert len(said) == 2  # once each (r' passes 0.21 before the rudder, at 2.3°/s, 21°)
+    assert said[0].startswith("rudder ") and said[0].endswith(" to starboard (logs: 20.0 deg)")
+    assert said[1].startswith("yaw rate r' ") and said[1].endswith(" to starboard (logs: 0.20)")
