@@ -10,12 +10,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _run(*args: str, cwd: Path) -> str:
+def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     done = subprocess.run(
         [sys.executable, *args], cwd=cwd, capture_output=True, text=True, check=False
     )
     assert done.returncode == 0, done.stderr
-    return done.stdout
+    return done
 
 
 def test_nmea_recording_to_a_validated_fmu(tmp_path: Path) -> None:
@@ -32,9 +32,12 @@ def test_nmea_recording_to_a_validated_fmu(tmp_path: Path) -> None:
     log = tmp_path / "logs/zigzag-10_1.csv"
     assert "# vessel: my-tanker" in log.read_text()
     _run("-m", "identifier", "fit", str(log), "-o", "build/params.json", "--quiet", cwd=tmp_path)
-    written = _run(str(ROOT / "build_fmu.py"), "--params", "build/params.json", cwd=tmp_path)
+    built = _run(str(ROOT / "build_fmu.py"), "--params", "build/params.json", cwd=tmp_path)
     fmu = tmp_path / "build/my_tanker.fmu"  # the model identifier: a C name
-    assert written.strip() == "build/my_tanker.fmu" and fmu.is_file()
+    assert built.stdout.strip() == "build/my_tanker.fmu" and fmu.is_file()
+    # What the FMU will warn beyond: the one zig-zag's 10 deg of rudder each way.
+    assert built.stderr.startswith("build_fmu.py: note: the FMU warns in its host's log")
+    assert "what its logs reached: rudder 10.0 deg to port, 10.0 deg to starboard;" in built.stderr
     _run(
         "-m", "scenarios", "zigzag", "--fmu", str(fmu), "--rudder-deg", "10",
         "--heading-deg", "10", "--json", "zz.json", "--quiet",
