@@ -11,8 +11,7 @@ import numpy as np
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
-from fmu_model.envelope import Envelope
-from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
+from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, logged_envelope
 from fmu_model.kernels import numba_compilations
 from fmu_model.variants import family_name
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
@@ -158,7 +157,7 @@ def _summary(result: IdentificationResult) -> str:
         rates += f"; shape search on {shape['rows']:,} of them, {shape['evaluations']} shapes"
     samples = sum(log.n_samples for log in result.logs)
     lines.append(f"{rates}); the EKF on all {samples:,} samples")
-    envelope = Envelope.from_dict(p.identification.get("envelope") or {})
+    envelope = logged_envelope(p)
     if envelope is not None:
         lines.append(
             f"the logs reach: {envelope.describe()} (predictions beyond extrapolate: "
