@@ -170,14 +170,16 @@ def test_hosts_refuse_an_unknown_manoeuvre(
         assert (done.returncode, done.stderr) == (2, "unknown manoeuvre spiral\n")
 
 
-def test_both_hosts_hear_the_warnings_beyond_the_logs_under_valgrind(
+def test_both_hosts_hear_the_warnings_beyond_the_logs(
     hosts: dict[str, Path], params: ModelParameters, tmp_path: Path
 ) -> None:
     """An FMU of logs steered to 20° and turned to r' 0.2: in the 35° turn the C layer
-    formats one warning per axis, in FMI 2.0 and 3.0 the same, without a memory error."""
+    formats one warning per axis, in FMI 2.0 and 3.0 the same; under valgrind where it is
+    installed, without a memory error (without it, the warnings are still checked)."""
     valgrind = shutil.which("valgrind")
-    if valgrind is None:
-        pytest.skip("valgrind not installed")
+    memcheck = (
+        () if valgrind is None else (valgrind, "--leak-check=full", "--error-exitcode=3", "-q")
+    )
     logs = Envelope(
         Sides(math.radians(20.0), math.radians(20.0)),
         Sides(0.2, 0.2),
@@ -193,10 +195,7 @@ def test_both_hosts_hear_the_warnings_beyond_the_logs_under_valgrind(
         )
         unpacked = Path(extract(str(fmu), str(tmp_path / f"x{version}"))) / library
         done = subprocess.run(
-            [
-                *(valgrind, "--leak-check=full", "--error-exitcode=3", "-q"),
-                *(str(hosts[version]), str(unpacked), "--run", "turn-35"),
-            ],
+            [*memcheck, str(hosts[version]), str(unpacked), "--run", "turn-35"],
             capture_output=True,
             text=True,
             timeout=300,
