@@ -1,10 +1,11 @@
 """Model fidelity: which structure predicts manoeuvres it was not trained on (issue 8).
 
     python benchmarks/fidelity.py [--model NAME ...] [--out benchmarks/fidelity.md]
-        [--dt-s 0.2]
+        [--dt-s 0.2] [--vessel kvlcc2|mariner] [--draws N]
 
-Data: KVLCC2 full-scale trial logs from the MMG reference ship (``scenarios.synthesize``,
-1 Hz, 1 m position and 0.1° heading noise): zig-zag 10/10, zig-zag 20/20 and the 35°
+Data: full-scale trial logs from a reference ship (``scenarios.synthesize``, ``--vessel``:
+the KVLCC2 MMG model by default, or the Mariner's Abkowitz model, a ship of another
+structure; 1 Hz, 1 m position and 0.1° heading noise): zig-zag 10/10, zig-zag 20/20 and the 35°
 starboard turning circle. For every model structure and two training sets
 
 (a) the two zig-zags only: the turning circle is held out;
@@ -47,7 +48,13 @@ from fmu_model.envelope import Envelope, trajectory_envelope
 from fmu_model.interface import logged_envelope
 from identifier.identify import FitSettings, identify
 from scenarios.records import Condition
-from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
+from scenarios.synthesize import (
+    MANEUVERS,
+    REFERENCE_VESSELS,
+    TruthShip,
+    reference_ship,
+    synthesize_log,
+)
 from trials.logs import ManeuverLog
 from trials.maneuvers import Program, turning_circle, zigzag
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
@@ -226,14 +233,14 @@ def coverage(
     return Coverage(inside[0], inside[1], judged, ratio, (within[0], within[1]))
 
 
-def draws_table(models: Sequence[str], n_draws: int, dt_s: float) -> list[str]:
+def draws_table(models: Sequence[str], n_draws: int, dt_s: float, vessel: str) -> list[str]:
     """Zig-zag-trained fits at ``n_draws`` noise draws: errors of both estimates per draw.
 
-    Training logs: zig-zag 10/10 and 20/20 with noise seeds ``10·d + 1`` and ``10·d + 2``
-    for draw d; the turning circles are held out. Rows: the EKF estimate (``--method
-    ekf``) and the one the default ``identify`` keeps.
+    Training logs of the reference ship ``vessel``: zig-zag 10/10 and 20/20 with noise
+    seeds ``10·d + 1`` and ``10·d + 2`` for draw d; the turning circles are held out.
+    Rows: the EKF estimate (``--method ekf``) and the one the default ``identify`` keeps.
     """
-    ship = reference_ship("kvlcc2", "full")
+    ship = reference_ship(vessel, "full")
     truth = indices(ship.plant, ship, dt_s)
     lines = [
         "| model | draw | estimate | " + " | ".join(COLUMNS) + " | worst turn | s | "
@@ -277,6 +284,11 @@ def draws_table(models: Sequence[str], n_draws: int, dt_s: float) -> list[str]:
     return lines
 
 
+def _block(name: str, vessel: str) -> str:
+    """Name of the table's block in ``--out``: KVLCC2's as before, another ship's its own."""
+    return name if vessel == "kvlcc2" else f"{name} {vessel}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the benchmark; print and write the table."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
@@ -290,23 +302,29 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", default=str(Path(__file__).with_name("fidelity.md")))
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
     parser.add_argument(
+        "--vessel",
+        choices=REFERENCE_VESSELS,
+        default="kvlcc2",
+        help="reference ship the logs are synthesised from and the predictions judged by",
+    )
+    parser.add_argument(
         "--draws", type=int, default=0, help="instead of the table: N noise draws, zig-zag-trained"
     )
     args = parser.parse_args(argv)
     if args.draws:
-        lines = draws_table(args.models or [MODELS[-1]], args.draws, args.dt_s)
-        write_block(args.out, "fidelity.py draws", lines)
+        lines = draws_table(args.models or [MODELS[-1]], args.draws, args.dt_s, args.vessel)
+        write_block(args.out, _block("fidelity.py draws", args.vessel), lines)
         return 0
 
-    ship = reference_ship("kvlcc2", "full")
+    ship = reference_ship(args.vessel, "full")
     logs: dict[str, ManeuverLog] = {
         name: synthesize_log(ship, MANEUVERS[name](), seed=seed) for name, seed in SEEDS.items()
     }
     truth = indices(ship.plant, ship, args.dt_s)
     lines = [
-        "# Model fidelity on KVLCC2 (benchmarks/fidelity.py)",
+        f"# Model fidelity on {ship.name} (benchmarks/fidelity.py)",
         "",
-        "Reference (MMG, same driver): "
+        f"Reference ({ship.source}, same driver): "
         + ", ".join(
             f"{k} {v:.1f} m" if "OS" not in k else f"{k} {v:.2f}°"
             for k, v in truth.values.items()
@@ -373,7 +391,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         + f". Recommended default: **{best}**.",
     ]
-    write_block(args.out, "fidelity.py", lines)
+    write_block(args.out, _block("fidelity.py", args.vessel), lines)
     print("\n".join(lines))
     return 0
 

@@ -35,6 +35,7 @@ from fmu_model import ModelParameters
 from fmu_model.atomic import write_atomic
 from scenarios.errors import ScenarioError
 from scenarios.kvlcc2 import ReferencePlant, kvlcc2, kvlcc2_windage
+from scenarios.mariner import NOMINAL_RPS, RUDDER_RATE_RADPS, AbkowitzPlant, mariner
 from scenarios.sea import SeaEnvironment
 from trials.logs import ManeuverLog, write_log
 from trials.maneuvers import Program, turning_circle, zigzag
@@ -70,19 +71,48 @@ class TruthShip:
     source: str
 
 
+REFERENCE_VESSELS = ("kvlcc2", "mariner")
+"""The reference ships: KVLCC2 (MMG, ``scenarios.kvlcc2``), the Mariner (Abkowitz,
+``scenarios.mariner``; full scale, calm water)."""
+
+
 def reference_ship(
     name: str = "kvlcc2", scale: str = "full", environment: SeaEnvironment | None = None
 ) -> TruthShip:
-    """Return the MMG reference vessel (only ``kvlcc2`` today) at ``scale`` full or model.
+    """Return a reference vessel of :data:`REFERENCE_VESSELS` at ``scale`` full or model.
 
-    With an ``environment`` it sails in that current and wind (``scenarios.kvlcc2``,
+    With an ``environment`` KVLCC2 sails in that current and wind (``scenarios.kvlcc2``,
     windage of ``docs/kvlcc2_environment.md``), all values at the ship's scale; its
-    ``source`` says so. Without, it is the calm-water ship.
+    ``source`` says so. Without, it is the calm-water ship. The Mariner is given at full
+    scale in calm water only.
+
+    Raises
+    ------
+    ValueError
+        An unknown vessel, or a scale or environment the vessel is not given in.
+
     """
+    if name == "mariner":
+        if scale != "full":
+            raise ValueError(f"the mariner reference is given at full scale only, not {scale!r}")
+        if environment is not None:
+            raise ValueError("the mariner reference sails in calm water only (no windage)")
+        ship = mariner()
+        return TruthShip(
+            name="mariner-full",
+            plant=AbkowitzPlant(ship),
+            length_m=ship.length_m,
+            speed_mps=ship.approach_speed_mps,
+            n_rps=NOMINAL_RPS,
+            rudder_rate_radps=RUDDER_RATE_RADPS,
+            source="Mariner-class Abkowitz model (Chislett & Stroem-Tejsen 1965), full scale",
+        )
     if name != "kvlcc2":
-        raise ValueError(f"unknown reference vessel {name!r} (known: kvlcc2)")
-    ship = kvlcc2(scale)
-    plant = ReferencePlant(ship, environment)
+        raise ValueError(
+            f"unknown reference vessel {name!r} (known: {', '.join(REFERENCE_VESSELS)})"
+        )
+    reference = kvlcc2(scale)
+    plant = ReferencePlant(reference, environment)
     source = f"KVLCC2 MMG standard model (Yasukawa & Yoshimura 2015), {scale} scale"
     if environment is not None:
         source += f"; at sea: {environment.describe(plant.gust_time_s)}"
@@ -94,10 +124,10 @@ def reference_ship(
     return TruthShip(
         name=f"kvlcc2-{scale}",
         plant=plant,
-        length_m=ship.length_m,
-        speed_mps=ship.approach_speed_mps,
-        n_rps=ship.nominal_rps,
-        rudder_rate_radps=ship.rudder_rate_radps,
+        length_m=reference.length_m,
+        speed_mps=reference.approach_speed_mps,
+        n_rps=reference.nominal_rps,
+        rudder_rate_radps=reference.rudder_rate_radps,
         source=source,
     )
 
@@ -272,15 +302,14 @@ def synthesize_logs(
         raise ScenarioError(
             f"unknown manoeuvre(s) {', '.join(unknown)} (known: {', '.join(MANEUVERS)})"
         )
-    try:
-        ship = reference_ship(vessel, scale)
-    except ValueError as exc:
-        raise ScenarioError(str(exc)) from None
     written = []
     for name in dict.fromkeys(maneuvers):  # once each, in order
         noise_seed = maneuver_seed(seed, name)
-        if environment is not None:
-            ship = reference_ship(vessel, scale, replace(environment, gust_seed=noise_seed))
+        sea = None if environment is None else replace(environment, gust_seed=noise_seed)
+        try:
+            ship = reference_ship(vessel, scale, sea)
+        except ValueError as exc:
+            raise ScenarioError(str(exc)) from None
         log = synthesize_log(
             ship,
             MANEUVERS[name](),
@@ -308,7 +337,7 @@ def write_windage(
     ship's general arrangement and loading condition.
     """
     if vessel != "kvlcc2":
-        raise ScenarioError(f"unknown reference vessel {vessel!r} (known: kvlcc2)")
+        raise ScenarioError(f"reference vessel {vessel!r} has no windage (known: kvlcc2)")
     path = Path(directory) / "windage.json"
     write_atomic(path, json.dumps(kvlcc2_windage(scale).to_dict(), indent=2) + "\n")
     return path

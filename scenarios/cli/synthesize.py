@@ -17,7 +17,7 @@ from typing import Any
 from fmu_model import argtypes
 from scenarios.cli.common import make_bars
 from scenarios.sea import SeaEnvironment
-from scenarios.synthesize import MANEUVERS, synthesize_logs, write_windage
+from scenarios.synthesize import MANEUVERS, REFERENCE_VESSELS, synthesize_logs, write_windage
 
 __all__ = ["add_synthesize_command", "check_synthesize_usage", "run_synthesize_command"]
 
@@ -38,7 +38,12 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
     p = sub.add_parser(
         "synthesize", parents=[common], help="synthetic trial logs from a reference ship"
     )
-    p.add_argument("--vessel", choices=("kvlcc2",), default="kvlcc2")
+    p.add_argument(
+        "--vessel",
+        choices=REFERENCE_VESSELS,
+        default="kvlcc2",
+        help="reference ship: kvlcc2 (MMG) or mariner (Abkowitz; full scale, calm water)",
+    )
     p.add_argument(
         "--maneuver",
         action="append",

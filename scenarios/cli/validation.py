@@ -30,6 +30,7 @@ from scenarios.report import (
     uncertainty_scope,
     write_report,
 )
+from scenarios.synthesize import REFERENCE_VESSELS
 from scenarios.validation import validate
 
 __all__ = [
@@ -48,7 +49,12 @@ def add_validate_command(sub: Any, common: argparse.ArgumentParser) -> None:
     """Add ``validate`` to the subparsers ``sub``; ``common`` is the ``--quiet`` parent."""
     p = sub.add_parser("validate", parents=[common], help="FMU vs reference ship report")
     p.add_argument("--fmu", required=True, metavar="F", help="FMI 2.0 co-simulation FMU")
-    p.add_argument("--reference", choices=("kvlcc2",), default="kvlcc2")
+    p.add_argument(
+        "--reference",
+        choices=REFERENCE_VESSELS,
+        default="kvlcc2",
+        help="reference ship the FMU is compared with (as synthesize --vessel)",
+    )
     p.add_argument("--scale", choices=("full", "model"), default="full")
     p.add_argument("--report", required=True, metavar="DIR", help="report folder")
     p.add_argument(
