@@ -218,9 +218,7 @@ def abkowitz_rhs(ship: AbkowitzShip, state: np.ndarray, rudder_rad: float) -> np
     v_dot = (m33 * y - m23 * n) * speed_sq_over_length / det  # (5), by Cramer's rule
     r_dot = (m22 * n - m32 * y) * speed_sq_over_length / (ship.length_m * det)
     cos_psi, sin_psi = math.cos(psi), math.sin(psi)
-    return np.array(
-        [u_dot, v_dot, r_dot, u * cos_psi - v * sin_psi, u * sin_psi + v * cos_psi, r]
-    )
+    return np.array([u_dot, v_dot, r_dot, u * cos_psi - v * sin_psi, u * sin_psi + v * cos_psi, r])
 
 
 def _derivative_into(

@@ -1,0 +1,164 @@
+"""The Mariner reference ship (``scenarios.mariner``): its expansion against hand
+computations of the printed coefficients, its single-screw asymmetry, and its place
+among the reference ships of ``synthesize`` and ``validate``."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from types import MappingProxyType
+
+import numpy as np
+import pytest
+
+from scenarios.cli import PROG, main
+from scenarios.mariner import (
+    APPROACH_SPEED_MPS,
+    NOMINAL_RPS,
+    AbkowitzPlant,
+    abkowitz_forces,
+    abkowitz_rhs,
+    mariner,
+)
+from scenarios.runs import reference_runs
+from scenarios.synthesize import reference_ship
+from tests.test_scenarios_cli import _one_line
+from trials.logs import read_log
+from trials.maneuvers import turning_circle
+from trials.metrics import turning_metrics
+from trials.run import run_program
+
+RUDDER_RATE_RADPS = math.radians(2.32)
+
+
+def test_forces_and_accelerations_of_a_rudder_step_by_hand():
+    """At U₀, straight, rudder 0.1 rad to starboard (the source's δ = −0.1).
+
+    By hand from the printed coefficients (× 1e-5): X′ = X_δδ δ² = −95·0.01 = −9.5e-6;
+    Y′ = Y_δ δ + Y_δδδ δ³ + Y₀ = −278e-6 + 0.9e-6 − 40e-6 = −3.171e-4;
+    N′ = N_δ δ + N_δδδ δ³ + N₀ = 139e-6 − 0.45e-6 + 30e-6 = 1.6855e-4: the rudder pulls
+    the stern to port and the bow to starboard. With U₀²/L = 0.370097 m/s², m₁₁ = 840e-5,
+    m₂₂ = 1546e-5, m₂₃ = −9.0e-5, m₃₂ = −23.0e-5, m₃₃ = 83.0e-5, det = 1.28111e-5:
+    u̇ = X′ U₀²/L / m₁₁ = −4.1856e-4 m/s², v̇ = (m₃₃Y′ − m₂₃N′) U₀²/L / det = −7.1651e-3 m/s²,
+    ṙ = (m₂₂N′ − m₃₂Y′) U₀²/L² / det = 4.5468e-4 rad/s².
+    """
+    ship = mariner()
+    x, y, n = abkowitz_forces(ship, APPROACH_SPEED_MPS, 0.0, 0.0, 0.1)
+    assert (x, y, n) == pytest.approx((-9.5e-6, -3.171e-4, 1.6855e-4), rel=1e-9)
+    state = np.array([APPROACH_SPEED_MPS, 0.0, 0.0, 10.0, -5.0, math.radians(30.0)])
+    rhs = abkowitz_rhs(ship, state, 0.1)
+    assert rhs[:3] == pytest.approx([-4.1856e-4, -7.1651e-3, 4.5468e-4], rel=1e-4)
+    # kinematics: the track moves along the heading, 30° East of North
+    assert rhs[3:] == pytest.approx([APPROACH_SPEED_MPS * math.sqrt(3) / 2, 3.85875, 0.0])
+
+
+def test_neutral_helm_by_hand_holds_the_ship_straight():
+    """The single screw's constant force and moment (Y₀, N₀) are balanced by a helm.
+
+    Straight (r = 0) at U₀, by hand from the linear terms (the cubic ones are below 1e-9
+    there): Y_v v′ + Y_δ δ = −Y₀, N_v v′ + N_δ δ = −N₀ gives δ = 4536/234632 = 0.019332 rad
+    (the source's δ, to port: rudder −1.1077°) and v′ = 278/234632 = 0.0011848. Held
+    from that state for ten minutes the ship keeps its heading within 0.05° (the helm
+    is rounded to 5 digits); with the rudder amidships it turns to starboard by tens of
+    degrees.
+    """
+    plant = AbkowitzPlant(mariner())
+    v = 0.0011848 * APPROACH_SPEED_MPS
+    headings_deg = []
+    for rudder_rad in (-0.019332, 0.0):
+        plant.reset(np.array([APPROACH_SPEED_MPS, v, 0.0, 0.0, 0.0, 0.0]))
+        state = plant.step(rudder_rad, NOMINAL_RPS, 600.0)
+        headings_deg.append(math.degrees(state[5]))
+    assert abs(headings_deg[0]) < 0.05
+    assert headings_deg[1] > 20.0
+
+
+def _tactical_diameters_L(ship) -> tuple[float, float]:
+    plant = AbkowitzPlant(ship)
+    out = []
+    for rudder_deg in (35.0, -35.0):
+        run = run_program(
+            plant,
+            turning_circle(math.radians(rudder_deg)),
+            speed_mps=APPROACH_SPEED_MPS,
+            n_rps=NOMINAL_RPS,
+            rudder_rate_radps=RUDDER_RATE_RADPS,
+            dt_s=1.0,
+        )
+        out.append(turning_metrics(run).tactical_diameter_m / ship.length_m)
+    return out[0], out[1]
+
+
+def test_turns_mirror_without_the_constant_terms_and_not_with_them():
+    """Every other term of (2)-(3) is odd in (v, r, δ) and of (1) even: without Y₀…, N₀…
+    the port turn is the starboard turn mirrored; with them (N₀ > 0 yaws to starboard)
+    the starboard turn is the tighter one."""
+    ship = mariner()
+    symmetric = dict(ship.coefficients)
+    for name in ("Y0", "Y0u", "Y0uu", "N0", "N0u", "N0uu"):
+        symmetric[name] = 0.0
+    stbd, port = _tactical_diameters_L(replace(ship, coefficients=MappingProxyType(symmetric)))
+    assert stbd == pytest.approx(port, rel=1e-12)
+    stbd, port = _tactical_diameters_L(ship)
+    assert 5.0 < stbd < port < 8.0
+    assert port / stbd - 1.0 > 0.02  # a single-screw asymmetry worth modelling
+
+
+def test_plant_sails_at_its_nominal_rpm_only():
+    plant = AbkowitzPlant(mariner())
+    plant.reset(np.array([APPROACH_SPEED_MPS, 0.0, 0.0, 0.0, 0.0, 0.0]))
+    with pytest.raises(ValueError, match="no propeller term: it sails at its nominal 100 rpm"):
+        plant.step(0.0, 2.0, 1.0)
+
+
+def test_reference_ship_and_synthesize_command(tmp_path, capsys):
+    ship = reference_ship("mariner")
+    assert ship.name == "mariner-full" and ship.length_m == 160.93
+    assert ship.n_rps == NOMINAL_RPS and "Chislett" in ship.source
+    argv = ["synthesize", "--vessel", "mariner", "--maneuver", "zigzag-10", "--quiet"]
+    assert main([*argv, "--approach-s", "10", "-o", str(tmp_path / "logs")]) == 0
+    log = read_log(tmp_path / "logs" / "zigzag-10.csv")
+    assert log.metadata["vessel"] == "mariner-full" and log.length_m == 160.93
+    assert np.all(log.n_rps == NOMINAL_RPS)
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--scale", "model"], "the mariner reference is given at full scale only, not 'model'"),
+        (
+            ["--current-mps", "0.5", "--current-to-deg", "45"],
+            "the mariner reference sails in calm water only (no windage)",
+        ),
+    ],
+)
+def test_synthesize_refuses_what_the_mariner_is_not_given_in(options, message, tmp_path, capsys):
+    out = tmp_path / "logs"
+    argv = ["synthesize", "--vessel", "mariner", "--maneuver", "zigzag-10", "--quiet"]
+    assert main([*argv, *options, "-o", str(out)]) == 1
+    captured = capsys.readouterr()
+    assert _one_line(captured.err) == f"{PROG} synthesize: error: {message}"
+    assert captured.out == "" and not out.exists()
+
+
+def test_validate_reference_side_sails_the_standard_set():
+    """What ``validate --reference mariner`` compares with: both 35° turns and both
+    zig-zags complete, the turns as the plant's own (above), the zig-zags with the
+    single screw's asymmetry in the overshoots of a starboard-first run (to starboard
+    the ship swings further: N₀ > 0)."""
+    name, description, length, condition, runs = reference_runs("mariner", "full", 0.5)
+    assert name == "mariner-full" and length == 160.93 and "Abkowitz" in description
+    assert condition.n_rps == NOMINAL_RPS and condition.speed_mps == APPROACH_SPEED_MPS
+    metrics = {run.program.name: run.metrics for run in runs}
+    assert set(metrics) == {
+        "turning-35-stbd",
+        "turning-35-port",
+        "zigzag-10-10-stbd",
+        "zigzag-20-20-stbd",
+    }
+    assert metrics["turning-35-stbd"].tactical_diameter_m < (
+        metrics["turning-35-port"].tactical_diameter_m
+    )
+    zigzag = metrics["zigzag-10-10-stbd"]
+    assert zigzag.first_overshoot_deg > zigzag.second_overshoot_deg > 0.0
