@@ -9,7 +9,10 @@ more than ``turn_tolerance`` (:func:`turn_spread`), the start estimate is kept a
 spread reported (unless the start does not even turn through 180°). Independently, a
 refined estimate is only kept when it lowers the cost, every training log replays
 without divergence and both virtual turns stay bounded and pass 360° (or, when the
-start's do not either, go at least as far as the start's: :func:`decide`).
+start's do not either, go at least as far as the start's: :func:`decide`). Unless the
+logs turn through 180° to both sides, a refined estimate whose two virtual turns differ
+by more than :data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is rejected too: the
+side no log verifies is then the refinement's guess.
 """
 
 from __future__ import annotations
@@ -28,6 +31,14 @@ from trials.logs import ManeuverLog
 from trials.maneuvers import turning_circle
 from trials.metrics import MetricsError, turning_metrics
 from trials.run import ModelPlant, run_batch
+
+MAX_SIDE_ASYMMETRY = 0.10
+"""Largest port/starboard difference of the virtual 35° tactical diameters [-] a refined
+estimate may bring in when no log verifies both sides. Single-screw ships turn tighter to
+one side, by a few per cent: the Mariner reference 4 % (``scenarios.mariner``), the
+KVLCC2 hull in free-running tests about 8 % (issue 13); refined fits of the Mariner with
+its starboard turn in training put the unlogged port turn 16 % and 59 % tighter
+(``benchmarks/fidelity.md``, "A ship of another structure")."""
 
 # Hard-over rudder of the virtual turns [rad] (IMO MSC.137(76) turning test).
 HARD_OVER_RAD = math.radians(35.0)
@@ -240,6 +251,27 @@ def covers_turn(tracks: Sequence[SmoothedTrack]) -> bool:
     return any(float(np.ptp(t.heading_rad)) >= math.pi for t in tracks)
 
 
+def covers_both_sides(tracks: Sequence[SmoothedTrack]) -> bool:
+    """Whether the tracks turn through 180° to starboard and through 180° to port.
+
+    A side counts when some track's heading moves 180° from its first value that way.
+    """
+    to_stbd = to_port = False
+    for track in tracks:
+        change = np.asarray(track.heading_rad) - track.heading_rad[0]
+        to_stbd |= bool(change.max() >= math.pi)
+        to_port |= bool(change.min() <= -math.pi)
+    return to_stbd and to_port
+
+
+def side_asymmetry(turns: Sequence[VirtualTurn]) -> float:
+    """|D_T,port / D_T,stbd − 1| of virtual turns (starboard, port); inf without both."""
+    stbd, port = (turn.tactical_diameter_m for turn in turns)
+    if stbd is None or port is None:
+        return math.inf
+    return abs(port / stbd - 1.0)
+
+
 def method_label(method: str) -> str:
     """Name of an estimation method in messages ("EKF" for "ekf")."""
     return "EKF" if method == "ekf" else method
@@ -299,6 +331,7 @@ def decide(
     spread: float,
     tolerance: float,
     label: str,
+    both_sides_logged: bool = False,
 ) -> tuple[str, str]:
     """Which estimate to keep, "initial" or "refined", and why (model_structures.md §6, §7).
 
@@ -314,6 +347,9 @@ def decide(
         Largest spread accepted under the turn check.
     label : str
         Name of the start's method in the reason.
+    both_sides_logged : bool
+        Whether the logs turn through 180° to both sides (:func:`covers_both_sides`):
+        then they, not :data:`MAX_SIDE_ASYMMETRY`, judge the turns' asymmetry.
 
     Returns
     -------
@@ -335,6 +371,14 @@ def decide(
         )
     if not refined.cost < initial.cost:
         return "initial", f"output error did not lower the cost; {keep}"
+    asymmetry = side_asymmetry(refined.turns)
+    if not both_sides_logged and asymmetry > max(MAX_SIDE_ASYMMETRY, side_asymmetry(initial.turns)):
+        return "initial", (
+            f"output-error estimate rejected: its virtual 35 deg turns differ by "
+            f"{asymmetry:.0%} between the sides (the {label} estimate's by "
+            f"{side_asymmetry(initial.turns):.0%}), beyond the {MAX_SIDE_ASYMMETRY:.0%} a "
+            f"single-screw ship shows, and no turning log verifies both sides; {keep}"
+        )
     if turn_check and not spread <= tolerance:
         text = _spread_text(initial, refined, spread)
         if any(t.tactical_diameter_m is None for t in initial.turns):

@@ -35,6 +35,7 @@ from identifier.output_error.covariance import newey_west_covariance
 from identifier.output_error.guards import (
     Approach,
     candidate_disagreement,
+    covers_both_sides,
     covers_turn,
     decide,
     method_label,
@@ -159,6 +160,7 @@ def refine_output_error(
         spread=spread,
         tolerance=settings.turn_tolerance,
         label=label,
+        both_sides_logged=covers_both_sides(tracks),
     )
     if kept == "initial" or "although" in reason:
         warnings.append(reason)
