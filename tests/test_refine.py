@@ -24,7 +24,7 @@ from identifier.output_error import (
     turn_spread,
     virtual_turns,
 )
-from identifier.output_error.guards import decide, training_approach
+from identifier.output_error.guards import covers_both_sides, decide, training_approach
 from identifier.output_error.initial_state import smooth_log
 from identifier.output_error.objective import Objective, prepare_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
@@ -387,6 +387,53 @@ def test_decide_keeps_the_start_when_a_guard_fires(
     )
     assert choice == kept and words in reason
     assert ("kept the EKF estimate" in reason) == (kept == "initial")
+
+
+@pytest.mark.parametrize(
+    ("start", "port_m", "both_sides_logged", "kept"),
+    [
+        ((300.0, 300.0), 329.0, False, "refined"),  # 9.7 % wider to port: a single screw's
+        ((300.0, 300.0), 271.0, False, "refined"),  # 9.7 % the other way
+        ((300.0, 300.0), 335.0, False, "initial"),  # 11.7 %
+        ((300.0, 300.0), 265.0, False, "initial"),  # 11.7 % the other way
+        ((300.0, 300.0), 120.0, False, "initial"),  # the Mariner's refined 59 %
+        ((300.0, 240.0), 250.0, False, "refined"),  # 16.7 %, less lopsided than the start
+        ((300.0, 300.0), 120.0, True, "refined"),  # logs to both sides verify it
+    ],
+)
+def test_decide_rejects_a_refined_turn_lopsided_beyond_a_single_screw(
+    start: tuple[float, float], port_m: float, both_sides_logged: bool, kept: str
+) -> None:
+    """Refined starboard turn 300 m, port ``port_m``: beyond 10 % apart, and further apart
+    than the start's, it is rejected unless the logs turn both ways."""
+    initial, refined = _fit(2.0, start), _fit(1.0, (300.0, port_m))
+    choice, reason = decide(
+        initial,
+        refined,
+        turn_check=False,
+        spread=turn_spread(initial.turns, refined.turns),
+        tolerance=0.05,
+        label="EKF",
+        both_sides_logged=both_sides_logged,
+    )
+    assert choice == kept, reason
+    if kept == "initial":
+        asymmetry = abs(port_m / 300.0 - 1.0)
+        assert reason == (
+            f"output-error estimate rejected: its virtual 35 deg turns differ by "
+            f"{asymmetry:.0%} between the sides (the EKF estimate's by 0%), beyond the 10% a "
+            "single-screw ship shows, and no turning log verifies both sides; kept the EKF "
+            "estimate"
+        )
+
+
+def test_covers_both_sides_needs_180_degrees_each_way() -> None:
+    def track(change_deg: float) -> np.ndarray:
+        return 1.0 + np.radians(np.linspace(0.0, change_deg, 50))  # from 57° on
+
+    assert not covers_both_sides([track(200.0)])
+    assert not covers_both_sides([track(200.0), track(-170.0)])
+    assert covers_both_sides([track(200.0), track(-181.0)])
 
 
 def test_refinement_of_logs_too_long_to_replay_is_skipped_with_a_warning(

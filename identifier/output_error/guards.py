@@ -251,14 +251,14 @@ def covers_turn(tracks: Sequence[SmoothedTrack]) -> bool:
     return any(float(np.ptp(t.heading_rad)) >= math.pi for t in tracks)
 
 
-def covers_both_sides(tracks: Sequence[SmoothedTrack]) -> bool:
-    """Whether the tracks turn through 180° to starboard and through 180° to port.
+def covers_both_sides(headings_rad: Sequence[np.ndarray]) -> bool:
+    """Whether continuous headings [rad] turn through 180° to starboard and to port.
 
-    A side counts when some track's heading moves 180° from its first value that way.
+    A side counts when some log's heading moves 180° from its first value that way.
     """
     to_stbd = to_port = False
-    for track in tracks:
-        change = np.asarray(track.heading_rad) - track.heading_rad[0]
+    for heading in headings_rad:
+        change = np.asarray(heading) - heading[0]
         to_stbd |= bool(change.max() >= math.pi)
         to_port |= bool(change.min() <= -math.pi)
     return to_stbd and to_port

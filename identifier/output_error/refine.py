@@ -160,7 +160,7 @@ def refine_output_error(
         spread=spread,
         tolerance=settings.turn_tolerance,
         label=label,
-        both_sides_logged=covers_both_sides(tracks),
+        both_sides_logged=covers_both_sides([t.heading_rad for t in tracks]),
     )
     if kept == "initial" or "although" in reason:
         warnings.append(reason)
