@@ -24,7 +24,12 @@ from identifier.output_error import (
     turn_spread,
     virtual_turns,
 )
-from identifier.output_error.guards import covers_both_sides, decide, training_approach
+from identifier.output_error.guards import (
+    covers_both_sides,
+    decide,
+    training_approach,
+    virtual_zigzags,
+)
 from identifier.output_error.initial_state import smooth_log
 from identifier.output_error.objective import Objective, prepare_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
@@ -323,6 +328,7 @@ def _fit(
     diameters: tuple[float | None, float | None],
     diverged: tuple[str, ...] = (),
     short_rad: float = 2.0,
+    zigzags_complete: bool = True,
 ) -> FitSummary:
     """A fit whose virtual turns reach 360 deg exactly when they have a diameter [m]
     (else ``short_rad`` of heading)."""
@@ -348,6 +354,7 @@ def _fit(
         initial_states=(),
         diverged=diverged,
         turns=(turns[0], turns[1]),
+        zigzags_complete=zigzags_complete,
     )
 
 
@@ -361,6 +368,21 @@ def _fit(
         (_fit(2.0, (300.0, 300.0)), _fit(3.0, (300.0, 300.0)), False, "initial", "not lower"),
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, None)), False, "initial", "360 deg"),
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, 300.0), ("a",)), False, "initial", "a div"),
+        # A virtual 20/20 zig-zag the refinement breaks; one the start never sailed either.
+        (
+            _fit(2.0, (300.0, 300.0)),
+            _fit(1.0, (300.0, 300.0), zigzags_complete=False),
+            False,
+            "initial",
+            "a virtual 20/20 zig-zag diverges or does not reach its second overshoot",
+        ),
+        (
+            _fit(2.0, (300.0, 300.0), zigzags_complete=False),
+            _fit(1.0, (300.0, 300.0), zigzags_complete=False),
+            False,
+            "refined",
+            "accepted",
+        ),
         # The start's turn fails the sanity guard too: the refined one may not turn less far.
         (
             _fit(2.0, (300.0, None)),
@@ -425,6 +447,22 @@ def test_decide_rejects_a_refined_turn_lopsided_beyond_a_single_screw(
             "single-screw ship shows, and no turning log verifies both sides; kept the EKF "
             "estimate"
         )
+
+
+def test_virtual_zigzags_reach_the_second_overshoot_or_not() -> None:
+    """The test ship sails 20/20 zig-zags both ways; with a rudder a thousand times
+    weaker its heading never reaches 20° within the legs' 60 L/U0, so no second
+    overshoot; a yaw moment that grows with the yaw rate (N_r > 0, c2 = +0.5) makes the
+    swing run away: neither is a model of the standard zig-zag."""
+    truth = _truth()
+    assert virtual_zigzags(truth, speed_mps=5.0, n_rps=2.0, rudder_rate_radps=RUDDER_RATE)
+    for name, value in (("c3", 0.0036e-3), ("c2", 0.5)):
+        theta = truth.to_vector().copy()
+        theta[truth.names.index(name)] = value
+        broken = truth.with_vector(theta)
+        assert not virtual_zigzags(
+            broken, speed_mps=5.0, n_rps=2.0, rudder_rate_radps=RUDDER_RATE
+        ), name
 
 
 def test_covers_both_sides_needs_180_degrees_each_way() -> None:

@@ -9,7 +9,9 @@ more than ``turn_tolerance`` (:func:`turn_spread`), the start estimate is kept a
 spread reported (unless the start does not even turn through 180°). Independently, a
 refined estimate is only kept when it lowers the cost, every training log replays
 without divergence and both virtual turns stay bounded and pass 360° (or, when the
-start's do not either, go at least as far as the start's: :func:`decide`). Unless the
+start's do not either, go at least as far as the start's), and, when the start's do,
+its virtual 20°/20° zig-zags to both sides reach their second overshoot without
+diverging (:func:`virtual_zigzags`; :func:`decide`). Unless the
 logs turn through 180° to both sides, a refined estimate whose two virtual turns differ
 by more than :data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is rejected too: the
 side no log verifies is then the refinement's guess.
@@ -28,8 +30,8 @@ from identifier.output_error.objective import DIVERGENCE_SPEED_FACTOR
 from identifier.output_error.records import FitSummary, RefineSettings, VirtualTurn
 from identifier.smoothing import SmoothedTrack
 from trials.logs import ManeuverLog
-from trials.maneuvers import turning_circle
-from trials.metrics import MetricsError, turning_metrics
+from trials.maneuvers import turning_circle, zigzag
+from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
 from trials.run import ModelPlant, run_batch
 
 MAX_SIDE_ASYMMETRY = 0.10
@@ -42,6 +44,8 @@ its starboard turn in training put the unlogged port turn 16 % and 59 % tighter
 
 # Hard-over rudder of the virtual turns [rad] (IMO MSC.137(76) turning test).
 HARD_OVER_RAD = math.radians(35.0)
+# Rudder and heading angle of the virtual zig-zags [rad] (MSC.137(76) 20°/20° test).
+ZIGZAG_RAD = math.radians(20.0)
 # A logged rudder slower than this never moved [rad/s].
 _RUDDER_STILL_RADPS = math.radians(0.01)
 # Steering-gear rate used when the logs never move the rudder [rad/s] (IMO minimum).
@@ -86,6 +90,17 @@ class Approach:
 
         """
         return virtual_turns(
+            params,
+            speed_mps=self.speed_mps,
+            n_rps=self.n_rps,
+            rudder_rate_radps=self.rudder_rate_radps,
+            duration_factor=settings.turn_duration_factor,
+            max_step_s=settings.max_step_s,
+        )
+
+    def zigzags_complete(self, params: ModelParameters, settings: RefineSettings) -> bool:
+        """Whether ``params`` sails :func:`virtual_zigzags` from this approach."""
+        return virtual_zigzags(
             params,
             speed_mps=self.speed_mps,
             n_rps=self.n_rps,
@@ -219,6 +234,52 @@ def virtual_turns(
             )
         )
     return turns[0], turns[1]
+
+
+def virtual_zigzags(
+    params: ModelParameters,
+    *,
+    speed_mps: float,
+    n_rps: float,
+    rudder_rate_radps: float = _DEFAULT_RUDDER_RATE_RADPS,
+    duration_factor: float = 60.0,
+    step_s: float = 1.0,
+    max_step_s: float | None = None,
+) -> bool:
+    """Whether 20°/20° zig-zags to both sides reach their second overshoot.
+
+    From the straight approach of :func:`virtual_turns`, closed loop (the rudder
+    reverses when the heading passes ±20°), each leg at most ``duration_factor`` · L / U0;
+    False when a run diverges (the speed or yaw-rate bound of the turns), or a leg
+    times out before its heading (a swing that 20° of counter-rudder does not check,
+    a rudder too weak to reach 20°), or no second overshoot is measured.
+    The refinement fitted the logs' replays with the logged rudder; this sails the
+    standard manoeuvre the model will be asked for.
+    """
+    if max_step_s is None:
+        max_step_s = 0.05 * params.length_m / speed_mps
+    leg_limit_s = duration_factor * params.length_m / speed_mps
+    for sign in (1.0, -1.0):
+        program = zigzag(sign * ZIGZAG_RAD, ZIGZAG_RAD, n_reversals=2, max_time_s=leg_limit_s)
+        run = run_batch(
+            ModelPlant(params, max_step_s=max_step_s),
+            program,
+            speed_mps=speed_mps,
+            n_rps=n_rps,
+            rudder_rate_radps=rudder_rate_radps,
+            dt_s=step_s,
+            divergence_factor=DIVERGENCE_SPEED_FACTOR,
+        )
+        trajectory = run.trajectories[0]
+        # A leg that times out never reached its heading: the three legs of a zig-zag
+        # that reverses take a fraction of one leg's limit.
+        if run.diverged[0] or trajectory["time_s"][-1] >= leg_limit_s:
+            return False
+        try:
+            zigzag_metrics(trajectory, program.rudder_rad, program.heading_rad)
+        except MetricsError:
+            return False
+    return True
 
 
 def turn_spread(reference: Sequence[VirtualTurn], candidate: Sequence[VirtualTurn]) -> float:
@@ -368,6 +429,11 @@ def decide(
         return "initial", (
             "output-error estimate rejected: a virtual hard-over turn diverges or does not "
             f"pass 360 deg; {keep}"
+        )
+    if initial.zigzags_complete and not refined.zigzags_complete:
+        return "initial", (
+            "output-error estimate rejected: a virtual 20/20 zig-zag diverges or does not "
+            f"reach its second overshoot; {keep}"
         )
     if not refined.cost < initial.cost:
         return "initial", f"output error did not lower the cost; {keep}"

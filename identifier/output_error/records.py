@@ -150,6 +150,9 @@ class FitSummary:
         Names of the logs whose replay diverged.
     turns : tuple of VirtualTurn
         Virtual hard-over turns to starboard and to port.
+    zigzags_complete : bool
+        Whether virtual 20°/20° zig-zags to both sides reach their second overshoot
+        (``identifier.output_error.guards.virtual_zigzags``).
 
     """
 
@@ -162,6 +165,7 @@ class FitSummary:
     initial_states: tuple[np.ndarray, ...]
     diverged: tuple[str, ...]
     turns: tuple[VirtualTurn, VirtualTurn]
+    zigzags_complete: bool
 
     @property
     def sane(self) -> bool:
@@ -229,6 +233,7 @@ class RefinementResult:
                 "virtual_tactical_diameter_m": [
                     _finite_or_none(t.tactical_diameter_m) for t in s.turns
                 ],
+                "virtual_zigzags_complete": s.zigzags_complete,
             }
 
         return {

@@ -225,7 +225,7 @@ def _summarise(
     params: ModelParameters,
     approach: Approach,
 ) -> FitSummary:
-    """How well ``params`` (z in ``objective``) replays the logs, and its virtual turns."""
+    """How well ``params`` (z in ``objective``) replays the logs; its virtual manoeuvres."""
     res, states = objective.replays(z)
     cost = objective.cost(z)
     diverged = tuple(
@@ -249,4 +249,5 @@ def _summarise(
         initial_states=tuple(objective.initial_states(z)),
         diverged=diverged,
         turns=approach.turns(params, objective.settings),
+        zigzags_complete=approach.zigzags_complete(params, objective.settings),
     )
