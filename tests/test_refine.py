@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import identifier.identify as identify_module
+import identifier.output_error.guards as guards
 from fmu_model import ModelParameters, simulate
 from fmu_model.replay import replay
 from fmu_model.variants import SHI2009
@@ -171,6 +172,20 @@ def test_turn_check_keeps_the_ekf_estimate_when_refinement_moves_the_turn(
     assert any("tactical diameter by" in w and "kept the EKF" in w for w in guarded.warnings)
     summary = guarded.params.identification["refinement"]
     assert summary["kept"] == "initial" and summary["cost_after"] < summary["cost_before"]
+
+
+def test_a_kept_estimate_that_fails_the_virtual_zigzags_is_reported(
+    logs: dict[str, ManeuverLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Neither estimate sails the 20/20 zig-zags (forced): the refined one may be kept
+    (the guard rejects what the refinement breaks), and the fit says what it is not."""
+    monkeypatch.setattr(guards.Approach, "zigzags_complete", lambda *_: False)
+    result = refine_output_error(_perturbed(_truth()), list(logs.values()))
+    assert result.kept == "refined"
+    assert not result.initial.zigzags_complete and not result.refined.zigzags_complete
+    assert "the kept estimate's virtual 20/20 zig-zag diverges" in result.warnings[-1]
+    summary = result.params.identification["refinement"]
+    assert summary["initial"]["virtual_zigzags_complete"] is False
 
 
 @pytest.mark.parametrize("good", ["ekf", "equation-error"])

@@ -437,13 +437,13 @@ def decide(
         )
     if not refined.cost < initial.cost:
         return "initial", f"output error did not lower the cost; {keep}"
-    asymmetry = side_asymmetry(refined.turns)
-    if not both_sides_logged and asymmetry > max(MAX_SIDE_ASYMMETRY, side_asymmetry(initial.turns)):
+    asymmetry, start_asymmetry = side_asymmetry(refined.turns), side_asymmetry(initial.turns)
+    if not both_sides_logged and asymmetry > max(MAX_SIDE_ASYMMETRY, start_asymmetry):
         return "initial", (
             f"output-error estimate rejected: its virtual 35 deg turns differ by "
             f"{asymmetry:.0%} between the sides (the {label} estimate's by "
-            f"{side_asymmetry(initial.turns):.0%}), beyond the {MAX_SIDE_ASYMMETRY:.0%} a "
-            f"single-screw ship shows, and no turning log verifies both sides; {keep}"
+            f"{start_asymmetry:.0%}), beyond the {MAX_SIDE_ASYMMETRY:.0%} a single-screw "
+            f"ship shows, and no turning log verifies both sides; {keep}"
         )
     if turn_check and not spread <= tolerance:
         text = _spread_text(initial, refined, spread)

@@ -164,6 +164,11 @@ def refine_output_error(
     )
     if kept == "initial" or "although" in reason:
         warnings.append(reason)
+    if not (refined if kept == "refined" else initial).zigzags_complete:
+        warnings.append(
+            "the kept estimate's virtual 20/20 zig-zag diverges or does not reach its second "
+            "overshoot: it is no model of that manoeuvre; add logs of larger rudder angles"
+        )
     return RefinementResult(
         params=refined_params if kept == "refined" else params,
         initial_method=method,
