@@ -466,9 +466,9 @@ def test_decide_rejects_a_refined_turn_lopsided_beyond_a_single_screw(
 
 def test_virtual_zigzags_reach_the_second_overshoot_or_not() -> None:
     """The test ship sails 20/20 zig-zags both ways; with a rudder a thousand times
-    weaker its heading never reaches 20° within the legs' 60 L/U0, so no second
-    overshoot; a yaw moment that grows with the yaw rate (N_r > 0, c2 = +0.5) makes the
-    swing run away: neither is a model of the standard zig-zag."""
+    weaker its three legs take 2,813 s, beyond 60 L/U0 = 1,200 s; with a yaw moment that
+    grows with the yaw rate (N_r > 0, c2 = +0.5) the swing runs away (diverges at 10 s):
+    neither is a model of the standard zig-zag."""
     truth = _truth()
     assert virtual_zigzags(truth, speed_mps=5.0, n_rps=2.0, rudder_rate_radps=RUDDER_RATE)
     for name, value in (("c3", 0.0036e-3), ("c2", 0.5)):

@@ -249,10 +249,11 @@ def virtual_zigzags(
     """Whether 20°/20° zig-zags to both sides reach their second overshoot.
 
     From the straight approach of :func:`virtual_turns`, closed loop (the rudder
-    reverses when the heading passes ±20°), each leg at most ``duration_factor`` · L / U0;
-    False when a run diverges (the speed or yaw-rate bound of the turns), or a leg
-    times out before its heading (a swing that 20° of counter-rudder does not check,
-    a rudder too weak to reach 20°), or no second overshoot is measured.
+    reverses when the heading passes ±20°); False when a run diverges (the speed or
+    yaw-rate bound of the turns), or does not end its third leg, past the second
+    overshoot, within ``duration_factor`` · L / U0 (a swing that 20° of counter-rudder
+    does not check, a rudder too weak to turn the ship; a ship's 20/20 zig-zag gets
+    there in a few L / U0, KVLCC2's in 6), or no second overshoot is measured.
     The refinement fitted the logs' replays with the logged rudder; this sails the
     standard manoeuvre the model will be asked for.
     """
@@ -271,8 +272,6 @@ def virtual_zigzags(
             divergence_factor=DIVERGENCE_SPEED_FACTOR,
         )
         trajectory = run.trajectories[0]
-        # A leg that times out never reached its heading: the three legs of a zig-zag
-        # that reverses take a fraction of one leg's limit.
         if run.diverged[0] or trajectory["time_s"][-1] >= leg_limit_s:
             return False
         try:
