@@ -4,13 +4,19 @@ among the reference ships of ``synthesize`` and ``validate``."""
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
 from dataclasses import replace
+from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
 import pytest
 
+from fmu_model import load_params
+from fmu_model.export_native import build_native_fmu
 from scenarios.cli import PROG, main
 from scenarios.mariner import (
     APPROACH_SPEED_MPS,
@@ -28,6 +34,7 @@ from trials.maneuvers import turning_circle
 from trials.metrics import turning_metrics
 from trials.run import run_program
 
+ROOT = Path(__file__).resolve().parents[1]
 RUDDER_RATE_RADPS = math.radians(2.32)
 
 
@@ -162,3 +169,35 @@ def test_validate_reference_side_sails_the_standard_set():
     )
     zigzag = metrics["zigzag-10-10-stbd"]
     assert zigzag.first_overshoot_deg > zigzag.second_overshoot_deg > 0.0
+
+
+def test_a_ship_of_another_structure_goes_through_the_whole_pipeline(tmp_path, capsys):
+    """Mariner logs → fit → native FMU → validate against the Mariner: every command
+    succeeds and every compared quantity is predicted; the starboard turn, trained on,
+    within 20 % (this round: advance +15.6 %, transfer +17.2 %, tactical diameter +8.7 %:
+    the family does not fit this ship's turn closely, benchmarks/fidelity.md), and the
+    estimate kept sails the virtual 20/20 zig-zags."""
+    logs = tmp_path / "logs"
+    argv = ["synthesize", "--vessel", "mariner", "--quiet", "-o", str(logs)]
+    for name in ("zigzag-10", "zigzag-20", "turning-35"):
+        argv += ["--maneuver", name]
+    assert main(argv) == 0
+    params_path = tmp_path / "params.json"
+    fit = [sys.executable, "-m", "identifier", "fit", *sorted(map(str, logs.glob("*.csv")))]
+    subprocess.run([*fit, "-o", str(params_path), "--quiet"], check=True, cwd=ROOT)
+    params = load_params(params_path)
+    assert params.identification["refinement"]["kept"] in ("initial", "refined")
+    kept = params.identification["refinement"]["kept"]
+    assert params.identification["refinement"][kept]["virtual_zigzags_complete"] is True
+    fmu = build_native_fmu(params, tmp_path / "mariner.fmu")
+    report = tmp_path / "report"
+    argv = ["validate", "--fmu", str(fmu), "--reference", "mariner", "--report", str(report)]
+    assert main([*argv, "--dt-s", "0.5", "--quiet"]) == 0
+    capsys.readouterr()
+    document = json.loads((report / "validation.json").read_text())
+    assert document["reference"]["name"] == "mariner-full"
+    rows = document["comparison"]
+    assert len(rows) == 10 and all(row["predicted"] is not None for row in rows)
+    trained = [row for row in rows if row["maneuver"] == "turning-35-stbd"]
+    assert len(trained) == 3
+    assert all(abs(row["predicted"] / row["reference"] - 1.0) < 0.20 for row in trained), trained
