@@ -19,6 +19,11 @@ shape constants:
 * ``offset``: a neutral-rudder offset, α_R = δ + δ₀ + …, with δ₀ a shape constant
   (±0.1 rad, grid −0.04, 0, 0.04): a rudder or propeller misaligned, a zero error of the
   rudder indicator;
+* ``helm``: the neutral-rudder offset linearised, so that it is estimated with the other
+  gains instead of gridded: u_R² sin(α_R + δ₀) ≈ u_R² sin α_R + δ₀·u_R² cos α_R, the
+  second term with its own gain in sway and yaw (Y_R0, N_R0; Y_R0/Y_R ≈ δ₀): the
+  single-screw ship's neutral helm, which a log approaching straight at a held rudder
+  shows (``benchmarks/fidelity.md``, "A straight approach at the neutral helm");
 * ``swirl``: the propeller-swirl angle of issue 13, α_R = δ + s·k(nL)²/u_R² + …, with s a
   shape constant (±0.3 rad, grid −0.15, 0, 0.15): it grows with the slipstream share,
   i.e. as the ship slows in a turn (reference/model_structures.md §9: equation error
@@ -54,12 +59,14 @@ from fmu_model.variants import (
     PRIME_RUDDER_LIFT,
     PRIME_RUDDER_THRUST,
     PROPELLER_INFLOW,
+    RUDDER_INFLOW_SQUARED,
     SLIPSTREAM_K,
     SLIPSTREAM_SHARE,
     ModelFamily,
     ShapeConstant,
     parse_family,
     register_family,
+    rudder_angle_of_attack,
     rudder_gain_terms,
     rudder_normal_force,
 )
@@ -139,6 +146,11 @@ SWAY_MASS = 0.4
 YAW_INERTIA = 0.022
 
 
+_, _HELM_SWAY, _HELM_YAW = rudder_gain_terms(
+    RUDDER_INFLOW_SQUARED * sp.cos(rudder_angle_of_attack()), suffix="0"
+)
+
+
 def candidate_families() -> tuple[ModelFamily, ...]:
     """Return the candidate families of the module docstring."""
     base = PRIME_RUDDER
@@ -166,6 +178,12 @@ def candidate_families() -> tuple[ModelFamily, ...]:
             "offset",
             rudder_normal_force(RUDDER_OFFSET_RAD),
             (*base.shape, ShapeConstant(RUDDER_OFFSET_RAD, -0.1, 0.1, 0.0, (-0.04, 0.0, 0.04))),
+        ),
+        _with_terms(
+            "helm",
+            base.surge,
+            (_HELM_SWAY,),
+            (_HELM_YAW,),
         ),
         _with_rudder_force(
             "swirl",
