@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -30,9 +31,9 @@ from identifier.output_error.objective import DIVERGENCE_SPEED_FACTOR
 from identifier.output_error.records import FitSummary, RefineSettings, VirtualTurn
 from identifier.smoothing import SmoothedTrack
 from trials.logs import ManeuverLog
-from trials.maneuvers import turning_circle, zigzag
+from trials.maneuvers import Program, turning_circle, zigzag
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
-from trials.run import ModelPlant, run_batch
+from trials.run import BatchRun, ModelPlant, run_batch
 
 MAX_SIDE_ASYMMETRY = 0.10
 """Largest port/starboard difference of the virtual 35° tactical diameters [-] a refined
@@ -89,25 +90,21 @@ class Approach:
             Starboard, port.
 
         """
-        return virtual_turns(
-            params,
-            speed_mps=self.speed_mps,
-            n_rps=self.n_rps,
-            rudder_rate_radps=self.rudder_rate_radps,
-            duration_factor=settings.turn_duration_factor,
-            max_step_s=settings.max_step_s,
-        )
+        return virtual_turns(params, **self._sailing(settings))
 
     def zigzags_complete(self, params: ModelParameters, settings: RefineSettings) -> bool:
         """Whether ``params`` sails :func:`virtual_zigzags` from this approach."""
-        return virtual_zigzags(
-            params,
-            speed_mps=self.speed_mps,
-            n_rps=self.n_rps,
-            rudder_rate_radps=self.rudder_rate_radps,
-            duration_factor=settings.turn_duration_factor,
-            max_step_s=settings.max_step_s,
-        )
+        return virtual_zigzags(params, **self._sailing(settings))
+
+    def _sailing(self, settings: RefineSettings) -> dict[str, Any]:
+        """Return the keyword arguments of the virtual manoeuvres from this approach."""
+        return {
+            "speed_mps": self.speed_mps,
+            "n_rps": self.n_rps,
+            "rudder_rate_radps": self.rudder_rate_radps,
+            "duration_factor": settings.turn_duration_factor,
+            "max_step_s": settings.max_step_s,
+        }
 
 
 def training_approach(
@@ -193,23 +190,14 @@ def virtual_turns(
     """
     if not (speed_mps > 0.0 and rudder_rate_radps > 0.0):
         raise ValueError("speed_mps and rudder_rate_radps must be positive")
-    if max_step_s is None:
-        max_step_s = 0.05 * params.length_m / speed_mps
     turns = []
     for sign in (1.0, -1.0):
-        run = run_batch(
-            ModelPlant(params, max_step_s=max_step_s),
-            turning_circle(
-                sign * rudder_rad,
-                heading_change_rad=math.inf,  # the whole run: a late divergence counts
-                max_time_s=duration_factor * params.length_m / speed_mps,
-            ),
-            speed_mps=speed_mps,
-            n_rps=n_rps,
-            rudder_rate_radps=rudder_rate_radps,
-            dt_s=step_s,
-            divergence_factor=DIVERGENCE_SPEED_FACTOR,
+        program = turning_circle(
+            sign * rudder_rad,
+            heading_change_rad=math.inf,  # the whole run: a late divergence counts
+            max_time_s=duration_factor * params.length_m / speed_mps,
         )
+        run = _sail(params, program, speed_mps, n_rps, rudder_rate_radps, step_s, max_step_s)
         traj = run.trajectories[0]
         change = float(np.max(sign * (traj["psi_rad"] - traj["psi_rad"][0])))
         advance = transfer = tactical = None
@@ -257,20 +245,10 @@ def virtual_zigzags(
     The refinement fitted the logs' replays with the logged rudder; this sails the
     standard manoeuvre the model will be asked for.
     """
-    if max_step_s is None:
-        max_step_s = 0.05 * params.length_m / speed_mps
     leg_limit_s = duration_factor * params.length_m / speed_mps
     for sign in (1.0, -1.0):
         program = zigzag(sign * ZIGZAG_RAD, ZIGZAG_RAD, n_reversals=2, max_time_s=leg_limit_s)
-        run = run_batch(
-            ModelPlant(params, max_step_s=max_step_s),
-            program,
-            speed_mps=speed_mps,
-            n_rps=n_rps,
-            rudder_rate_radps=rudder_rate_radps,
-            dt_s=step_s,
-            divergence_factor=DIVERGENCE_SPEED_FACTOR,
-        )
+        run = _sail(params, program, speed_mps, n_rps, rudder_rate_radps, step_s, max_step_s)
         trajectory = run.trajectories[0]
         if run.diverged[0] or trajectory["time_s"][-1] >= leg_limit_s:
             return False
@@ -279,6 +257,33 @@ def virtual_zigzags(
         except MetricsError:
             return False
     return True
+
+
+def _sail(
+    params: ModelParameters,
+    program: Program,
+    speed_mps: float,
+    n_rps: float,
+    rudder_rate_radps: float,
+    step_s: float,
+    max_step_s: float | None,
+) -> BatchRun:
+    """Sail a virtual manoeuvre from the straight approach.
+
+    RK4 steps of at most ``max_step_s`` (default 0.05 L / U0); a run diverges beyond the
+    speed and yaw-rate bounds of the refinement's objective.
+    """
+    if max_step_s is None:
+        max_step_s = 0.05 * params.length_m / speed_mps
+    return run_batch(
+        ModelPlant(params, max_step_s=max_step_s),
+        program,
+        speed_mps=speed_mps,
+        n_rps=n_rps,
+        rudder_rate_radps=rudder_rate_radps,
+        dt_s=step_s,
+        divergence_factor=DIVERGENCE_SPEED_FACTOR,
+    )
 
 
 def turn_spread(reference: Sequence[VirtualTurn], candidate: Sequence[VirtualTurn]) -> float:
