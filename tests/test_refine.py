@@ -204,37 +204,6 @@ def test_refinement_starts_from_the_candidate_that_replays_best(
     assert result.params.identification["refinement"]["initial_method"] == good
 
 
-def test_a_start_that_fails_the_virtual_manoeuvres_is_passed_over(
-    logs: dict[str, ManeuverLog], monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """The truth replays its logs best, but (forced) its virtual zig-zags fail: the
-    refinement starts from the other candidate, which sails them, and says why; when
-    neither sails them, from the better replay."""
-    truth, other = _truth(), _perturbed(_truth())
-    sails = {"other": True}
-    monkeypatch.setattr(
-        guards.Approach,
-        "zigzags_complete",
-        lambda _, params, __: (
-            sails["other"] and not np.array_equal(params.to_vector(), truth.to_vector())
-        ),
-    )
-    result = refine_output_error(
-        truth, list(logs.values()), alternatives={"equation-error": other}, max_nfev=1
-    )
-    assert result.initial_method == "equation-error"
-    assert (
-        "started from the equation-error estimate: the EKF estimate replays the logs better "
-        "but fails the sanity guard" in " ".join(result.warnings)
-    )
-    sails["other"] = False
-    result = refine_output_error(
-        truth, list(logs.values()), alternatives={"equation-error": other}, max_nfev=1
-    )
-    assert result.initial_method == "ekf"
-    assert not any(w.startswith("started from") for w in result.warnings)
-
-
 def test_turn_spread_compares_tactical_diameters() -> None:
     truth = _truth()
     base = _turns(truth)

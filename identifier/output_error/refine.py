@@ -6,8 +6,7 @@ log's execute point on, the model must reproduce the whole track. This module co
 the steps, each of which has its own module in ``identifier.output_error``:
 
 1. the start: the EKF estimate or, when it replays the training logs worse (larger
-   J(θ₀)), the equation-error estimate, unless that one fails the virtual manoeuvres of
-   the guards and the other does not (:func:`_choose_start`);
+   J(θ₀)), the equation-error estimate;
 2. each log's execute sample and the start model's state there, fitted to the
    approach and then held (``initial_state``);
 3. the objective J(θ) with a Tikhonov prior at the start, minimised by
@@ -67,9 +66,7 @@ def refine_output_error(
     start is the candidate whose open-loop replay of the training logs fits best
     (smallest J at its own estimate, the prior term then being zero): only training
     data decide, and the paper's one-step-ahead EKF fit is not always the estimate
-    that simulates whole manoeuvres best. A candidate that fails the guards' virtual
-    manoeuvres (a hard-over turn or a 20/20 zig-zag) is passed over when another sails
-    them (:func:`_choose_start`).
+    that simulates whole manoeuvres best.
 
     Every log is replayed from its execute sample on, from the state there that the
     start model gives when fitted to the approach (:func:`execute_state`). That state is
@@ -120,7 +117,7 @@ def refine_output_error(
         for name, candidate in candidates.items()
     }
     start_costs = {name: o.cost(np.zeros(o.size)) for name, o in objectives.items()}
-    method, passed_over = _choose_start(candidates, start_costs, approach, settings)
+    method = min(start_costs, key=start_costs.__getitem__)  # a diverging replay costs inf
     params, objective = candidates[method], objectives[method]
     label = method_label(method)
     initial = _summarise(objective, np.zeros(objective.size), params, approach)
@@ -146,14 +143,6 @@ def refine_output_error(
         ).recorded()
     others = {name: p for name, p in candidates.items() if name != method}
     warnings = candidate_disagreement(method, initial.turns, others, approach, settings)
-    if passed_over:
-        warnings.append(
-            f"started from the {label} estimate: the "
-            + " and ".join(method_label(name) for name in passed_over)
-            + " estimate replays the logs better but fails the sanity guard (a virtual "
-            "hard-over turn diverges or does not pass 360 deg, or a virtual 20/20 zig-zag "
-            "does not reach its second overshoot)"
-        )
     if not all(t.sane for t in initial.turns):
         warnings.append(
             f"the {label} estimate fails the sanity guard: a virtual hard-over turn "
@@ -194,38 +183,6 @@ def refine_output_error(
         warnings=tuple(warnings),
         settings=settings,
     ).recorded()
-
-
-def _choose_start(
-    candidates: Mapping[str, ModelParameters],
-    costs: Mapping[str, float],
-    approach: Approach,
-    settings: RefineSettings,
-) -> tuple[str, tuple[str, ...]]:
-    """Choose the start of the refinement among the candidate estimates.
-
-    The candidate whose replay of the training logs costs least among those that sail
-    the virtual manoeuvres (both hard-over turns sane, both 20/20 zig-zags complete):
-    a start that fails them hands the refinement a model of no hard turn, which the
-    guards of :func:`decide` then only compare against. When none sails them, the
-    cheapest replay (a diverging replay costs inf).
-
-    Returns
-    -------
-    tuple
-        The chosen method and the methods of cheaper replays passed over.
-
-    """
-    ranked = sorted(costs, key=costs.__getitem__)
-    for i, name in enumerate(ranked):
-        if not math.isfinite(costs[name]):
-            break
-        estimate = candidates[name]
-        if all(t.sane for t in approach.turns(estimate, settings)) and approach.zigzags_complete(
-            estimate, settings
-        ):
-            return name, tuple(ranked[:i])
-    return ranked[0], ()
 
 
 def _coefficient_objective(
