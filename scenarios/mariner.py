@@ -52,8 +52,10 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 import numpy as np
+from scipy.optimize import root
 
 from fmu_model.integrate import rk4_into
+from trials.maneuvers import Helm
 from trials.run import SingleShip
 
 LENGTH_M = 160.93
@@ -219,6 +221,31 @@ def abkowitz_rhs(ship: AbkowitzShip, state: np.ndarray, rudder_rad: float) -> np
     r_dot = (m22 * n - m32 * y) * speed_sq_over_length / (ship.length_m * det)
     cos_psi, sin_psi = math.cos(psi), math.sin(psi)
     return np.array([u_dot, v_dot, r_dot, u * cos_psi - v * sin_psi, u * sin_psi + v * cos_psi, r])
+
+
+def neutral_helm(ship: AbkowitzShip) -> Helm:
+    """Return the rudder [rad] and sway velocity [m/s] of the straight run at U₀.
+
+    The trim Y′ = N′ = 0 of (2)-(3) at u = U₀, r = 0: the helm a trial's approach is
+    steadied on, against the single screw's Y₀ and N₀ (the Mariner: 1.1° to port).
+
+    Raises
+    ------
+    RuntimeError
+        The trim does not converge (no straight run near the rudder amidships).
+
+    """
+    speed = ship.approach_speed_mps
+
+    def side_force_and_moment(z: np.ndarray) -> list[float]:
+        _, y, n = abkowitz_forces(ship, speed, float(z[0]) * speed, 0.0, float(z[1]))
+        return [y, n]
+
+    trim = root(side_force_and_moment, np.zeros(2), tol=1e-14)
+    if not trim.success:
+        raise RuntimeError(f"no straight run of the {ship.name} at U0: {trim.message}")
+    v_prime, rudder_rad = (float(x) for x in trim.x)
+    return Helm(rudder_rad=rudder_rad, sway_mps=v_prime * speed)
 
 
 def _derivative_into(

@@ -26,7 +26,7 @@ import math
 import os
 import zlib
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -35,10 +35,16 @@ from fmu_model import ModelParameters
 from fmu_model.atomic import write_atomic
 from scenarios.errors import ScenarioError
 from scenarios.kvlcc2 import ReferencePlant, kvlcc2, kvlcc2_windage
-from scenarios.mariner import NOMINAL_RPS, RUDDER_RATE_RADPS, AbkowitzPlant, mariner
+from scenarios.mariner import (
+    NOMINAL_RPS,
+    RUDDER_RATE_RADPS,
+    AbkowitzPlant,
+    mariner,
+    neutral_helm,
+)
 from scenarios.sea import SeaEnvironment
 from trials.logs import ManeuverLog, write_log
-from trials.maneuvers import Program, turning_circle, zigzag
+from trials.maneuvers import Helm, Program, turning_circle, zigzag
 from trials.run import ModelPlant, Plant, run_program
 
 STW_NOISE_MPS = 0.05
@@ -60,7 +66,12 @@ MANEUVERS: dict[str, Callable[[], Program]] = {
 
 @dataclass(frozen=True)
 class TruthShip:
-    """A ship to synthesise logs from: a plant plus its approach condition."""
+    """A ship to synthesise logs from: a plant plus its approach condition.
+
+    ``neutral_helm`` is the rudder that holds it on a straight course at the approach
+    and its sway there (none for a symmetric ship; a single screw's rudder is off the
+    centre line).
+    """
 
     name: str
     plant: Plant
@@ -69,6 +80,7 @@ class TruthShip:
     n_rps: float
     rudder_rate_radps: float
     source: str
+    neutral_helm: Helm = field(default_factory=Helm)
 
 
 REFERENCE_VESSELS = ("kvlcc2", "mariner")
@@ -106,6 +118,7 @@ def reference_ship(
             n_rps=NOMINAL_RPS,
             rudder_rate_radps=RUDDER_RATE_RADPS,
             source="Mariner-class Abkowitz model (Chislett & Stroem-Tejsen 1965), full scale",
+            neutral_helm=neutral_helm(ship),
         )
     if name != "kvlcc2":
         raise ValueError(
@@ -154,6 +167,7 @@ def synthesize_log(
     heading_noise_deg: float = 0.1,
     seed: int = 0,
     approach_s: float = 60.0,
+    approach_helm: Helm | None = None,
     truth_dt_s: float | None = None,
 ) -> ManeuverLog:
     """Simulate ``program`` on ``ship`` and return a noisy trial log.
@@ -174,6 +188,9 @@ def synthesize_log(
         Seed of the noise generator (same seed, same log).
     approach_s : float
         Straight approach before execute [s]; the log starts there.
+    approach_helm : Helm, optional
+        Rudder and sway of the approach; the ship's neutral helm by default, as a trial
+        steadies its approach (the Mariner's rudder 1.1° to port, KVLCC2's amidships).
     truth_dt_s : float, optional
         Simulation step [s]; defaults to the largest divisor of the logging interval
         not above 0.1 s · √(L / 320 m) (0.1 s at full scale KVLCC2).
@@ -189,11 +206,12 @@ def synthesize_log(
     if rate_hz <= 0.0 or position_noise_m < 0.0 or heading_noise_deg < 0.0:
         raise ValueError("rate_hz must be positive and noise levels non-negative")
     log_dt = 1.0 / rate_hz
+    helm = ship.neutral_helm if approach_helm is None else approach_helm
     target = truth_dt_s or 0.1 * math.sqrt(ship.length_m / 320.0)
     every = max(1, math.ceil(log_dt / target - 1e-9))
     run = run_program(
         ship.plant,
-        replace(program, approach_s=approach_s),
+        replace(program, approach_s=approach_s, approach_helm=helm),
         speed_mps=ship.speed_mps,
         n_rps=ship.n_rps,
         rudder_rate_radps=ship.rudder_rate_radps,
@@ -209,6 +227,8 @@ def synthesize_log(
         f"synthetic {program.name}: {ship.source}; {rate_hz:g} Hz, position noise "
         f"{position_noise_m:g} m, heading noise {heading_noise_deg:g} deg, seed {seed}"
     )
+    if helm.rudder_rad != 0.0:
+        source += f"; approach at rudder {math.degrees(helm.rudder_rad):+.4g} deg (neutral helm)"
     sensors: dict[str, np.ndarray] = {}
     plant = ship.plant
     if isinstance(plant, ReferencePlant) and plant.environment is not None:

@@ -25,12 +25,13 @@ from scenarios.mariner import (
     abkowitz_forces,
     abkowitz_rhs,
     mariner,
+    neutral_helm,
 )
 from scenarios.runs import reference_runs
-from scenarios.synthesize import reference_ship
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from tests.test_scenarios_cli import _one_line
 from trials.logs import read_log
-from trials.maneuvers import turning_circle
+from trials.maneuvers import Helm, turning_circle
 from trials.metrics import turning_metrics
 from trials.run import run_program
 
@@ -62,22 +63,52 @@ def test_forces_and_accelerations_of_a_rudder_step_by_hand():
 def test_neutral_helm_by_hand_holds_the_ship_straight():
     """The single screw's constant force and moment (Y₀, N₀) are balanced by a helm.
 
-    Straight (r = 0) at U₀, by hand from the linear terms (the cubic ones are below 1e-9
-    there): Y_v v′ + Y_δ δ = −Y₀, N_v v′ + N_δ δ = −N₀ gives δ = 4536/234632 = 0.019332 rad
-    (the source's δ, to port: rudder −1.1077°) and v′ = 278/234632 = 0.0011848. Held
-    from that state for ten minutes the ship keeps its heading within 0.05° (the helm
-    is rounded to 5 digits); with the rudder amidships it turns to starboard by tens of
-    degrees.
+    Straight (r = 0) at U₀, by hand from the linear terms: Y_v v′ + Y_δ δ = −Y₀,
+    N_v v′ + N_δ δ = −N₀ gives δ = 4536/234632 = 0.019332 rad (the source's δ, to port:
+    rudder −1.1077°) and v′ = 278/234632 = 0.0011848; the cubic terms (Y_δδδ δ³ ≈ 7e-9
+    beside Y₀ = 4e-5) move the trim of ``neutral_helm`` by about 1e-4 of that. Held
+    from that state for ten minutes the ship keeps its heading within 0.05° (the hand
+    helm is rounded to 5 digits; the trim's within 1e-3°); with the rudder amidships it
+    turns to starboard by tens of degrees.
     """
-    plant = AbkowitzPlant(mariner())
-    v = 0.0011848 * APPROACH_SPEED_MPS
+    ship = mariner()
+    helm = neutral_helm(ship)
+    assert helm.rudder_rad == pytest.approx(-0.019332, rel=3e-4)
+    assert helm.sway_mps == pytest.approx(0.0011848 * APPROACH_SPEED_MPS, rel=3e-4)
+    _, y, n = abkowitz_forces(ship, APPROACH_SPEED_MPS, helm.sway_mps, 0.0, helm.rudder_rad)
+    assert abs(y) < 1e-15 and abs(n) < 1e-15
+    plant = AbkowitzPlant(ship)
     headings_deg = []
-    for rudder_rad in (-0.019332, 0.0):
+    for rudder_rad, v, tolerance_deg in (
+        (-0.019332, 0.0011848 * APPROACH_SPEED_MPS, 0.05),
+        (helm.rudder_rad, helm.sway_mps, 1e-3),
+        (0.0, 0.0, math.inf),
+    ):
         plant.reset(np.array([APPROACH_SPEED_MPS, v, 0.0, 0.0, 0.0, 0.0]))
         state = plant.step(rudder_rad, NOMINAL_RPS, 600.0)
         headings_deg.append(math.degrees(state[5]))
-    assert abs(headings_deg[0]) < 0.05
-    assert headings_deg[1] > 20.0
+        assert abs(headings_deg[-1]) < tolerance_deg
+    assert headings_deg[-1] > 20.0
+
+
+def test_logs_approach_at_the_neutral_helm_as_a_trial_does():
+    """The Mariner's logs are steadied on their neutral helm before execute: rudder and
+    heading constant on the approach, the source says so; from a midship approach the
+    ship swings several degrees first. KVLCC2's helm is amidships (its logs as before)."""
+    ship = reference_ship("mariner")
+    assert ship.neutral_helm == neutral_helm(mariner())
+    program = MANEUVERS["zigzag-10"]()
+    quiet = {"position_noise_m": 0.0, "heading_noise_deg": 0.0, "approach_s": 60.0}
+    steady = synthesize_log(ship, program, **quiet)
+    swinging = synthesize_log(ship, program, approach_helm=Helm(), **quiet)
+    execute = 60  # 1 Hz
+    assert np.all(steady.rudder_rad[:execute] == ship.neutral_helm.rudder_rad)
+    assert np.max(np.abs(np.degrees(steady.heading_rad[: execute + 1]))) < 1e-3
+    assert "approach at rudder -1.108 deg (neutral helm)" in steady.metadata["source"]
+    assert np.all(swinging.rudder_rad[:execute] == 0.0)
+    assert math.degrees(swinging.heading_rad[execute]) > 3.0
+    assert "neutral helm" not in swinging.metadata["source"]
+    assert reference_ship("kvlcc2").neutral_helm == Helm()
 
 
 def _tactical_diameters_L(ship) -> tuple[float, float]:

@@ -15,7 +15,7 @@ with the rudder returned to midship after a steady turn.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 DEFAULT_RUDDER_RATE_DEG_S = 2.34
 """Default steering-gear rate [deg/s]: KVLCC2 full scale (reference §7), a typical large ship's."""
@@ -50,6 +50,24 @@ class Leg:
 
 
 @dataclass(frozen=True)
+class Helm:
+    """A steady straight run: the rudder that holds it and the sway it has there.
+
+    Parameters
+    ----------
+    rudder_rad : float
+        Rudder angle [rad]; off the centre line for a single-screw ship, whose
+        propeller pushes it to one side.
+    sway_mps : float
+        Sway velocity [m/s] of the straight run at that rudder.
+
+    """
+
+    rudder_rad: float = 0.0
+    sway_mps: float = 0.0
+
+
+@dataclass(frozen=True)
 class Program:
     """A manoeuvre: straight approach, then legs from execute (t = 0).
 
@@ -62,7 +80,10 @@ class Program:
     legs : tuple of Leg
         Executed in order; the run ends after the last leg.
     approach_s : float
-        Straight run with rudder at 0 before execute [s].
+        Straight run before execute [s].
+    approach_helm : Helm
+        The steady straight run of the approach: rudder amidships and no sway, or a
+        single-screw ship's neutral helm (a trial's approach is steadied on it).
     rudder_rad, heading_rad : float
         The nominal rudder (and zig-zag heading) angle, for the metrics.
 
@@ -72,6 +93,7 @@ class Program:
     kind: str
     legs: tuple[Leg, ...]
     approach_s: float = 0.0
+    approach_helm: Helm = field(default_factory=Helm)
     rudder_rad: float = 0.0
     heading_rad: float = 0.0
 

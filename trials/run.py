@@ -175,8 +175,8 @@ def run_batch(
     program : Program
         Approach + legs (``trials.maneuvers``).
     speed_mps : float
-        Approach speed U [m/s]; every ship starts at u = U, v = r = 0 at the origin,
-        heading North.
+        Approach speed U [m/s]; every ship starts at u = U, r = 0 at the origin,
+        heading North, with the rudder and sway of the programme's ``approach_helm``.
     n_rps : float
         Propeller speed [rev/s] unless a leg sets its own.
     rudder_rate_radps : float
@@ -218,8 +218,9 @@ def run_batch(
 
     state = np.zeros((6, n_ships))
     state[0] = speed_mps
+    state[1] = program.approach_helm.sway_mps
     plant.reset(state[:, 0].copy())
-    rudder = np.zeros(n_ships)
+    rudder = np.full(n_ships, program.approach_helm.rudder_rad)
     n_now = np.full(n_ships, float(n_rps))
     t = -approach_steps * dt_s
     executed = approach_steps == 0
