@@ -3,9 +3,12 @@
 Registered here, not in ``fmu_model``: none predicted the held-out measured runs better
 than ``prime-rudder`` (``benchmarks/hsva.md``, the sections after the first table;
 ``benchmarks/fidelity.md``, "Issue 13's candidates on the reference" and after); the one that did,
-a rudder normal force not linear in sin α_R, is ``fmu_model``'s ``prime-rudder-lift``, and
+a rudder normal force not linear in sin α_R, is ``fmu_model``'s ``prime-rudder-lift``,
 the one whose every fit of the measured runs turns, a thrust of fixed open-water slope, is
-``prime-rudder-thrust``. Each is
+``prime-rudder-thrust``, and the neutral-rudder offset that predicts the Mariner's turns
+from logs approaching at its neutral helm is ``prime-rudder-offset`` (the candidate
+``offset`` of earlier rounds, with ``prime-rudder-offset-thrust`` as its thrust fallback).
+Each is
 ``prime-rudder`` plus terms with one gain each, or with another rudder force and its
 shape constants:
 
@@ -16,9 +19,6 @@ shape constants:
 * ``lift-thrust``: the thrust of fixed open-water slope of ``prime-rudder-thrust`` (the
   candidate ``thrust`` of earlier rounds, registered in ``fmu_model``: every fit of the
   measured HSVA runs turns) in ``prime-rudder-lift``;
-* ``offset``: a neutral-rudder offset, α_R = δ + δ₀ + …, with δ₀ a shape constant
-  (±0.1 rad, grid −0.04, 0, 0.04): a rudder or propeller misaligned, a zero error of the
-  rudder indicator;
 * ``helm``: the neutral-rudder offset linearised, so that it is estimated with the other
   gains instead of gridded: u_R² sin(α_R + δ₀) ≈ u_R² sin α_R + δ₀·u_R² cos α_R, the
   second term with its own gain in sway and yaw (Y_R0, N_R0; Y_R0/Y_R ≈ δ₀): the
@@ -57,7 +57,6 @@ from fmu_model.variants import (
     PRIME_MODULUS,
     PRIME_RUDDER,
     PRIME_RUDDER_LIFT,
-    PRIME_RUDDER_THRUST,
     PROPELLER_INFLOW,
     RUDDER_INFLOW_SQUARED,
     SLIPSTREAM_K,
@@ -69,9 +68,10 @@ from fmu_model.variants import (
     rudder_angle_of_attack,
     rudder_gain_terms,
     rudder_normal_force,
+    with_fixed_thrust,
+    with_rudder_force,
 )
 
-RUDDER_OFFSET_RAD = sp.Symbol("d0", real=True)
 SWIRL_RAD = sp.Symbol("swirl", real=True)
 SLIPSTREAM_C = sp.Symbol("c", nonnegative=True)
 SLIPSTREAM_C_GRID = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # c·(n₀L)² / U₀²
@@ -90,26 +90,6 @@ def _with_terms(
 ) -> ModelFamily:
     """Return ``base`` with the surge terms ``surge`` and extra sway and yaw terms."""
     return replace(base, name=name, surge=surge, sway=base.sway + sway, yaw=base.yaw + yaw)
-
-
-def _with_rudder_force(
-    name: str, normal_force: sp.Expr, shape: tuple[ShapeConstant, ...]
-) -> ModelFamily:
-    """``prime-rudder`` with another rudder normal force and its shape constants."""
-    base = PRIME_RUDDER
-    gains = {t.coefficient: t for t in rudder_gain_terms(normal_force)}
-
-    def swap(terms: tuple[Term, ...]) -> tuple[Term, ...]:
-        return tuple(gains.get(t.coefficient, t) for t in terms)
-
-    return replace(
-        base,
-        name=name,
-        shape=shape,
-        surge=swap(base.surge),
-        sway=swap(base.sway),
-        yaw=swap(base.yaw),
-    )
 
 
 def _with_hull(name: str, sway: tuple[Term, ...], yaw: tuple[Term, ...]) -> ModelFamily:
@@ -170,27 +150,21 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         ),
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
-        replace(
-            _with_terms("lift-thrust", PRIME_RUDDER_THRUST.surge, (), (), base=PRIME_RUDDER_LIFT),
-            shape=PRIME_RUDDER_THRUST.shape,
-        ),
-        _with_rudder_force(
-            "offset",
-            rudder_normal_force(RUDDER_OFFSET_RAD),
-            (*base.shape, ShapeConstant(RUDDER_OFFSET_RAD, -0.1, 0.1, 0.0, (-0.04, 0.0, 0.04))),
-        ),
+        with_fixed_thrust(PRIME_RUDDER_LIFT, "lift-thrust", "prime-rudder-lift, fixed thrust"),
         _with_terms(
             "helm",
             base.surge,
             (_HELM_SWAY,),
             (_HELM_YAW,),
         ),
-        _with_rudder_force(
+        with_rudder_force(
+            PRIME_RUDDER,
             "swirl",
             rudder_normal_force(SWIRL_RAD * SLIPSTREAM_SHARE),
             (*base.shape, ShapeConstant(SWIRL_RAD, -0.3, 0.3, 0.0, (-0.15, 0.0, 0.15))),
         ),
-        _with_rudder_force(
+        with_rudder_force(
+            PRIME_RUDDER,
             "slipstream",
             rudder_normal_force(inflow_squared=mmg_inflow_squared()),
             tuple(

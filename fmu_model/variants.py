@@ -512,24 +512,99 @@ PRIME_RUDDER_LIFT = register_family(
 THRUST_SLOPE_KAPPA = sp.Symbol("kappa", nonnegative=True)
 THRUST_SLOPE = 20.0
 
-PRIME_RUDDER_THRUST = register_family(
-    replace(
-        PRIME_RUDDER,
-        name="prime-rudder-thrust",
-        description="prime-rudder with one propeller thrust term of fixed open-water slope, "
-        f"X_T*(n^2 L - kappa u n) (kappa = -(k1/k0)(1 - w_P) L/D_P, default {THRUST_SLOPE:g}, "
-        "not searched), in place of free n^2 L and u n terms, 20 coefficients",
+
+def with_rudder_force(
+    base: ModelFamily, name: str, normal_force: sp.Expr, shape: tuple[ShapeConstant, ...]
+) -> ModelFamily:
+    """Return ``base`` named ``name`` with another rudder normal force and shape constants.
+
+    The gains X_R, Y_R, N_R stay; their basis functions become those of ``normal_force``
+    (:func:`rudder_gain_terms`).
+    """
+    gains = {t.coefficient: t for t in rudder_gain_terms(normal_force)}
+
+    def swap(terms: tuple[Term, ...]) -> tuple[Term, ...]:
+        return tuple(gains.get(t.coefficient, t) for t in terms)
+
+    return replace(
+        base,
+        name=name,
+        shape=shape,
+        surge=swap(base.surge),
+        sway=swap(base.sway),
+        yaw=swap(base.yaw),
+    )
+
+
+def with_fixed_thrust(base: ModelFamily, name: str, description: str) -> ModelFamily:
+    """Return ``base`` with one thrust term of fixed open-water slope for X_nn and X_un.
+
+    X_T·(n²L − κ·u·n), κ (:data:`THRUST_SLOPE_KAPPA`) a shape constant that is not
+    searched (the comment above).
+    """
+    return replace(
+        base,
+        name=name,
+        description=description,
         reference="propeller open-water curve K_T(J) (e.g. reference/kvlcc2_mmg.md section 4); "
         "benchmarks/hsva.md (issue 13)",
         shape=(
-            *PRIME_RUDDER.shape,
+            *base.shape,
             ShapeConstant(
                 THRUST_SLOPE_KAPPA, 0.0, 100.0, THRUST_SLOPE, (THRUST_SLOPE,), searched=False
             ),
         ),
         surge=(
             Term("X_T", n**2 * L - THRUST_SLOPE_KAPPA * u * n),
-            *(t for t in PRIME_RUDDER.surge if t.coefficient not in ("X_nn", "X_un")),
+            *(t for t in base.surge if t.coefficient not in ("X_nn", "X_un")),
         ),
+    )
+
+
+_FIXED_THRUST_TEXT = (
+    "one propeller thrust term of fixed open-water slope, X_T*(n^2 L - kappa u n) "
+    f"(kappa = -(k1/k0)(1 - w_P) L/D_P, default {THRUST_SLOPE:g}, not searched), in place of "
+    "free n^2 L and u n terms"
+)
+
+PRIME_RUDDER_THRUST = register_family(
+    with_fixed_thrust(
+        PRIME_RUDDER,
+        "prime-rudder-thrust",
+        f"prime-rudder with {_FIXED_THRUST_TEXT}, 20 coefficients",
+    )
+)
+
+# --- Neutral-rudder offset (issue 13, benchmarks/fidelity.md "A ship of another structure")
+# A single screw pushes the ship to one side: it runs straight at a neutral helm off the
+# centre line (the Mariner 1.1° to port), and a trial's approach is steadied on it. The
+# rudder angle of attack gains δ₀ [rad], a shape constant: α_R = δ + δ₀ + atan(…), so the
+# rudder gives no force at δ = −δ₀ on a straight course. It also stands for a rudder
+# indicator's zero error.
+NEUTRAL_RUDDER_OFFSET = sp.Symbol("d0", real=True)
+
+PRIME_RUDDER_OFFSET = register_family(
+    replace(
+        with_rudder_force(
+            PRIME_RUDDER,
+            "prime-rudder-offset",
+            rudder_normal_force(NEUTRAL_RUDDER_OFFSET),
+            (
+                *PRIME_RUDDER.shape,
+                ShapeConstant(NEUTRAL_RUDDER_OFFSET, -0.1, 0.1, 0.0, (-0.04, 0.0, 0.04)),
+            ),
+        ),
+        description="prime-rudder with a neutral-rudder offset d0 in the rudder angle of "
+        "attack (a single screw's neutral helm, chosen from the data with the other shape "
+        "constants), 21 coefficients",
+        reference="benchmarks/fidelity.md, 'A ship of another structure' (issue 13)",
+    )
+)
+
+PRIME_RUDDER_OFFSET_THRUST = register_family(
+    with_fixed_thrust(
+        PRIME_RUDDER_OFFSET,
+        "prime-rudder-offset-thrust",
+        f"prime-rudder-offset with {_FIXED_THRUST_TEXT}, 20 coefficients",
     )
 )

@@ -19,7 +19,8 @@ benchmarks/hsva.md); ``method="ekf"`` keeps the EKF estimate, the paper's algori
 A ``prime-rudder`` estimate whose free thrust X_nn·n²L + X_un·u·n is not a propeller's
 (:func:`thrust_warning`: no thrust at bollard, or one that grows with the speed; logs at
 one rpm fix the thrust at the approach only) is refitted as ``prime-rudder-thrust``, a
-thrust of fixed open-water slope, with the same settings: the free split would make the
+thrust of fixed open-water slope, with the same settings (a ``prime-rudder-offset`` one as
+``prime-rudder-offset-thrust``): the free split would make the
 ship lose its thrust as it slows in a hard turn (benchmarks/hsva.md, "The propeller
 thrust is why"). The result says so (a note, ``identification.thrust``); fits of other
 families with such a thrust are warned about.
@@ -41,7 +42,14 @@ from fmu_model.envelope import Envelope, envelope_of, union
 from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
-from fmu_model.variants import PRIME_RUDDER, PRIME_RUDDER_THRUST, parse_family
+from fmu_model.variants import (
+    PRIME_RUDDER,
+    PRIME_RUDDER_OFFSET,
+    PRIME_RUDDER_OFFSET_THRUST,
+    PRIME_RUDDER_THRUST,
+    family_name,
+    parse_family,
+)
 from identifier.current import (
     ALTERNATION_MAX_SAMPLES,
     ALTERNATION_WINDOWS,
@@ -665,7 +673,7 @@ def identify(
     why = (
         f"{settings.model}'s thrust came out not a propeller's (X_nn = {free['X_nn']:.3g}, "
         f"X_un = {free['X_un']:.3g}: the logs do not split it); refitted as "
-        f"{PRIME_RUDDER_THRUST.name}, a thrust of fixed open-water slope"
+        f"{family_name(fixed_slope)}, a thrust of fixed open-water slope"
     )
     identification = {**refit.params.identification, "thrust": why}
     return replace(
@@ -675,20 +683,28 @@ def identify(
     )
 
 
-def fixed_thrust_model(model: str) -> str | None:
-    """Return the model a ``prime-rudder`` fit is refitted as when its thrust is not a propeller's.
+_FIXED_THRUST_FAMILIES = {
+    PRIME_RUDDER.name: PRIME_RUDDER_THRUST.name,
+    PRIME_RUDDER_OFFSET.name: PRIME_RUDDER_OFFSET_THRUST.name,
+}
+"""The family a fit of the key family is refitted as when its thrust is not a propeller's."""
 
-    ``prime-rudder-thrust`` with the shape constants ``model`` fixes, if ``model`` is
-    ``prime-rudder`` (bare or with constants); None for every other model, whose thrust
-    :func:`thrust_warning` only warns about.
+
+def fixed_thrust_model(model: str) -> str | None:
+    """Return the model a fit is refitted as when its thrust is not a propeller's.
+
+    ``prime-rudder-thrust`` for ``prime-rudder`` and ``prime-rudder-offset-thrust`` for
+    ``prime-rudder-offset`` (bare or with constants, which the refit fixes as well); None
+    for every other model, whose thrust :func:`thrust_warning` only warns about.
     """
     parsed = parse_family(model)
-    if parsed is None or parsed[0] is not PRIME_RUDDER:
+    fixed_family = None if parsed is None else _FIXED_THRUST_FAMILIES.get(parsed[0].name)
+    if parsed is None or fixed_family is None:
         return None
     fixed = parsed[1]
     if not fixed:
-        return PRIME_RUDDER_THRUST.name
-    return f"{PRIME_RUDDER_THRUST.name}[" + ",".join(f"{k}={v!r}" for k, v in fixed.items()) + "]"
+        return fixed_family
+    return f"{fixed_family}[" + ",".join(f"{k}={v!r}" for k, v in fixed.items()) + "]"
 
 
 @dataclass(frozen=True)

@@ -436,7 +436,11 @@ PRIME_GAINS = {
 }
 
 
-@pytest.mark.parametrize("model", [m for m in model_names() if m != "shi2009"])
+@pytest.mark.parametrize(
+    "model",
+    # the neutral-rudder offset at a value that moves the rudder force (default 0)
+    [m for m in model_names() if m != "shi2009"] + ["prime-rudder-offset[d0=0.02]"],
+)
 def test_every_variant_fmu_equals_python_rk4(model: str, tmp_path: Path) -> None:
     names = get_model(model).coefficient_names
     params = replace(

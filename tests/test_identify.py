@@ -388,17 +388,21 @@ def test_families_without_the_thrust_pair_are_not_judged() -> None:
     [
         ("prime-rudder", "prime-rudder-thrust"),
         ("prime-rudder[dgamma=0, l=-0.6]", "prime-rudder-thrust[dgamma=0.0,l=-0.6]"),
+        ("prime-rudder-offset", "prime-rudder-offset-thrust"),
+        ("prime-rudder-offset[d0=0.02]", "prime-rudder-offset-thrust[d0=0.02]"),
         ("prime-rudder-lift", None),
         ("prime-rudder-thrust", None),
+        ("prime-rudder-offset-thrust", None),
         ("shi2009", None),
     ],
 )
-def test_only_prime_rudder_is_refitted_with_a_fixed_thrust_slope(
+def test_only_the_rudder_families_are_refitted_with_a_fixed_thrust_slope(
     model: str, refit: str | None
 ) -> None:
     """The constants the user fixed stay fixed in the refit, κ at its default."""
     assert fixed_thrust_model(model) == refit
     if refit is not None:
+        family = model.split("[")[0]
         assert get_model(refit).name == get_model(model).name.replace(
-            "prime-rudder[", "prime-rudder-thrust["
+            f"{family}[", f"{family}-thrust["
         ).replace("]", f",kappa={THRUST_SLOPE:g}]")

@@ -13,8 +13,10 @@ from fmu_model.numeric import family_regressors
 from fmu_model.structure import unit_string
 from fmu_model.variants import (
     PRIME_RUDDER,
+    PRIME_RUDDER_OFFSET,
     PRIME_RUDDER_THRUST,
     THRUST_SLOPE,
+    ModelFamily,
     family_name,
     parse_family,
 )
@@ -38,9 +40,9 @@ TRUE_SHAPE = {"k": 1.5e-4, "gamma": 0.52, "dgamma": 0.12, "l": -0.7, "wake": 0.3
 LENGTH_M, SPEED_MPS, N_RPS = 320.0, 8.0, 1.75
 
 
-def _truth() -> ModelParameters:
+def _truth(family: ModelFamily = PRIME_RUDDER, **shape: float) -> ModelParameters:
     return ModelParameters.from_vector(
-        PRIME_RUDDER.structure_name(TRUE_SHAPE),
+        family.structure_name({**TRUE_SHAPE, **shape}),
         np.array(list(COEFFICIENTS.values())),
         length_m=LENGTH_M,
         vessel_name="tanker",
@@ -99,9 +101,9 @@ def test_rudder_force_depends_on_the_side_of_the_flow_as_in_mmg() -> None:
         assert got == pytest.approx(expected, rel=1e-12)
 
 
-def _segments() -> list[EkfSegment]:
+def _segments(truth: ModelParameters | None = None) -> list[EkfSegment]:
     """Noise-free velocities of three sine-rudder runs at two propeller speeds, 0.5 s."""
-    truth = _truth()
+    truth = truth or _truth()
     t = np.arange(0.0, 700.0, 0.5)
     segments = []
     for amplitude_deg, n_rps, period_s in (
@@ -150,6 +152,34 @@ def test_shape_search_finds_the_slipstream_share_and_fits_as_well_as_the_truth()
     )
     assert known_l.shape["l"] == TRUE_SHAPE["l"]
     assert known_l.shape["gamma"] == pytest.approx(TRUE_SHAPE["gamma"], abs=0.03)
+
+
+def test_the_neutral_rudder_offset_holds_a_straight_course_and_is_found() -> None:
+    """prime-rudder-offset: α_R gains d0, so the rudder gives no force at δ = −d0 on a
+    straight course (the single screw's neutral helm), and the shape search finds d0
+    from logs of a ship that has one (the other constants given)."""
+    d0 = 0.02
+    truth = _truth(PRIME_RUDDER_OFFSET, d0=d0)
+    model = numeric_model(truth.structure)
+    at_helm = model.regressors(6.0, 0.0, 0.0, -d0, N_RPS, LENGTH_M)
+    amidships = model.regressors(6.0, 0.0, 0.0, 0.0, N_RPS, LENGTH_M)
+    for name in ("X_R", "Y_R", "N_R"):
+        assert at_helm[truth.names.index(name)] == pytest.approx(0.0, abs=1e-15)
+    # Amidships on a straight course: u_R² = u² + k(nL)², α_R = d0 (X_R's sin δ is 0).
+    u_r2 = 6.0**2 + TRUE_SHAPE["k"] * (N_RPS * LENGTH_M) ** 2
+    assert amidships[truth.names.index("Y_R")] == pytest.approx(u_r2 * math.sin(d0) / LENGTH_M)
+    assert amidships[truth.names.index("N_R")] == pytest.approx(u_r2 * math.sin(d0) / LENGTH_M**2)
+    t = np.arange(0.0, 300.0, 1.0)
+    straight = simulate(truth, t, np.full(t.size, -d0), np.full(t.size, N_RPS),
+                        [SPEED_MPS, 0, 0, 0, 0, 0], max_step_s=0.1)  # fmt: skip
+    midship = simulate(truth, t, np.zeros(t.size), np.full(t.size, N_RPS),
+                       [SPEED_MPS, 0, 0, 0, 0, 0], max_step_s=0.1)  # fmt: skip
+    assert np.max(np.abs(straight[:, 5])) < 1e-12
+    assert math.degrees(midship[-1, 5]) > 5.0  # d0 > 0 acts as starboard rudder
+    found = select_shape(
+        PRIME_RUDDER_OFFSET, _segments(truth), LENGTH_M, SPEED_MPS, N_RPS, fixed=TRUE_SHAPE
+    )
+    assert found.shape["d0"] == pytest.approx(d0, abs=1e-3)
 
 
 def test_the_thrust_slope_is_not_searched_but_can_be_given() -> None:
