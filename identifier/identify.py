@@ -72,7 +72,7 @@ from identifier.output_error import RefinementResult, refine_output_error
 from identifier.shape import ShapeSelection, select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
-from trials.conditions import EXECUTE_RUDDER_RAD, execute_index
+from trials.conditions import EXECUTE_RUDDER_RAD, approach_helm_rad, execute_index
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
 
@@ -107,6 +107,9 @@ MAX_SUBSTEP_RANGE_S = (1e-3, math.inf)
 # Above these estimated noise levels the logger is suspect (warning) [m], [rad].
 MAX_POSITION_NOISE_M = 20.0
 MAX_HEADING_NOISE_RAD = math.radians(3.0)
+NEUTRAL_HELM_NOTE_RAD = math.radians(0.5)
+"""An approach helm [rad] beyond which ``identify`` notes the neutral-rudder family: above a
+rudder indicator's resolution, below the Mariner's 1.1° (the HSVA runs approach within 0.02°)."""
 METHODS = ("output-error", "ekf")
 """Identification procedures: guarded output-error refinement (default), the paper's EKF."""
 MAX_REFINE_STEPS = 5_000
@@ -780,6 +783,9 @@ def _smooth(
             progress(log.n_samples)
 
     _check_rudder(cleaned)
+    helm_note = _neutral_helm_note(cleaned, settings.model)
+    if helm_note is not None:
+        notes.append(helm_note)
     with_wind = [_log_name(log, i) for i, log in enumerate(cleaned) if has_wind(log)]
     if with_wind and settings.windage is None:
         warnings.append(
@@ -788,6 +794,28 @@ def _smooth(
         )
     return _SmoothedLogs(
         tuple(logs), tuple(cleaned), tuple(tracks), tuple(segments), tuple(warnings), tuple(notes)
+    )
+
+
+def _neutral_helm_note(logs: Sequence[ManeuverLog], model: str) -> str | None:
+    """Say when the logs approach at a helm off the centre line the model has no term for.
+
+    A single-screw ship runs straight at a neutral helm off the centre line (the Mariner
+    reference 1.1° to port); ``prime-rudder-offset`` models it, the other families
+    explain it by their hull and rudder gains (benchmarks/fidelity.md, "A ship of another
+    structure"). None when every log's approach helm is within
+    :data:`NEUTRAL_HELM_NOTE_RAD` of amidships, or the model has the offset.
+    """
+    if family_name(model) in (PRIME_RUDDER_OFFSET.name, PRIME_RUDDER_OFFSET_THRUST.name):
+        return None
+    helms = [approach_helm_rad(log) for log in logs]
+    i = int(np.argmax(np.abs(helms)))
+    if abs(helms[i]) <= NEUTRAL_HELM_NOTE_RAD:
+        return None
+    return (
+        f"{_log_name(logs[i], i)} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
+        f"(mean rudder before execute): a single screw's neutral helm, which "
+        f"{family_name(model)} has no term for; --model {PRIME_RUDDER_OFFSET.name} has one"
     )
 
 

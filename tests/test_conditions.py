@@ -188,6 +188,8 @@ def test_a_fit_at_one_rpm_refits_a_thrust_that_is_not_a_propellers(
     assert "X_un = " in result.params.identification["thrust"]
     assert any("refitted as prime-rudder-thrust" in note for note in result.notes)
     assert not any("not a propeller's" in w for w in result.warnings)
+    # the runs approach within 0.02 deg of amidships: no neutral-helm note
+    assert not any("neutral helm" in note for note in result.notes)
     turns = _hard_turns(result.params)
     assert all(t.sane and t.tactical_diameter_m is not None for t in turns)
     assert all(2.0 < (t.tactical_diameter_m or 0.0) / 7.0 < 4.5 for t in turns)

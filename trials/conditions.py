@@ -281,6 +281,15 @@ def _switch_headings(log: ManeuverLog, rudder: _RudderReading) -> tuple[float, .
     return tuple(out)
 
 
+def approach_helm_rad(log: ManeuverLog) -> float:
+    """Mean rudder angle [rad] before execute: the helm the approach was sailed at.
+
+    A single-screw ship needs one off the centre line to run straight (its neutral helm);
+    the first sample when the log starts at execute.
+    """
+    return float(np.mean(log.rudder_rad[: max(execute_index(log), 1)]))
+
+
 @dataclass(frozen=True)
 class _RudderReading:
     """What the rudder did after execute (see :func:`_read_rudder`)."""
@@ -302,8 +311,7 @@ def _read_rudder(log: ManeuverLog, k: int, *, reversing: bool) -> _RudderReading
     reversals = _reversals(log, k, sign) if reversing else np.array([], dtype=int)
     bounds = [k, *reversals.tolist(), log.n_samples]
     plateaus = _plateaus(log, bounds, sign)
-    neutral = float(np.mean(log.rudder_rad[: max(k, 1)]))
-    rate = _rudder_rate(log, bounds[:-1], [neutral, *plateaus])
+    rate = _rudder_rate(log, bounds[:-1], [approach_helm_rad(log), *plateaus])
     return _RudderReading(k, sign, reversals, plateaus, rate)
 
 
