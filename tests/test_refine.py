@@ -204,6 +204,43 @@ def test_refinement_starts_from_the_candidate_that_replays_best(
     assert result.params.identification["refinement"]["initial_method"] == good
 
 
+def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candidate(
+    logs: dict[str, ManeuverLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The truth replays its logs best, but (forced) every estimate's virtual turns
+    diverge except the other candidate's: the refinement runs again from that one, keeps
+    it, and says why; with no sane candidate the insane estimate stays, warned about."""
+    truth, other = _truth(), _perturbed(_truth())
+    sane_turns = guards.Approach.turns
+    others_sane = {"yes": True}
+
+    def turns(approach, params, settings):  # type: ignore[no-untyped-def]
+        result = sane_turns(approach, params, settings)
+        if others_sane["yes"] and np.array_equal(params.to_vector(), other.to_vector()):
+            return result
+        return tuple(replace(t, bounded=False) for t in result)
+
+    monkeypatch.setattr(guards.Approach, "turns", turns)
+    result = refine_output_error(
+        truth, list(logs.values()), alternatives={"equation-error": other}, max_nfev=2
+    )
+    assert result.initial_method == "equation-error" and result.kept == "initial"
+    np.testing.assert_array_equal(result.params.to_vector(), other.to_vector())
+    why = (
+        "the EKF estimate from the EKF start fails the sanity guard (a virtual hard-over turn "
+        "diverges or does not pass 360 deg); refined again from the equation-error estimate, "
+        "which sails the virtual turns and zig-zags"
+    )
+    assert why in result.warnings and why in result.reason
+    assert why in result.params.identification["refinement"]["reason"]
+    others_sane["yes"] = False
+    stuck = refine_output_error(
+        truth, list(logs.values()), alternatives={"equation-error": other}, max_nfev=2
+    )
+    assert stuck.initial_method == "ekf" and not any("refined again" in w for w in stuck.warnings)
+    assert any("fails the sanity guard" in w for w in stuck.warnings)
+
+
 def test_turn_spread_compares_tactical_diameters() -> None:
     truth = _truth()
     base = _turns(truth)

@@ -15,7 +15,9 @@ the steps, each of which has its own module in ``identifier.output_error``:
    fast as a 1 Hz one);
 4. the covariance of the optimum, the Newey–West sandwich (``covariance``);
 5. virtual hard-over turns and the rules that keep the refined estimate or the
-   start (``guards``);
+   start (``guards``); when the estimate kept fails the sanity guard and the other
+   candidate start sails the virtual turns and zig-zags, the refinement runs again from
+   that one;
 6. the result record (``records``), its summary in ``params.identification``.
 """
 
@@ -66,7 +68,10 @@ def refine_output_error(
     start is the candidate whose open-loop replay of the training logs fits best
     (smallest J at its own estimate, the prior term then being zero): only training
     data decide, and the paper's one-step-ahead EKF fit is not always the estimate
-    that simulates whole manoeuvres best.
+    that simulates whole manoeuvres best. When the estimate kept (refined or start)
+    fails the sanity guard (a virtual hard-over turn diverges or does not pass 360°) and
+    another candidate sails the virtual turns and zig-zags, the refinement runs again
+    from that candidate, and the result says why.
 
     Every log is replayed from its execute sample on, from the state there that the
     start model gives when fitted to the approach (:func:`execute_state`). That state is
@@ -164,6 +169,23 @@ def refine_output_error(
     )
     if kept == "initial" or "although" in reason:
         warnings.append(reason)
+    if not all(t.sane for t in (refined if kept == "refined" else initial).turns):
+        sane = _sane_candidate(others, approach, settings)
+        if sane is not None:  # start again from the one that sails the virtual manoeuvres
+            again = refine_output_error(
+                others[sane], logs, tracks=tracks, settings=settings, method=sane
+            )
+            kept_label = "output-error" if kept == "refined" else label
+            why = (
+                f"the {kept_label} estimate from the {label} start fails the sanity guard (a "
+                "virtual hard-over turn diverges or does not pass 360 deg); refined again from "
+                f"the {method_label(sane)} estimate, which sails the virtual turns and zig-zags"
+            )
+            return replace(
+                again,
+                reason=f"{again.reason} ({why})",
+                warnings=(*warnings, why, *again.warnings),
+            ).recorded()
     if not (refined if kept == "refined" else initial).zigzags_complete:
         warnings.append(
             "the kept estimate's virtual 20/20 zig-zag diverges or does not reach its second "
@@ -183,6 +205,18 @@ def refine_output_error(
         warnings=tuple(warnings),
         settings=settings,
     ).recorded()
+
+
+def _sane_candidate(
+    candidates: Mapping[str, ModelParameters], approach: Approach, settings: RefineSettings
+) -> str | None:
+    """Return the first candidate whose virtual turns are sane and zig-zags complete, or None."""
+    for name, estimate in candidates.items():
+        if all(t.sane for t in approach.turns(estimate, settings)) and approach.zigzags_complete(
+            estimate, settings
+        ):
+            return name
+    return None
 
 
 def _coefficient_objective(
