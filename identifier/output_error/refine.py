@@ -169,7 +169,8 @@ def refine_output_error(
     )
     if kept == "initial" or "although" in reason:
         warnings.append(reason)
-    if not all(t.sane for t in (refined if kept == "refined" else initial).turns):
+    kept_fit = refined if kept == "refined" else initial
+    if not all(t.sane for t in kept_fit.turns):
         sane = _sane_candidate(others, approach, settings)
         if sane is not None:  # start again from the one that sails the virtual manoeuvres
             again = refine_output_error(
@@ -186,7 +187,7 @@ def refine_output_error(
                 reason=f"{again.reason} ({why})",
                 warnings=(*warnings, why, *again.warnings),
             ).recorded()
-    if not (refined if kept == "refined" else initial).zigzags_complete:
+    if not kept_fit.zigzags_complete:
         warnings.append(
             "the kept estimate's virtual 20/20 zig-zag diverges or does not reach its second "
             "overshoot: it is no model of that manoeuvre; add logs of larger rudder angles"
