@@ -43,6 +43,7 @@ from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
 from fmu_model.variants import (
+    NEUTRAL_RUDDER_OFFSET,
     PRIME_RUDDER,
     PRIME_RUDDER_OFFSET,
     PRIME_RUDDER_OFFSET_THRUST,
@@ -660,6 +661,9 @@ def identify(
     stage = stage or _no_stage
     with np.errstate(all="ignore"):
         data = _smooth(logs, settings, progress, stage)
+        helm_note = _neutral_helm_note(data.logs, settings.model)
+        if helm_note is not None:
+            data = replace(data, notes=(*data.notes, helm_note))
         result = _fit(data, settings, length, vessel, progress, stage)
         fixed_slope = fixed_thrust_model(settings.model)
         if fixed_slope is None or thrust_warning(result.params) is None:
@@ -701,10 +705,12 @@ def fixed_thrust_model(model: str) -> str | None:
     for every other model, whose thrust :func:`thrust_warning` only warns about.
     """
     parsed = parse_family(model)
-    fixed_family = None if parsed is None else _FIXED_THRUST_FAMILIES.get(parsed[0].name)
-    if parsed is None or fixed_family is None:
+    if parsed is None:
         return None
-    fixed = parsed[1]
+    family, fixed = parsed
+    fixed_family = _FIXED_THRUST_FAMILIES.get(family.name)
+    if fixed_family is None:
+        return None
     if not fixed:
         return fixed_family
     return f"{fixed_family}[" + ",".join(f"{k}={v!r}" for k, v in fixed.items()) + "]"
@@ -783,9 +789,6 @@ def _smooth(
             progress(log.n_samples)
 
     _check_rudder(cleaned)
-    helm_note = _neutral_helm_note(cleaned, settings.model)
-    if helm_note is not None:
-        notes.append(helm_note)
     with_wind = [_log_name(log, i) for i, log in enumerate(cleaned) if has_wind(log)]
     if with_wind and settings.windage is None:
         warnings.append(
@@ -806,7 +809,8 @@ def _neutral_helm_note(logs: Sequence[ManeuverLog], model: str) -> str | None:
     structure"). None when every log's approach helm is within
     :data:`NEUTRAL_HELM_NOTE_RAD` of amidships, or the model has the offset.
     """
-    if family_name(model) in (PRIME_RUDDER_OFFSET.name, PRIME_RUDDER_OFFSET_THRUST.name):
+    parsed = parse_family(model)
+    if parsed is not None and any(c.symbol == NEUTRAL_RUDDER_OFFSET for c in parsed[0].shape):
         return None
     helms = [approach_helm_rad(log) for log in logs]
     i = int(np.argmax(np.abs(helms)))

@@ -287,7 +287,12 @@ def approach_helm_rad(log: ManeuverLog) -> float:
     A single-screw ship needs one off the centre line to run straight (its neutral helm);
     the first sample when the log starts at execute.
     """
-    return float(np.mean(log.rudder_rad[: max(execute_index(log), 1)]))
+    return _helm_before(log, execute_index(log))
+
+
+def _helm_before(log: ManeuverLog, k: int) -> float:
+    """Mean rudder angle [rad] before sample ``k`` (the first sample when k is 0)."""
+    return float(np.mean(log.rudder_rad[: max(k, 1)]))
 
 
 @dataclass(frozen=True)
@@ -311,7 +316,7 @@ def _read_rudder(log: ManeuverLog, k: int, *, reversing: bool) -> _RudderReading
     reversals = _reversals(log, k, sign) if reversing else np.array([], dtype=int)
     bounds = [k, *reversals.tolist(), log.n_samples]
     plateaus = _plateaus(log, bounds, sign)
-    rate = _rudder_rate(log, bounds[:-1], [approach_helm_rad(log), *plateaus])
+    rate = _rudder_rate(log, bounds[:-1], [_helm_before(log, k), *plateaus])
     return _RudderReading(k, sign, reversals, plateaus, rate)
 
 
