@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmu_model import ModelParameters
+from fmu_model import DEFAULT_MODEL, ModelParameters
 from identifier import identify as identify_module
-from identifier.identify import FitSettings, IdentificationResult, identify
+from identifier.identify import FitSettings, IdentificationResult, fixed_thrust_model, identify
 from identifier.output_error import VirtualTurn
 from identifier.output_error.guards import virtual_turns
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
@@ -184,9 +184,10 @@ def test_a_fit_at_one_rpm_refits_a_thrust_that_is_not_a_propellers(
     do (benchmarks/hsva.md, "The propeller thrust is why"); the default fit says so and
     refits with a thrust of fixed slope, whose 35° turns complete (KVLCC2: 3.1 L)."""
     result = result_on_the_10_10_pair
-    assert result.params.model.startswith("prime-rudder-thrust[")
+    refit = fixed_thrust_model(DEFAULT_MODEL)
+    assert refit is not None and result.params.model.startswith(f"{refit}[")
     assert "X_un = " in result.params.identification["thrust"]
-    assert any("refitted as prime-rudder-thrust" in note for note in result.notes)
+    assert any(f"refitted as {refit}," in note for note in result.notes)
     assert not any("not a propeller's" in w for w in result.warnings)
     # the runs approach within 0.02 deg of amidships: no neutral-helm note
     assert not any("neutral helm" in note for note in result.notes)
@@ -208,8 +209,11 @@ def test_a_failed_refit_keeps_the_free_split_warned_about(
         smoothed.append(args[0].size)
         return smooth(*args, **kwargs)
 
+    refit = fixed_thrust_model(DEFAULT_MODEL)
+    assert refit is not None
+
     def refit_fails(data, settings, *args):  # type: ignore[no-untyped-def]
-        if settings.model.startswith("prime-rudder-thrust"):
+        if settings.model.startswith(refit):
             raise IdentificationError("the EKF diverged (test)")
         return first_pass(data, settings, *args)
 
@@ -218,9 +222,9 @@ def test_a_failed_refit_keeps_the_free_split_warned_about(
     runs = [hsva["hsva_zz10_stbd"], hsva["hsva_zz10_port"]]
     result = identify(runs, FitSettings(current="none"), length_m=7.0)
     assert smoothed == [run.n_samples for run in runs]
-    assert result.params.model.startswith("prime-rudder[")
+    assert result.params.model.startswith(f"{DEFAULT_MODEL}[")
     assert any("not a propeller's" in w for w in result.warnings)
-    failed = "the refit as prime-rudder-thrust failed (the EKF diverged"
+    failed = f"the refit as {refit} failed (the EKF diverged"
     assert any(failed in note for note in result.notes)
 
 

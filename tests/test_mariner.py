@@ -15,8 +15,10 @@ from types import MappingProxyType
 import numpy as np
 import pytest
 
-from fmu_model import load_params
+from fmu_model import DEFAULT_MODEL, load_params
 from fmu_model.export_native import build_native_fmu
+from fmu_model.variants import NEUTRAL_RUDDER_OFFSET, parse_family
+from identifier.identify import FitSettings, identify
 from scenarios.cli import PROG, main
 from scenarios.mariner import (
     APPROACH_SPEED_MPS,
@@ -109,6 +111,23 @@ def test_logs_approach_at_the_neutral_helm_as_a_trial_does():
     assert math.degrees(swinging.heading_rad[execute]) > 3.0
     assert "neutral helm" not in swinging.metadata["source"]
     assert reference_ship("kvlcc2").neutral_helm == Helm()
+
+
+def test_a_fit_without_the_offset_notes_the_neutral_helm():
+    """A family with no neutral-rudder offset is told of the logs' neutral helm and of the
+    family that models it; the default family has the offset and is not."""
+    log = synthesize_log(reference_ship("mariner"), MANEUVERS["zigzag-10"]())
+    plain = FitSettings(model="prime-rudder", method="ekf", current="none")
+    note = (
+        "log 1 approaches at a helm of -1.11 deg (mean rudder before execute): a single "
+        "screw's neutral helm, which prime-rudder has no term for; --model "
+        "prime-rudder-offset has one"
+    )
+    assert note in identify([log], plain).notes
+    default = parse_family(DEFAULT_MODEL)
+    assert default is not None and NEUTRAL_RUDDER_OFFSET in (c.symbol for c in default[0].shape)
+    offset = identify([log], replace(plain, model=DEFAULT_MODEL)).notes
+    assert not any("neutral helm" in n for n in offset)
 
 
 def _tactical_diameters_L(ship) -> tuple[float, float]:
@@ -206,8 +225,9 @@ def test_a_ship_of_another_structure_goes_through_the_whole_pipeline(tmp_path, c
     """Mariner logs → fit → native FMU → validate against the Mariner: every command
     succeeds and every compared quantity is predicted; the starboard turn, trained on,
     within 20 % (the default family does not fit this ship's turn closely,
-    benchmarks/fidelity.md); the estimate kept sails the virtual 20/20 zig-zags, and the
-    fit notes the logs' neutral helm and the family that models it."""
+    benchmarks/fidelity.md); the estimate kept sails the virtual 20/20 zig-zags. The
+    default family has the neutral-rudder offset: the logs' neutral helm (1.1° to port)
+    comes out as an offset to port, and the fit has nothing to note about it."""
     logs = tmp_path / "logs"
     argv = ["synthesize", "--vessel", "mariner", "--quiet", "-o", str(logs)]
     for name in ("zigzag-10", "zigzag-20", "turning-35"):
@@ -218,11 +238,11 @@ def test_a_ship_of_another_structure_goes_through_the_whole_pipeline(tmp_path, c
     done = subprocess.run(
         [*fit, "-o", str(params_path)], check=True, cwd=ROOT, capture_output=True, text=True
     )
-    assert (
-        "approaches at a helm of -1.11 deg (mean rudder before execute): a single screw's "
-        "neutral helm, which prime-rudder has no term for; --model prime-rudder-offset has one"
-    ) in done.stderr
+    assert "neutral helm" not in done.stderr
     params = load_params(params_path)
+    family = parse_family(params.model)
+    assert family is not None
+    assert 0.0 < family[1][str(NEUTRAL_RUDDER_OFFSET)] < 0.1  # it turns to starboard at 0°
     refinement = params.identification["refinement"]
     assert refinement[refinement["kept"]]["virtual_zigzags_complete"] is True
     fmu = build_native_fmu(params, tmp_path / "mariner.fmu")

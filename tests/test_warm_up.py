@@ -9,7 +9,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+from fmu_model import DEFAULT_MODEL
 from fmu_model.kernels import CACHE_ENV
+from identifier.identify import fixed_thrust_model
 
 # A fit of two other logs (other manoeuvres, rate and noise than the warm-up's zig-zag)
 # under the default and the still-water settings, in a fresh interpreter: what numba
@@ -53,8 +55,8 @@ def test_after_warm_up_a_fit_loads_every_compiled_function(tmp_path: Path) -> No
     assert int(match[1]) > 0  # it compiled (the count is not always 0) ...
     assert list((tmp_path / "kernels").glob("shipid_kernels_*.py"))  # ... into the caches
     # ... of the default family and of what a default fit may be refitted as
-    assert "warm-up of prime-rudder:" in warm.stdout
-    assert "warm-up of prime-rudder-thrust:" in warm.stdout
+    assert f"warm-up of {DEFAULT_MODEL}:" in warm.stdout
+    assert f"warm-up of {fixed_thrust_model(DEFAULT_MODEL)}:" in warm.stdout
     fit = subprocess.run(
         [sys.executable, "-c", _FIT], capture_output=True, text=True, env=env, timeout=900
     )
