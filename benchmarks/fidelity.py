@@ -43,7 +43,7 @@ from candidates import register_candidates
 from intervals import prediction_intervals
 from report import fitted_label, write_block
 
-from fmu_model import ModelParameters
+from fmu_model import DEFAULT_MODEL, ModelParameters
 from fmu_model.envelope import Envelope, trajectory_envelope
 from fmu_model.interface import logged_envelope
 from identifier.identify import FitSettings, identify
@@ -66,6 +66,7 @@ MODELS = (
     "prime-modulus",
     "prime-rudder[dgamma=0,dwake=0]",
     "prime-rudder",
+    DEFAULT_MODEL,
 )
 TRAINING = {
     "zig-zags": ("zigzag-10", "zigzag-20"),

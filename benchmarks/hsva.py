@@ -55,7 +55,7 @@ from candidates import register_candidates
 from intervals import prediction_intervals
 from report import fitted_label, write_block
 
-from fmu_model import ModelParameters
+from fmu_model import DEFAULT_MODEL, ModelParameters
 from fmu_model.envelope import trajectory_envelope
 from fmu_model.interface import logged_envelope
 from identifier.identify import FitSettings, identify
@@ -77,7 +77,7 @@ EXTRA_FOLDS = {"all four": RUNS}  # run only when named
 ALL_FOLDS = {**FOLDS, **EXTRA_FOLDS}
 LENGTH_M = 7.0
 RUDDER_RATE_RADPS = math.radians(15.0)  # the runs' steering gear, 14–16 °/s (README.md there)
-MODELS = ("prime-rudder",)
+MODELS = (DEFAULT_MODEL,)
 INDICES = ("first_overshoot_deg", "second_overshoot_deg")
 
 
