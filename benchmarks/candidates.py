@@ -19,6 +19,10 @@ shape constants:
 * ``lift-thrust``: the thrust of fixed open-water slope of ``prime-rudder-thrust`` (the
   candidate ``thrust`` of earlier rounds, registered in ``fmu_model``: every fit of the
   measured HSVA runs turns) in ``prime-rudder-lift``;
+* ``offset-lift``, ``offset-lift-thrust``: ``prime-rudder-lift``'s u_R² sin³α_R in sway
+  and yaw on the default ``prime-rudder-offset`` (both angles of attack with δ₀), and the
+  same with the thrust of fixed open-water slope (what a fit at one rpm whose free split
+  is not a propeller's would be refitted as);
 * ``helm``: the neutral-rudder offset linearised, so that it is estimated with the other
   gains instead of gridded: u_R² sin(α_R + δ₀) ≈ u_R² sin α_R + δ₀·u_R² cos α_R, the
   second term with its own gain in sway and yaw (Y_R0, N_R0; Y_R0/Y_R ≈ δ₀): the
@@ -53,10 +57,12 @@ import sympy as sp
 
 from fmu_model.structure import L, ModelStructure, Term, n, r
 from fmu_model.variants import (
+    NEUTRAL_RUDDER_OFFSET,
     PRIME_CUBIC,
     PRIME_MODULUS,
     PRIME_RUDDER,
     PRIME_RUDDER_LIFT,
+    PRIME_RUDDER_OFFSET,
     PROPELLER_INFLOW,
     RUDDER_INFLOW_SQUARED,
     SLIPSTREAM_K,
@@ -131,12 +137,24 @@ _, _HELM_SWAY, _HELM_YAW = rudder_gain_terms(
 )
 
 
+_, _OFFSET_SWAY3, _OFFSET_YAW3 = rudder_gain_terms(
+    RUDDER_INFLOW_SQUARED * sp.sin(rudder_angle_of_attack(NEUTRAL_RUDDER_OFFSET)) ** 3, "3"
+)
+
+
 def candidate_families() -> tuple[ModelFamily, ...]:
     """Return the candidate families of the module docstring."""
     base = PRIME_RUDDER
     modulus = sway_and_yaw_terms(PRIME_MODULUS, *MODULUS_HULL)
     cubic = sway_and_yaw_terms(PRIME_CUBIC, *CUBIC_HULL)
     extra = sway_and_yaw_terms(PRIME_CUBIC, *CUBIC_HULL[2:])
+    offset_lift = _with_terms(
+        "offset-lift",
+        PRIME_RUDDER_OFFSET.surge,
+        (_OFFSET_SWAY3,),
+        (_OFFSET_YAW3,),
+        PRIME_RUDDER_OFFSET,
+    )
     return (
         _with_hull("rudder-cubic", *cubic),
         _with_hull("rudder-both", modulus[0] + extra[0], modulus[1] + extra[1]),
@@ -151,6 +169,8 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         _with_terms("asym-hull", base.surge, (Term("Y_rr", r**2 * L),), (Term("N_rr", r**2),)),
         _with_terms("asym-prop", base.surge, (Term("Y_nn", n**2 * L),), (Term("N_nn", n**2),)),
         with_fixed_thrust(PRIME_RUDDER_LIFT, "lift-thrust", "prime-rudder-lift, fixed thrust"),
+        offset_lift,
+        with_fixed_thrust(offset_lift, "offset-lift-thrust", "offset-lift, fixed thrust"),
         _with_terms(
             "helm",
             base.surge,
