@@ -390,7 +390,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         + ", ".join(
             f"{m} " + (f"{e:.1%}" if math.isfinite(e) else "n/a") for m, e in held_out.items()
         )
-        + f". Recommended default: **{best}**.",
+        + f". Best on this ship's held-out turn: **{best}** (the default, {DEFAULT_MODEL}, is "
+        "chosen on every ship and on the measured runs: fmu_model.variants.DEFAULT_MODEL).",
     ]
     write_block(args.out, _block("fidelity.py", args.vessel), lines)
     print("\n".join(lines))
