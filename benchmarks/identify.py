@@ -16,7 +16,7 @@ turning circle 35°, zig-zag 10/10 and 20/20, about 3,200 samples at 1 Hz and 32
   ≥ 20,000 updates/s. The numba compilation (first call, with a new kernel cache) is
   excluded and reported separately;
 * ``identifier.identify.identify`` of the three logs with the default model
-  (``prime-rudder``, shape search included) at 1 and at 10 Hz, end to end in a fresh
+  (``fmu_model.DEFAULT_MODEL``, shape search included) at 1 and at 10 Hz, end to end in a fresh
   process (numba compilation included), and the 10 Hz / 1 Hz ratio;
 * ``identify`` of one log of ``--samples`` samples at each of ``--large-rates-hz``, in a
   fresh process: seconds and peak resident memory (VmHWM, reset to the current RSS once
