@@ -227,7 +227,8 @@ def test_a_ship_of_another_structure_goes_through_the_whole_pipeline(tmp_path, c
     within 20 % (the default family does not fit this ship's turn closely,
     benchmarks/fidelity.md); the estimate kept sails the virtual 20/20 zig-zags. The
     default family has the neutral-rudder offset: the logs' neutral helm (1.1° to port)
-    comes out as an offset to port, and the fit has nothing to note about it."""
+    comes out as d0 > 0 (no rudder force at δ = −d0, a helm to port), and the fit has
+    nothing to note about it."""
     logs = tmp_path / "logs"
     argv = ["synthesize", "--vessel", "mariner", "--quiet", "-o", str(logs)]
     for name in ("zigzag-10", "zigzag-20", "turning-35"):
@@ -242,7 +243,7 @@ def test_a_ship_of_another_structure_goes_through_the_whole_pipeline(tmp_path, c
     params = load_params(params_path)
     family = parse_family(params.model)
     assert family is not None
-    assert 0.0 < family[1][str(NEUTRAL_RUDDER_OFFSET)] < 0.1  # it turns to starboard at 0°
+    assert 0.0 < family[1][str(NEUTRAL_RUDDER_OFFSET)] < 0.1
     refinement = params.identification["refinement"]
     assert refinement[refinement["kept"]]["virtual_zigzags_complete"] is True
     fmu = build_native_fmu(params, tmp_path / "mariner.fmu")
