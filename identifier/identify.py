@@ -153,7 +153,7 @@ class FitSettings:
     method : {"output-error", "ekf"}
         "output-error": after the EKF, refine by output error on the whole logs
         (``identifier.output_error.refine_output_error``, default settings), starting from
-        whichever of the EKF and equation-error estimates replays the logs better, and
+        the equation-error estimate (the EKF's when that one's replay diverges), and
         keeping that start when the guards fire; "ekf": the EKF estimate (the paper).
     current : {"constant", "drifting", "none"}
         Uniform current estimated with the coefficients (``identifier.current``):

@@ -189,7 +189,7 @@ def test_a_kept_estimate_that_fails_the_virtual_zigzags_is_reported(
 
 
 @pytest.mark.parametrize("good", ["ekf", "equation-error"])
-def test_refinement_starts_from_the_candidate_that_replays_best(
+def test_without_a_preferred_start_the_refinement_starts_from_the_best_replay(
     logs: dict[str, ManeuverLog], good: str
 ) -> None:
     estimates = {good: _truth(), ({"ekf", "equation-error"} - {good}).pop(): _perturbed(_truth())}
@@ -198,10 +198,33 @@ def test_refinement_starts_from_the_candidate_that_replays_best(
         list(logs.values()),
         alternatives={"equation-error": estimates["equation-error"]},
         max_nfev=1,
+        preferred_start=None,
     )
     assert result.initial_method == good
     np.testing.assert_array_equal(result.initial.params.to_vector(), _truth().to_vector())
     assert result.params.identification["refinement"]["initial_method"] == good
+
+
+def test_the_equation_error_start_is_preferred_unless_its_replay_diverges(
+    logs: dict[str, ManeuverLog],
+) -> None:
+    """By default the refinement starts from the equation-error estimate even where the
+    EKF's replays the logs better (it does not drift with the logging rate,
+    benchmarks/sensitivity.md); one whose replay diverges gives way to the best replay."""
+    truth, other = _truth(), _perturbed(_truth())
+    preferred = refine_output_error(
+        truth, list(logs.values()), alternatives={"equation-error": other}, max_nfev=1
+    )
+    assert preferred.initial_method == "equation-error"
+    np.testing.assert_array_equal(preferred.initial.params.to_vector(), other.to_vector())
+    theta = truth.to_vector().copy()
+    theta[truth.names.index("b1")] *= -20.0  # sway damping of the wrong sign: unstable
+    diverging = truth.with_vector(theta, truth.covariance)
+    fallback = refine_output_error(
+        truth, list(logs.values()), alternatives={"equation-error": diverging}, max_nfev=1
+    )
+    assert fallback.initial_method == "ekf"
+    np.testing.assert_array_equal(fallback.initial.params.to_vector(), truth.to_vector())
 
 
 def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candidate(
@@ -221,9 +244,12 @@ def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candida
         return tuple(replace(t, bounded=False) for t in result)
 
     monkeypatch.setattr(guards.Approach, "turns", turns)
-    result = refine_output_error(
-        truth, list(logs.values()), alternatives={"equation-error": other}, max_nfev=2
-    )
+    best_replay = {
+        "alternatives": {"equation-error": other},
+        "max_nfev": 2,
+        "preferred_start": None,
+    }
+    result = refine_output_error(truth, list(logs.values()), **best_replay)
     assert result.initial_method == "equation-error" and result.kept == "initial"
     np.testing.assert_array_equal(result.params.to_vector(), other.to_vector())
     why = (
@@ -234,9 +260,7 @@ def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candida
     assert why in result.warnings and why in result.reason
     assert why in result.params.identification["refinement"]["reason"]
     others_sane["yes"] = False
-    stuck = refine_output_error(
-        truth, list(logs.values()), alternatives={"equation-error": other}, max_nfev=2
-    )
+    stuck = refine_output_error(truth, list(logs.values()), **best_replay)
     assert stuck.initial_method == "ekf" and not any("refined again" in w for w in stuck.warnings)
     assert any("fails the sanity guard" in w for w in stuck.warnings)
 
@@ -310,9 +334,9 @@ def test_candidates_that_turn_differently_are_reported(logs: dict[str, ManeuverL
     result = refine_output_error(
         truth, list(logs.values()), alternatives={"equation-error": tighter}, max_nfev=1
     )
-    assert result.initial_method == "ekf"  # the truth replays its own logs best
+    assert result.initial_method == "equation-error"  # the preferred start
     (warning,) = [w for w in result.warnings if "predict virtual 35 deg turns" in w]
-    assert warning.startswith("the EKF and equation-error estimates") and "differ by" in warning
+    assert warning.startswith("the equation-error and EKF estimates") and "differ by" in warning
 
 
 def test_settings_resolve_the_replay_step_from_the_ship_time_scale() -> None:

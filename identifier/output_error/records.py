@@ -50,6 +50,13 @@ class RefineSettings:
         Steering-gear rate of the virtual turns [rad/s]; default from the logs.
     turn_duration_factor : float
         Length of the virtual turns in units of L / U0.
+    preferred_start : str, optional
+        The candidate estimate the refinement starts from whenever its replay of the
+        training logs does not diverge: the equation-error estimate, fitted on samples
+        decimated to about L/U/40, does not drift with the logging rate as the EKF's does,
+        and predicts held-out manoeuvres better (benchmarks/hsva.md, fidelity.md,
+        sensitivity.md: "The start of the refinement"). None, or a name not among the
+        candidates: whichever candidate replays the logs best.
     verbose : int
         ``least_squares`` verbosity (0 silent).
 
@@ -67,6 +74,7 @@ class RefineSettings:
     check_turns: bool | None = None
     rudder_rate_radps: float | None = None
     turn_duration_factor: float = 60.0
+    preferred_start: str | None = "equation-error"
     verbose: int = 0
 
     def with_step(self, length_m: float, speed_mps: float) -> RefineSettings:

@@ -5,8 +5,9 @@ more of them: replayed open loop with the logged rudder and propeller speed from
 log's execute point on, the model must reproduce the whole track. This module composes
 the steps, each of which has its own module in ``identifier.output_error``:
 
-1. the start: the EKF estimate or, when it replays the training logs worse (larger
-   J(θ₀)), the equation-error estimate;
+1. the start: the preferred candidate (``RefineSettings.preferred_start``, the
+   equation-error estimate) unless its replay of the training logs diverges, else the
+   candidate that replays them best (smallest J(θ₀));
 2. each log's execute sample and the start model's state there, fitted to the
    approach and then held (``initial_state``);
 3. the objective J(θ) with a Tikhonov prior at the start, minimised by
@@ -122,7 +123,7 @@ def refine_output_error(
         for name, candidate in candidates.items()
     }
     start_costs = {name: o.cost(np.zeros(o.size)) for name, o in objectives.items()}
-    method = min(start_costs, key=start_costs.__getitem__)  # a diverging replay costs inf
+    method = _start(start_costs, settings.preferred_start)
     params, objective = candidates[method], objectives[method]
     label = method_label(method)
     initial = _summarise(objective, np.zeros(objective.size), params, approach)
@@ -206,6 +207,17 @@ def refine_output_error(
         warnings=tuple(warnings),
         settings=settings,
     ).recorded()
+
+
+def _start(start_costs: Mapping[str, float], preferred: str | None) -> str:
+    """Return the candidate to start from (``RefineSettings.preferred_start``).
+
+    ``preferred`` if its replay of the training logs is finite, else the candidate with
+    the smallest J(θ₀) (a diverging replay costs inf).
+    """
+    if preferred is not None and math.isfinite(start_costs.get(preferred, math.inf)):
+        return preferred
+    return min(start_costs, key=start_costs.__getitem__)
 
 
 def _sane_candidate(
