@@ -54,8 +54,8 @@ class RefineSettings:
         The candidate estimate the refinement starts from whenever its replay of the
         training logs does not diverge: the equation-error estimate, fitted on samples
         decimated to about L/U/40, does not drift with the logging rate as the EKF's does,
-        and predicts held-out manoeuvres better (benchmarks/hsva.md, fidelity.md,
-        sensitivity.md: "The start of the refinement"). None, or a name not among the
+        and predicts held-out manoeuvres better (benchmarks/fidelity.md, "The start of
+        the refinement: the equation-error estimate"). None, or a name not among the
         candidates: whichever candidate replays the logs best.
     verbose : int
         ``least_squares`` verbosity (0 silent).
