@@ -66,10 +66,12 @@ def refine_output_error(
     """Refine identified coefficients by output error on whole manoeuvres.
 
     With ``alternatives`` (e.g. the equation-error estimate beside the EKF's), the
-    start is the candidate whose open-loop replay of the training logs fits best
-    (smallest J at its own estimate, the prior term then being zero): only training
-    data decide, and the paper's one-step-ahead EKF fit is not always the estimate
-    that simulates whole manoeuvres best. When the estimate kept (refined or start)
+    start is ``settings.preferred_start`` (the equation-error estimate) unless its
+    open-loop replay of the training logs diverges; else, or with no preferred start,
+    the candidate whose replay fits best (smallest J at its own estimate, the prior term
+    then being zero). The paper's one-step-ahead EKF fit is not always the estimate that
+    simulates or predicts whole manoeuvres best, and it drifts with the logging rate.
+    When the estimate kept (refined or start)
     fails the sanity guard (a virtual hard-over turn diverges or does not pass 360°) and
     another candidate sails the virtual turns and zig-zags, the refinement runs again
     from that candidate, and the result says why.
