@@ -23,7 +23,7 @@ DEFAULT_MODEL = "prime-rudder-offset"
 """The default structure: the one that best predicts held-out manoeuvres
 (benchmarks/fidelity.md, hsva.md: trained on zig-zags only, it predicts both 35° turns of
 the KVLCC2 reference as well as prime-rudder, the Mariner's (a ship of another structure,
-single screw) within 10 % where prime-rudder misses by up to 25 %, and the measured HSVA
+single screw) within 10 % where prime-rudder misses by 20 % and more, and the measured HSVA
 zig-zags a little better; prime-modulus, prime-cubic and shi2009 miss the KVLCC2 turns by
 98 %, never turn through 180° and 45 %)."""
 
