@@ -345,9 +345,8 @@ def method_label(method: str) -> str:
 def candidate_disagreement(
     start: str,
     start_turns: Sequence[VirtualTurn],
-    others: Mapping[str, ModelParameters],
-    approach: Approach,
-    settings: RefineSettings,
+    other_turns: Mapping[str, Sequence[VirtualTurn]],
+    tolerance: float,
 ) -> list[str]:
     """Warn when another candidate start predicts a different hard-over turn.
 
@@ -361,12 +360,11 @@ def candidate_disagreement(
         The method of the start estimate.
     start_turns : sequence of VirtualTurn
         Its virtual turns.
-    others : mapping of str to ModelParameters
-        The other candidates by method.
-    approach : Approach
-        Conditions of the virtual turns.
-    settings : RefineSettings
-        ``turn_tolerance`` and the turns' run length and step.
+    other_turns : mapping of str to sequence of VirtualTurn
+        The other candidates' virtual turns (from the same approach) by method.
+    tolerance : float
+        Largest relative spread of the tactical diameters that is not reported
+        (``RefineSettings.turn_tolerance``).
 
     Returns
     -------
@@ -374,11 +372,9 @@ def candidate_disagreement(
         One warning naming the candidate that differs most, or none.
 
     """
-    spreads = {
-        name: turn_spread(start_turns, approach.turns(p, settings)) for name, p in others.items()
-    }
+    spreads = {name: turn_spread(start_turns, turns) for name, turns in other_turns.items()}
     worst = max(spreads, key=spreads.__getitem__, default=None)
-    if worst is None or spreads[worst] <= settings.turn_tolerance:
+    if worst is None or spreads[worst] <= tolerance:
         return []
     amount = "through 180 deg" if math.isinf(spreads[worst]) else f"by {spreads[worst]:.0%}"
     return [

@@ -47,7 +47,12 @@ from identifier.output_error.guards import (
 )
 from identifier.output_error.initial_state import execute_state, smooth_log
 from identifier.output_error.objective import Objective, prepare_log, whitening
-from identifier.output_error.records import FitSummary, RefinementResult, RefineSettings
+from identifier.output_error.records import (
+    FitSummary,
+    RefinementResult,
+    RefineSettings,
+    VirtualTurn,
+)
 from identifier.smoothing import SmoothedTrack
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
@@ -150,7 +155,8 @@ def refine_output_error(
             settings=settings,
         ).recorded()
     others = {name: p for name, p in candidates.items() if name != method}
-    warnings = candidate_disagreement(method, initial.turns, others, approach, settings)
+    other_turns = {name: approach.turns(p, settings) for name, p in others.items()}
+    warnings = candidate_disagreement(method, initial.turns, other_turns, settings.turn_tolerance)
     if not all(t.sane for t in initial.turns):
         warnings.append(
             f"the {label} estimate fails the sanity guard: a virtual hard-over turn "
@@ -174,7 +180,7 @@ def refine_output_error(
         warnings.append(reason)
     kept_fit = refined if kept == "refined" else initial
     if not all(t.sane for t in kept_fit.turns):
-        sane = _sane_candidate(others, approach, settings)
+        sane = _sane_candidate(others, other_turns, approach, settings)
         if sane is not None:  # start again from the one that sails the virtual manoeuvres
             again = refine_output_error(
                 others[sane], logs, tracks=tracks, settings=settings, method=sane
@@ -223,13 +229,18 @@ def _start(start_costs: Mapping[str, float], preferred: str | None) -> str:
 
 
 def _sane_candidate(
-    candidates: Mapping[str, ModelParameters], approach: Approach, settings: RefineSettings
+    candidates: Mapping[str, ModelParameters],
+    turns: Mapping[str, Sequence[VirtualTurn]],
+    approach: Approach,
+    settings: RefineSettings,
 ) -> str | None:
-    """Return the first candidate whose virtual turns are sane and zig-zags complete, or None."""
+    """Return the first candidate whose virtual turns are sane and zig-zags complete.
+
+    ``turns``: each candidate's virtual turns by name, sailed already. None when no
+    candidate does.
+    """
     for name, estimate in candidates.items():
-        if all(t.sane for t in approach.turns(estimate, settings)) and approach.zigzags_complete(
-            estimate, settings
-        ):
+        if all(t.sane for t in turns[name]) and approach.zigzags_complete(estimate, settings):
             return name
     return None
 
