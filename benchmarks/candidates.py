@@ -73,6 +73,7 @@ from fmu_model.variants import (
     register_family,
     rudder_angle_of_attack,
     rudder_gain_terms,
+    rudder_lift_terms,
     rudder_normal_force,
     with_fixed_thrust,
     with_rudder_force,
@@ -137,9 +138,7 @@ _, _HELM_SWAY, _HELM_YAW = rudder_gain_terms(
 )
 
 
-_, _OFFSET_SWAY3, _OFFSET_YAW3 = rudder_gain_terms(
-    RUDDER_INFLOW_SQUARED * sp.sin(rudder_angle_of_attack(NEUTRAL_RUDDER_OFFSET)) ** 3, "3"
-)
+_OFFSET_SWAY3, _OFFSET_YAW3 = rudder_lift_terms(NEUTRAL_RUDDER_OFFSET)
 
 
 def candidate_families() -> tuple[ModelFamily, ...]:

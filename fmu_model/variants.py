@@ -474,6 +474,7 @@ PRIME_RUDDER = register_family(
     )
 )
 
+
 # --- Rudder normal force not linear in sin α_R (issue 13, benchmarks/hsva.md) --------------
 # The MMG method takes the normal-force coefficient as f_α·sin α_R with f_α constant. The
 # normal force of a low-aspect-ratio rudder grows faster than sin α_R (cross flow;
@@ -483,9 +484,18 @@ PRIME_RUDDER = register_family(
 # candidate of issue 13 that predicts the measured HSVA runs it was not trained on better
 # than ``prime-rudder`` (every fold but one, the held-out sum 15.3° against 18.8°)
 # without losing on the KVLCC2 reference.
-_, _Y_R3, _N_R3 = rudder_gain_terms(
-    RUDDER_INFLOW_SQUARED * sp.sin(rudder_angle_of_attack()) ** 3, suffix="3"
-)
+def rudder_lift_terms(extra_angle: sp.Expr = sp.S.Zero) -> tuple[Term, Term]:
+    """Return the sway and yaw terms Y_R3, N_R3 of u_R²·sin³α_R·cos δ.
+
+    ``extra_angle`` [rad] is added to α_R as in :func:`rudder_angle_of_attack`.
+    """
+    _, sway, yaw = rudder_gain_terms(
+        RUDDER_INFLOW_SQUARED * sp.sin(rudder_angle_of_attack(extra_angle)) ** 3, suffix="3"
+    )
+    return sway, yaw
+
+
+_Y_R3, _N_R3 = rudder_lift_terms()
 
 PRIME_RUDDER_LIFT = register_family(
     replace(
