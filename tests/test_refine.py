@@ -26,6 +26,7 @@ from identifier.output_error import (
     virtual_turns,
 )
 from identifier.output_error.guards import (
+    candidate_disagreement,
     covers_both_sides,
     decide,
     training_approach,
@@ -439,7 +440,7 @@ def _fit(
     [
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (310.0, 310.0)), True, "refined", "accepted"),
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (400.0, 400.0)), False, "refined", "accepted"),
-        (_fit(2.0, (300.0, 300.0)), _fit(1.0, (400.0, 400.0)), True, "initial", "beyond the 5%"),
+        (_fit(2.0, (300.0, 300.0)), _fit(1.0, (400.0, 400.0)), True, "initial", "allows (5%"),
         (_fit(2.0, (None, None)), _fit(1.0, (400.0, 400.0)), True, "refined", "although"),
         (_fit(2.0, (300.0, 300.0)), _fit(3.0, (300.0, 300.0)), False, "initial", "not lower"),
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, None)), False, "initial", "360 deg"),
@@ -485,6 +486,58 @@ def test_decide_keeps_the_start_when_a_guard_fires(
     )
     assert choice == kept and words in reason
     assert ("kept the EKF estimate" in reason) == (kept == "initial")
+
+
+@pytest.mark.parametrize(("refined_m", "kept"), [(300.0, "refined"), (301.5, "initial")])
+def test_without_a_turning_log_the_default_keeps_the_start_whenever_the_turn_moves(
+    refined_m: float, kept: str
+) -> None:
+    """The default turn check has no tolerance: a refined turn 0.5 % wider is not kept
+    (a 5 % threshold let a beam wind flip the estimate kept, environment.md)."""
+    initial, refined = _fit(2.0, (300.0, 300.0)), _fit(1.0, (refined_m, refined_m))
+    choice, reason = decide(
+        initial,
+        refined,
+        turn_check=True,
+        spread=turn_spread(initial.turns, refined.turns),
+        tolerance=RefineSettings().turn_tolerance,
+        label="equation-error",
+    )
+    assert choice == kept, reason
+    if kept == "initial":
+        assert reason == (
+            "output error moves the virtual 35 deg tactical diameter by 0.5% (stbd 300 m -> "
+            "302 m, port 300 m -> 302 m), more than the turn check allows (0%: output error is "
+            "not trusted on turns without a turning log); kept the equation-error estimate"
+        )
+
+
+@pytest.mark.parametrize(
+    ("other_m", "words"),
+    [
+        (310.0, None),  # 3.3 %: within the default 5 %
+        (320.0, "by 7%"),
+        (None, "through 180 deg"),
+    ],
+)
+def test_candidates_whose_virtual_turns_differ_are_reported(
+    other_m: float | None, words: str | None
+) -> None:
+    start, other = _fit(1.0, (300.0, 300.0)), _fit(1.0, (other_m, other_m))
+    warnings = candidate_disagreement(
+        "equation-error",
+        start.turns,
+        {"ekf": other.turns},
+        RefineSettings().disagreement_tolerance,
+    )
+    if words is None:
+        assert warnings == []
+    else:
+        (warning,) = warnings
+        assert warning.startswith(
+            "the equation-error and EKF estimates from these logs predict virtual 35 deg turns "
+            f"that differ {words}: the logs do not determine the turning circle"
+        )
 
 
 @pytest.mark.parametrize(

@@ -5,15 +5,16 @@ Output error on zig-zags alone is unreliable for turns (reference/model_structur
 training approach state (:class:`Approach`) with the start and the refined
 coefficients (:func:`virtual_turns`). When no training log turns through 180°
 (:func:`covers_turn`) and the refined tactical diameter differs from the start's by
-more than ``turn_tolerance`` (:func:`turn_spread`), the start estimate is kept and the
-spread reported (unless the start does not even turn through 180°). Independently, a
-refined estimate is only kept when it lowers the cost, every training log replays
-without divergence and both virtual turns stay bounded and pass 360° (or, when the
-start's do not either, go at least as far as the start's), and, when the start's do,
-its virtual 20°/20° zig-zags to both sides reach their second overshoot without
-diverging (:func:`virtual_zigzags`; :func:`decide`). Unless the
-logs turn through 180° to both sides, a refined estimate whose two virtual turns differ
-by more than :data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is rejected too: the
+more than ``turn_tolerance`` (:func:`turn_spread`; by default 0: at all), the start
+estimate is kept and the spread reported (unless the start does not even turn through
+180°): without a turning log, output error is a check on the turn, not an estimate of
+it. Independently, a refined estimate is only kept when it lowers the cost, every
+training log replays without divergence and both virtual turns stay bounded and pass
+360° (or, when the start's do not either, go at least as far as the start's), and,
+when the start's do, its virtual 20°/20° zig-zags to both sides reach their second
+overshoot without diverging (:func:`virtual_zigzags`; :func:`decide`). Unless the logs
+turn through 180° to both sides, a refined estimate whose two virtual turns differ by
+more than :data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is rejected too: the
 side no log verifies is then the refinement's guess.
 """
 
@@ -364,7 +365,7 @@ def candidate_disagreement(
         The other candidates' virtual turns (from the same approach) by method.
     tolerance : float
         Largest relative spread of the tactical diameters that is not reported
-        (``RefineSettings.turn_tolerance``).
+        (``RefineSettings.disagreement_tolerance``).
 
     Returns
     -------
@@ -453,8 +454,8 @@ def decide(
                 f"it, because the {label} estimate does not turn through 180 deg"
             )
         return "initial", (
-            f"{text}, beyond the {tolerance:.0%} tolerance of the turn check (output error "
-            f"is not trusted on turns without a turning log); {keep}"
+            f"{text}, more than the turn check allows ({tolerance:.0%}: output error is not "
+            f"trusted on turns without a turning log); {keep}"
         )
     return "refined", "output-error estimate accepted"
 

@@ -43,7 +43,14 @@ class RefineSettings:
         samples a continuously moving rudder) or held as by ``fmu_model.simulate``.
     turn_tolerance : float
         Largest relative change of the virtual turns' tactical diameter accepted
-        when the training logs contain no turn (model_structures.md §6).
+        when the training logs contain no turn. 0, the default: without a turning log
+        output error is a check on turns, not an estimate of them, and the start is kept
+        whenever the refinement moves its turn (model_structures.md §6 suggests ~5 %;
+        a threshold lets a beam wind or a noise draw flip the estimate kept,
+        benchmarks/environment.md, "The turn check without a tolerance").
+    disagreement_tolerance : float
+        Largest relative spread of the candidate starts' virtual tactical diameters
+        that the fit does not warn about.
     check_turns : bool, optional
         Apply that check: None decides from the data (no log turns through 180°).
     rudder_rate_radps : float, optional
@@ -70,7 +77,8 @@ class RefineSettings:
     ftol: float = 1e-6
     max_step_s: float | None = None
     inputs: str = "linear"
-    turn_tolerance: float = 0.05
+    turn_tolerance: float = 0.0
+    disagreement_tolerance: float = 0.05
     check_turns: bool | None = None
     rudder_rate_radps: float | None = None
     turn_duration_factor: float = 60.0

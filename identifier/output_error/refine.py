@@ -156,7 +156,9 @@ def refine_output_error(
         ).recorded()
     others = {name: p for name, p in candidates.items() if name != method}
     other_turns = {name: approach.turns(p, settings) for name, p in others.items()}
-    warnings = candidate_disagreement(method, initial.turns, other_turns, settings.turn_tolerance)
+    warnings = candidate_disagreement(
+        method, initial.turns, other_turns, settings.disagreement_tolerance
+    )
     if not all(t.sane for t in initial.turns):
         warnings.append(
             f"the {label} estimate fails the sanity guard: a virtual hard-over turn "
