@@ -19,7 +19,6 @@ the 95 % intervals contain the KVLCC2 values — from ``reference/kvlcc2_mmg.md`
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 import sys
 import time
@@ -30,7 +29,7 @@ import numpy as np
 
 from fmu_model import DEFAULT_MODEL, ModelParameters, ModelStructure, load_params, save_params
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
-from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
+from scenarios.uncertainty.monte_carlo import dask_client, monte_carlo_metrics
 from scenarios.uncertainty.results import UncertaintyResult
 from trials.maneuvers import standard_set
 from trials.metrics import turning_metrics, zigzag_metrics
@@ -108,20 +107,8 @@ def timed_run(
     params: ModelParameters, n_workers: int, *, samples: int, seed: int, chunk: int, dt_s: float
 ) -> tuple[UncertaintyResult, dict[str, float]]:
     """Monte Carlo on a fresh ``LocalCluster`` of ``n_workers`` processes; timings [s]."""
-    from distributed import Client, LocalCluster
-
     t0 = time.perf_counter()
-    with (
-        LocalCluster(
-            n_workers=n_workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            scheduler_kwargs={"dashboard_address": ":0"},
-            silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    with dask_client(None, None, n_workers, processes=True) as client:
         t1 = time.perf_counter()
         client.run(_warm_up, params.structure)
         t2 = time.perf_counter()

@@ -166,7 +166,7 @@ class _QuietTeardown:
 
 
 @contextmanager
-def _dask_client(
+def dask_client(
     scheduler: str | None, client: Client | None, n_workers: int, processes: bool
 ) -> Iterator[Client]:
     """Yield ``client``, a client of ``scheduler``, or one of a new ``LocalCluster``.
@@ -320,17 +320,17 @@ def monte_carlo_metrics(
         dt_s=float(dt_s),
         divergence_factor=float(divergence_factor),
     )
-    with _dask_client(scheduler, client, n_workers, processes) as dask_client:
+    with dask_client(scheduler, client, n_workers, processes) as cluster_client:
         if chunk_size is None:
-            threads = max(1, sum(dask_client.nthreads().values()))
+            threads = max(1, sum(cluster_client.nthreads().values()))
             chunk_size = min(_MAX_DEFAULT_CHUNK, max(1, math.ceil(n_samples / (2 * threads))))
         # θ̂ rides as an extra first column of the first chunk: a task of its own would
         # cost almost as much as a whole chunk (the step loop, not the width, dominates).
         columns = np.vstack((params.to_vector(), samples)).T
         bounds = [0, *range(chunk_size + 1, n_samples + 1, chunk_size), n_samples + 1]
         chunks = [np.ascontiguousarray(columns[:, a:b]) for a, b in itertools.pairwise(bounds)]
-        futures = dask_client.map(simulate_chunk, chunks, setup=setup)
-        parts = dask_client.gather(futures)
+        futures = cluster_client.map(simulate_chunk, chunks, setup=setup)
+        parts = cluster_client.gather(futures)
 
     results = []
     for i, program in enumerate(chosen):
