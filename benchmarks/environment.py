@@ -2,17 +2,21 @@
 
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
-        [--heading-noise-deg 0.1] [--out benchmarks/environment.md]
+        [--heading-noise-deg 0.1] [--model NAME] [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
 each true wind speed from ``--wind-from-deg``) and every noise draw d, the KVLCC2 reference
 ship (``scenarios.synthesize``, full scale, 1 Hz, by default 1 m / 0.1° noise) sails zig-zag
 10/10 and 20/20 in it (noise seeds 10·d + 1, 10·d + 2, as ``benchmarks/fidelity.py --draws``),
 with its logger recording the relative wind and the speed through the water; the calm-water
-logs have the same noise. With ``--position-noise-m 0.01 --heading-noise-deg 0.001`` what
-remains is the sea's own effect on the identification, without the noise's. Two fits:
+logs have the same noise seeds (the same noise only where a log keeps its length:
+``synthesize_log`` draws the x and y noise after the heading's from one generator, and a
+wind ends the zig-zags a few samples earlier; ``environment.md``). With
+``--position-noise-m 0.01 --heading-noise-deg 0.001`` what remains is the sea's own effect
+on the identification, without the noise's. Two fits:
 
-* ``default``: ``identify`` with the default settings (the current estimated, constant) and
+* ``default``: ``identify`` with the default settings (the current estimated, constant; the
+  model family ``--model``, by default the default one) and
   the ship's windage (``--windage``), so the measured wind's load is taken out;
 * ``--current none``: the same, but the water taken as still (today's behaviour for a user
   who does not model the sea; the windage is still given).
@@ -39,6 +43,7 @@ from fidelity import SEEDS, Indices, index_errors, indices
 from report import write_block
 from sensitivity import BASELINE, LogQuality
 
+from fmu_model import DEFAULT_MODEL, model_names
 from identifier.identify import FitSettings, IdentificationResult, identify
 from scenarios.kvlcc2 import kvlcc2_windage
 from scenarios.sea import SeaEnvironment
@@ -132,6 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--position-noise-m", type=float, default=BASELINE.position_noise_m)
     parser.add_argument("--heading-noise-deg", type=float, default=BASELINE.heading_noise_deg)
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
+    parser.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
     quality = replace(
@@ -156,7 +162,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "Zig-zag 10/10 + 20/20 of the KVLCC2 reference sailed in a uniform current and a "
         "true wind; calm-water predictions (35° turn both sides, both zig-zags) compared "
         "with what the default procedure gives from the calm-water logs of the same noise "
-        f"draw (logger noise {quality.position_noise_m:g} m, {quality.heading_noise_deg:g}°). "
+        f"draw (logger noise {quality.position_noise_m:g} m, {quality.heading_noise_deg:g}°; "
+        f"model {args.model}). "
         "Columns: largest difference of a turning index [points] and of an overshoot "
         "[deg]; error of the current estimate [m/s, deg]; fit time [s].",
         "",
@@ -169,7 +176,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for draw in range(args.draws):
         start = time.perf_counter()
         calm_fit = identify(
-            training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw, quality), FitSettings()
+            training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw, quality),
+            FitSettings(model=args.model),
         )
         calm[draw] = (indices(ModelPlant(calm_fit.params), ship, args.dt_s),
                       time.perf_counter() - start)  # fmt: skip
@@ -177,9 +185,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         for draw in range(args.draws):
             logs = training_logs(condition, draw, quality)
             start = time.perf_counter()
-            sea = identify(logs, FitSettings(windage=windage))
+            sea = identify(logs, FitSettings(model=args.model, windage=windage))
             seconds = time.perf_counter() - start
-            still = identify(logs, FitSettings(windage=windage, current="none"))
+            still = identify(logs, FitSettings(model=args.model, windage=windage, current="none"))
             sea_turn, sea_os = worst_differences(
                 indices(ModelPlant(sea.params), ship, args.dt_s), calm[draw][0], truth
             )
