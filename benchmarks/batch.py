@@ -18,19 +18,18 @@ cluster started by ``run_batch`` itself (process start included).
 from __future__ import annotations
 
 import argparse
-import logging
 import os
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from distributed import Client, LocalCluster
 from fmu_step import demo_params
 
 from fmu_model.kernels import CACHE_ENV
 from identifier.batch import BatchSummary, run_batch
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, reference_ship, synthesize_log
+from trials.cluster import local_client
 from trials.logs import write_log
 
 MANEUVER_NAMES = ("turning-35", "zigzag-10", "zigzag-20")
@@ -76,21 +75,12 @@ def timed_batch(
         start = time.perf_counter()
         summary = run_batch(fleet, out, n_workers=n_workers, build_fmu=build_fmu)
         return summary, time.perf_counter() - start
-    with (
-        LocalCluster(
-            n_workers=n_workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            scheduler_kwargs={"dashboard_address": ":0"},
-            silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    with local_client(n_workers) as client:
         first_log = next(fleet.glob("*/*.csv"))
         client.run(_warm_up, str(first_log))
         start = time.perf_counter()
-        summary = run_batch(fleet, out, scheduler=cluster.scheduler_address, build_fmu=build_fmu)
+        address = client.scheduler_info()["address"]
+        summary = run_batch(fleet, out, scheduler=address, build_fmu=build_fmu)
         return summary, time.perf_counter() - start
 
 

@@ -29,8 +29,9 @@ import numpy as np
 
 from fmu_model import DEFAULT_MODEL, ModelParameters, ModelStructure, load_params, save_params
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
-from scenarios.uncertainty.monte_carlo import dask_client, monte_carlo_metrics
+from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
 from scenarios.uncertainty.results import UncertaintyResult
+from trials.cluster import local_client
 from trials.maneuvers import standard_set
 from trials.metrics import turning_metrics, zigzag_metrics
 from trials.run import run_program
@@ -108,7 +109,7 @@ def timed_run(
 ) -> tuple[UncertaintyResult, dict[str, float]]:
     """Monte Carlo on a fresh ``LocalCluster`` of ``n_workers`` processes; timings [s]."""
     t0 = time.perf_counter()
-    with dask_client(None, None, n_workers, processes=True) as client:
+    with local_client(n_workers) as client:
         t1 = time.perf_counter()
         client.run(_warm_up, params.structure)
         t2 = time.perf_counter()

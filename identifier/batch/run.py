@@ -20,7 +20,6 @@ imported its modules, within seconds).
 from __future__ import annotations
 
 import contextlib
-import logging
 import os
 import signal
 import threading
@@ -43,6 +42,7 @@ from identifier.batch.summary import BatchSummary, VesselResult, write_summary
 from identifier.batch.task import VesselJob, describe_error, identify_vessel, sha256_of
 from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS
+from trials.cluster import local_client
 
 __all__ = ["run_batch"]
 
@@ -107,27 +107,16 @@ def _children_end_with_us() -> Iterator[None]:
 def _client(scheduler: str | None, n_workers: int) -> Iterator[Any]:
     """Yield a ``distributed.Client`` on ``scheduler`` or on a new LocalCluster of processes.
 
-    The worker processes of a LocalCluster end with this process
-    (:func:`_children_end_with_us`).
+    The local cluster is ``trials.cluster.local_client``'s (silent, a quiet teardown); its
+    worker processes end with this process (:func:`_children_end_with_us`).
     """
-    from distributed import Client, LocalCluster
-
     if scheduler is not None:
+        from distributed import Client
+
         with Client(scheduler) as client:
             yield client
         return
-    with (
-        _children_end_with_us(),
-        LocalCluster(
-            n_workers=n_workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            scheduler_kwargs={"dashboard_address": ":0"},  # no dashboard; any free port
-            silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    with _children_end_with_us(), local_client(n_workers) as client:
         yield client
 
 

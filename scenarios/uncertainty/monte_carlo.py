@@ -11,7 +11,6 @@ is :func:`scenarios.uncertainty.sampling.draw_coefficients`, the records
 from __future__ import annotations
 
 import itertools
-import logging
 import math
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -32,6 +31,7 @@ from scenarios.uncertainty.results import (
     UncertaintyResult,
 )
 from scenarios.uncertainty.sampling import draw_coefficients
+from trials.cluster import local_client
 from trials.maneuvers import DEFAULT_RUDDER_RATE_DEG_S, Program, standard_set
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
 from trials.run import ModelPlant, run_batch
@@ -124,83 +124,25 @@ def simulate_chunk(theta: np.ndarray, setup: RunSetup) -> list[tuple[np.ndarray,
 # --------------------------------------------------------------------------------------
 
 
-# Loggers that report a local cluster's teardown: lost comms, failed heartbeats, late
-# tasks (distributed's own, and those of the event loops under it).
-_TEARDOWN_LOGGERS = ("distributed", "tornado", "asyncio", "bokeh")
-
-
-class _QuietTeardown:
-    """Silence :data:`_TEARDOWN_LOGGERS` from :meth:`start` until the context exits.
-
-    A LocalCluster's shutdown races its workers' heartbeats and open comms, and what
-    distributed logs about that (errors with tracebacks) is noise to a caller that
-    already has its results. Every logger of those trees with a level of its own is
-    raised above CRITICAL and put back on exit.
-    """
-
-    def __init__(self) -> None:
-        self._saved: dict[logging.Logger, int] = {}
-
-    def start(self) -> None:
-        """Silence the loggers (idempotent)."""
-        if self._saved:
-            return
-        names = [
-            name
-            for name in logging.root.manager.loggerDict
-            if name.split(".")[0] in _TEARDOWN_LOGGERS
-        ]
-        for name in {*_TEARDOWN_LOGGERS, *names}:
-            logger = logging.getLogger(name)
-            if name in _TEARDOWN_LOGGERS or logger.level != logging.NOTSET:
-                self._saved[logger] = logger.level
-                logger.setLevel(logging.CRITICAL + 1)
-
-    def __enter__(self) -> _QuietTeardown:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        for logger, level in self._saved.items():
-            logger.setLevel(level)
-        self._saved.clear()
-
-
 @contextmanager
-def dask_client(
+def _dask_client(
     scheduler: str | None, client: Client | None, n_workers: int, processes: bool
 ) -> Iterator[Client]:
-    """Yield ``client``, a client of ``scheduler``, or one of a new ``LocalCluster``.
+    """Yield ``client``, a client of ``scheduler``, or one of a new, silent local cluster.
 
-    A LocalCluster logs nothing (``silence_logs``: its own and its workers' loggers
-    at CRITICAL), and its teardown (the client closed first, then the cluster) runs
-    with distributed's loggers silenced (:class:`_QuietTeardown`).
+    The local one is ``trials.cluster.local_client``'s: nothing logged, a quiet teardown.
     """
     if client is not None:
         yield client
         return
-
-    from distributed import Client, LocalCluster
-
     if scheduler is not None:
+        from distributed import Client
+
         with Client(scheduler, timeout="10s") as remote:
             yield remote
         return
-    with (
-        _QuietTeardown() as quiet,
-        LocalCluster(
-            n_workers=n_workers,
-            threads_per_worker=1,
-            processes=processes,
-            dashboard_address=None,  # no dashboard; its HTTP server on a free port:
-            scheduler_kwargs={"dashboard_address": ":0"},
-            silence_logs=logging.CRITICAL,
-        ) as cluster,
-        Client(cluster) as local,  # closed before the cluster
-    ):
-        try:
-            yield local
-        finally:
-            quiet.start()  # until the cluster is closed
+    with local_client(n_workers, processes=processes) as local:
+        yield local
 
 
 def monte_carlo_metrics(
@@ -320,7 +262,7 @@ def monte_carlo_metrics(
         dt_s=float(dt_s),
         divergence_factor=float(divergence_factor),
     )
-    with dask_client(scheduler, client, n_workers, processes) as cluster_client:
+    with _dask_client(scheduler, client, n_workers, processes) as cluster_client:
         if chunk_size is None:
             threads = max(1, sum(cluster_client.nthreads().values()))
             chunk_size = min(_MAX_DEFAULT_CHUNK, max(1, math.ceil(n_samples / (2 * threads))))
