@@ -137,7 +137,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--position-noise-m", type=float, default=BASELINE.position_noise_m)
     parser.add_argument("--heading-noise-deg", type=float, default=BASELINE.heading_noise_deg)
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
-    parser.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
+    parser.add_argument(
+        "--model", default=DEFAULT_MODEL, choices=model_names(), help="model family of every fit"
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
     quality = replace(

@@ -84,7 +84,7 @@ def local_client(n_workers: int, *, processes: bool = True) -> Iterator[Client]:
             n_workers=n_workers,
             threads_per_worker=1,
             processes=processes,
-            dashboard_address=None,  # no dashboard; its HTTP server on a free port:
+            dashboard_address=None,  # no dashboard (the scheduler's on any free port)
             scheduler_kwargs={"dashboard_address": ":0"},
             silence_logs=logging.CRITICAL,
         ) as cluster,
