@@ -2,7 +2,8 @@
 
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
-        [--heading-noise-deg 0.1] [--model NAME] [--out benchmarks/environment.md]
+        [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf] [--same-noise]
+        [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
 each true wind speed from ``--wind-from-deg``) and every noise draw d, the KVLCC2 reference
@@ -11,12 +12,16 @@ ship (``scenarios.synthesize``, full scale, 1 Hz, by default 1 m / 0.1° noise) 
 with its logger recording the relative wind and the speed through the water; the calm-water
 logs have the same noise seeds (the same noise only where a log keeps its length:
 ``synthesize_log`` draws the x and y noise after the heading's from one generator, and a
-wind ends the zig-zags a few samples earlier; ``environment.md``). With
+wind ends the zig-zags a few samples earlier; ``environment.md``). With ``--same-noise``
+every log draws each channel's noise from a generator of its own
+(``synthesize_log(noise_per_channel=True)``), so the calm-water and the sea logs of a draw
+carry the same noise sample by sample (other noise than the default's). With
 ``--position-noise-m 0.01 --heading-noise-deg 0.001`` what remains is the sea's own effect
 on the identification, without the noise's. Two fits:
 
 * ``default``: ``identify`` with the default settings (the current estimated, constant; the
-  model family ``--model``, by default the default one) and
+  model family ``--model``, by default the default one; the procedure ``--method``, by
+  default output error, ``ekf`` the seed paper's EKF estimate) and
   the ship's windage (``--windage``), so the measured wind's load is taken out;
 * ``--current none``: the same, but the water taken as still (today's behaviour for a user
   who does not model the sea; the windage is still given).
@@ -85,8 +90,13 @@ class Condition:
         return f"current {current}, wind {wind}"
 
 
-def training_logs(condition: Condition, draw: int, quality: LogQuality) -> list[ManeuverLog]:
-    """Sail the zig-zags of draw ``draw`` in ``condition``, logged at ``quality``."""
+def training_logs(
+    condition: Condition, draw: int, quality: LogQuality, *, same_noise: bool = False
+) -> list[ManeuverLog]:
+    """Sail the zig-zags of draw ``draw`` in ``condition``, logged at ``quality``.
+
+    ``same_noise``: one noise generator per channel (module docstring).
+    """
     ship = reference_ship("kvlcc2", "full", condition.environment())
     return [
         synthesize_log(
@@ -96,6 +106,7 @@ def training_logs(condition: Condition, draw: int, quality: LogQuality) -> list[
             rate_hz=quality.rate_hz,
             position_noise_m=quality.position_noise_m,
             heading_noise_deg=quality.heading_noise_deg,
+            noise_per_channel=same_noise,
         )
         for name in TRAINING
     ]
@@ -140,6 +151,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--model", default=DEFAULT_MODEL, choices=model_names(), help="model family of every fit"
     )
+    parser.add_argument(
+        "--method",
+        default="output-error",
+        choices=("output-error", "ekf"),
+        help="procedure of every fit (default: output-error, the default of fit)",
+    )
+    parser.add_argument(
+        "--same-noise",
+        action="store_true",
+        help="one noise generator per channel: calm and sea logs of a draw share their noise",
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
     quality = replace(
@@ -155,6 +177,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         for w in winds
         if c or w
     ]
+    settings = FitSettings(model=args.model, method=args.method)
+    same = args.same_noise
     ship: TruthShip = reference_ship("kvlcc2", "full")
     truth = indices(ship.plant, ship, args.dt_s)
     windage = kvlcc2_windage("full")
@@ -163,9 +187,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
         "Zig-zag 10/10 + 20/20 of the KVLCC2 reference sailed in a uniform current and a "
         "true wind; calm-water predictions (35° turn both sides, both zig-zags) compared "
-        "with what the default procedure gives from the calm-water logs of the same noise "
-        f"draw (logger noise {quality.position_noise_m:g} m, {quality.heading_noise_deg:g}°; "
-        f"model {args.model}). "
+        "with what the same procedure gives from the calm-water logs of the same noise "
+        f"draw (logger noise {quality.position_noise_m:g} m, {quality.heading_noise_deg:g}°"
+        f"{', one noise generator per channel' if same else ''}; model {args.model}, "
+        f"method {args.method}). "
         "Columns: largest difference of a turning index [points] and of an overshoot "
         "[deg]; error of the current estimate [m/s, deg]; fit time [s].",
         "",
@@ -178,18 +203,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     for draw in range(args.draws):
         start = time.perf_counter()
         calm_fit = identify(
-            training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw, quality),
-            FitSettings(model=args.model),
+            training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw, quality, same_noise=same),
+            settings,
         )
         calm[draw] = (indices(ModelPlant(calm_fit.params), ship, args.dt_s),
                       time.perf_counter() - start)  # fmt: skip
     for condition in conditions:
         for draw in range(args.draws):
-            logs = training_logs(condition, draw, quality)
+            logs = training_logs(condition, draw, quality, same_noise=same)
             start = time.perf_counter()
-            sea = identify(logs, FitSettings(model=args.model, windage=windage))
+            sea = identify(logs, replace(settings, windage=windage))
             seconds = time.perf_counter() - start
-            still = identify(logs, FitSettings(model=args.model, windage=windage, current="none"))
+            still = identify(logs, replace(settings, windage=windage, current="none"))
             sea_turn, sea_os = worst_differences(
                 indices(ModelPlant(sea.params), ship, args.dt_s), calm[draw][0], truth
             )

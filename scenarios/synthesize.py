@@ -25,7 +25,7 @@ import json
 import math
 import os
 import zlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -53,6 +53,8 @@ WIND_SPEED_NOISE_MPS = 0.3
 """Standard deviation of the anemometer's speed noise [m/s]."""
 WIND_ANGLE_NOISE_DEG = 2.0
 """Standard deviation of the anemometer's angle noise [deg]."""
+_NOISE_CHANNELS = 6
+"""Noisy channels of a log: heading, x, y, speed log, wind speed, wind angle."""
 
 MANEUVERS: dict[str, Callable[[], Program]] = {
     "turning-35": lambda: turning_circle(math.radians(35.0)),
@@ -169,6 +171,7 @@ def synthesize_log(
     approach_s: float = 60.0,
     approach_helm: Helm | None = None,
     truth_dt_s: float | None = None,
+    noise_per_channel: bool = False,
 ) -> ManeuverLog:
     """Simulate ``program`` on ``ship`` and return a noisy trial log.
 
@@ -194,6 +197,13 @@ def synthesize_log(
     truth_dt_s : float, optional
         Simulation step [s]; defaults to the largest divisor of the logging interval
         not above 0.1 s · √(L / 320 m) (0.1 s at full scale KVLCC2).
+    noise_per_channel : bool
+        One generator per channel (``numpy.random.SeedSequence(seed).spawn``): sample k of
+        a channel has the same noise whatever the log's length and its other channels, so
+        that logs of one seed sailed in different conditions (a wind ends a zig-zag a few
+        samples earlier) carry the same noise. False (the default, every figure measured
+        before 2026-12-05): heading, x, y and the sensors' noise drawn one after the other
+        from one generator, so the position noise depends on the log's length.
 
     Returns
     -------
@@ -217,15 +227,16 @@ def synthesize_log(
         rudder_rate_radps=ship.rudder_rate_radps,
         dt_s=log_dt / every,
     )[::every]
-    rng = np.random.default_rng(seed)
     size = run.size
+    noise = _noise_streams(seed, size, noise_per_channel)
     time_s = run["time_s"] - run["time_s"][0]
-    heading = run["psi_rad"] + math.radians(heading_noise_deg) * rng.standard_normal(size)
-    x_m = run["x_m"] + position_noise_m * rng.standard_normal(size)
-    y_m = run["y_m"] + position_noise_m * rng.standard_normal(size)
+    heading = run["psi_rad"] + math.radians(heading_noise_deg) * next(noise)
+    x_m = run["x_m"] + position_noise_m * next(noise)
+    y_m = run["y_m"] + position_noise_m * next(noise)
     source = (
         f"synthetic {program.name}: {ship.source}; {rate_hz:g} Hz, position noise "
         f"{position_noise_m:g} m, heading noise {heading_noise_deg:g} deg, seed {seed}"
+        + (" (one generator per channel)" if noise_per_channel else "")
     )
     if helm.rudder_rad != 0.0:
         source += f"; approach at rudder {math.degrees(helm.rudder_rad):+.4g} deg (neutral helm)"
@@ -233,13 +244,13 @@ def synthesize_log(
     plant = ship.plant
     if isinstance(plant, ReferencePlant) and plant.environment is not None:
         # drawn after the required columns' noise: those stay as in calm water
-        stw = np.hypot(run["u_mps"], run["v_mps"]) + STW_NOISE_MPS * rng.standard_normal(size)
+        stw = np.hypot(run["u_mps"], run["v_mps"]) + STW_NOISE_MPS * next(noise)
         sensors["stw_mps"] = np.abs(stw)
         source += f"; speed-log noise {STW_NOISE_MPS:g} m/s"
         if plant.environment.has_wind:
             speed, angle = plant.apparent_wind(time_s, run["u_mps"], run["v_mps"], run["psi_rad"])
-            speed = speed + WIND_SPEED_NOISE_MPS * rng.standard_normal(size)
-            angle = angle + math.radians(WIND_ANGLE_NOISE_DEG) * rng.standard_normal(size)
+            speed = speed + WIND_SPEED_NOISE_MPS * next(noise)
+            angle = angle + math.radians(WIND_ANGLE_NOISE_DEG) * next(noise)
             sensors["wind_speed_mps"] = np.abs(speed)
             sensors["wind_angle_rad"] = np.mod(angle, 2.0 * math.pi)
             source += (
@@ -262,6 +273,21 @@ def synthesize_log(
         wind_angle_rad=sensors.get("wind_angle_rad"),
         stw_mps=sensors.get("stw_mps"),
     )
+
+
+def _noise_streams(seed: int, size: int, per_channel: bool) -> Iterator[np.ndarray]:
+    """Yield standard normal noise of ``size`` samples for each channel in turn.
+
+    From one generator of ``seed``, or from one generator per channel spawned from it
+    (``synthesize_log``'s ``noise_per_channel``).
+    """
+    if per_channel:
+        for child in np.random.SeedSequence(seed).spawn(_NOISE_CHANNELS):
+            yield np.random.default_rng(child).standard_normal(size)
+        return
+    rng = np.random.default_rng(seed)
+    while True:
+        yield rng.standard_normal(size)
 
 
 def maneuver_seed(seed: int, maneuver: str) -> int:

@@ -24,6 +24,7 @@ from identifier.batch.records import DONE_FORMAT, DONE_VERSION, settings_record,
 from identifier.cli import main
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
+from trials import cluster
 from trials.logs import write_log
 
 BAD_LOG = "time_s,x_m,y_m,heading_deg,rudder_deg,rpm\n0,0,0,0,0,abc\n"
@@ -245,6 +246,26 @@ def test_cli_bad_manifest_exits_1_without_output(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "fleet.toml: vessel 'a': 'logs' must be" in err
     assert not out.exists()
+
+
+def test_cli_scheduler_that_does_not_answer_is_a_one_line_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--scheduler`` at an address where nothing listens: one line naming it, no output."""
+    monkeypatch.setattr(cluster, "SCHEDULER_TIMEOUT_S", 0.5)
+    root = tmp_path / "fleet"
+    (root / "alpha").mkdir(parents=True)
+    write_log(root / "alpha" / "zigzag-10.csv", synthesize_log(_ship(), MANEUVERS["zigzag-10"]()))
+    manifest = root / "fleet.toml"
+    manifest.write_text('[[vessel]]\nname = "alpha"\nlogs = ["alpha/zigzag-10.csv"]\n')
+    out = tmp_path / "out"
+    start = time.perf_counter()
+    status = main(["batch", str(manifest), "--out", str(out), "--scheduler", "tcp://127.0.0.1:1"])
+    assert status == 1 and time.perf_counter() - start < 30.0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith("error: ") and "tcp://127.0.0.1:1 after 0.5 s" in err
+    assert not out.exists() or not any(out.iterdir())
 
 
 def test_cli_usage_errors_exit_2(tmp_path: Path) -> None:

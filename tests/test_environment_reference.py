@@ -383,6 +383,43 @@ def test_synthesized_log_at_sea_carries_the_sensor_columns() -> None:
     assert "; no wind;" in only_current.metadata["source"]
 
 
+def _noise(program: Program, *, per_channel: bool) -> np.ndarray:
+    """(heading, x, y) noise of a synthesized log of seed 4: the log less its noise-free twin."""
+    ship = reference_ship("kvlcc2", "model")
+    noisy, clean = (
+        synthesize_log(
+            ship,
+            program,
+            approach_s=5.0,
+            seed=4,
+            position_noise_m=noise_m,
+            heading_noise_deg=noise_m / 10.0,
+            noise_per_channel=per_channel,
+        )
+        for noise_m in (1.0, 0.0)
+    )
+    return np.vstack(
+        [noisy.heading_rad - clean.heading_rad, noisy.x_m - clean.x_m, noisy.y_m - clean.y_m]
+    )
+
+
+@pytest.mark.parametrize("per_channel", [True, False])
+def test_noise_per_channel_does_not_depend_on_the_logs_length(per_channel: bool) -> None:
+    """With a generator per channel, sample k's noise is the same in a shorter log of one seed.
+
+    The default draws the channels one after the other from one generator: the x and y
+    noise of a shorter log are other numbers (benchmarks/environment.md, "Same noise on
+    both logs").
+    """
+    longer = _noise(turning_circle(math.radians(35.0), max_time_s=30.0), per_channel=per_channel)
+    shorter = _noise(_quick_turn(), per_channel=per_channel)
+    n = shorter.shape[1]
+    assert longer.shape[1] > n
+    np.testing.assert_allclose(np.std(shorter[1:]), 1.0, atol=0.35)  # the noise is drawn
+    np.testing.assert_allclose(shorter[0], longer[0, :n], atol=1e-12)  # heading: drawn first
+    assert np.allclose(shorter[1:], longer[1:, :n], atol=1e-12) == per_channel
+
+
 @pytest.fixture
 def quick_maneuvers(monkeypatch: pytest.MonkeyPatch) -> None:
     """``zigzag-10`` of the command line becomes a 20 s turn (a fast, real run)."""

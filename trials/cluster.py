@@ -1,4 +1,4 @@
-"""A quiet ``dask.distributed`` client on a local cluster of single-threaded workers.
+"""``dask.distributed`` clients: a quiet local cluster of single-threaded workers, or a scheduler.
 
 The batch identification (``identifier.batch``) and the Monte Carlo
 (``scenarios.uncertainty``) both run their tasks on a ``LocalCluster`` made for the call:
@@ -7,7 +7,9 @@ The batch identification (``identifier.batch``) and the Monte Carlo
 closed first, then the cluster) runs with distributed's loggers silenced
 (:class:`QuietTeardown`): the shutdown races the workers' heartbeats and open comms, and
 what distributed logs about that (errors with tracebacks) is noise to a caller that
-already has its results.
+already has its results. A running scheduler given by its address
+(``--scheduler tcp://host:8786``) is reached by :func:`scheduler_client`, which gives up
+after :data:`SCHEDULER_TIMEOUT_S`.
 """
 
 from __future__ import annotations
@@ -19,6 +21,9 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from distributed import Client
+
+SCHEDULER_TIMEOUT_S = 10.0
+"""How long a client waits for a scheduler given by its address to answer [s]."""
 
 TEARDOWN_LOGGERS = ("distributed", "tornado", "asyncio", "bokeh")
 """Loggers that report a local cluster's teardown: lost comms, failed heartbeats, late
@@ -94,3 +99,21 @@ def local_client(n_workers: int, *, processes: bool = True) -> Iterator[Client]:
             yield client
         finally:
             quiet.start()  # until the cluster is closed
+
+
+@contextmanager
+def scheduler_client(address: str, timeout_s: float | None = None) -> Iterator[Client]:
+    """Yield a client of the running dask scheduler at ``address`` (``tcp://host:port``).
+
+    Raises
+    ------
+    OSError
+        Naming the address when the scheduler does not answer within ``timeout_s`` [s]
+        (default :data:`SCHEDULER_TIMEOUT_S`).
+
+    """
+    from distributed import Client
+
+    timeout = SCHEDULER_TIMEOUT_S if timeout_s is None else timeout_s
+    with Client(address, timeout=timeout) as client:
+        yield client

@@ -42,7 +42,7 @@ from identifier.batch.summary import BatchSummary, VesselResult, write_summary
 from identifier.batch.task import VesselJob, describe_error, identify_vessel, sha256_of
 from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS
-from trials.cluster import local_client
+from trials.cluster import local_client, scheduler_client
 
 __all__ = ["run_batch"]
 
@@ -107,13 +107,12 @@ def _children_end_with_us() -> Iterator[None]:
 def _client(scheduler: str | None, n_workers: int) -> Iterator[Any]:
     """Yield a ``distributed.Client`` on ``scheduler`` or on a new LocalCluster of processes.
 
-    The local cluster is ``trials.cluster.local_client``'s (silent, a quiet teardown); its
-    worker processes end with this process (:func:`_children_end_with_us`).
+    The scheduler's is ``trials.cluster.scheduler_client``'s (an OSError when it does not
+    answer); the local cluster is ``trials.cluster.local_client``'s (silent, a quiet
+    teardown), whose worker processes end with this process (:func:`_children_end_with_us`).
     """
     if scheduler is not None:
-        from distributed import Client
-
-        with Client(scheduler) as client:
+        with scheduler_client(scheduler) as client:
             yield client
         return
     with _children_end_with_us(), local_client(n_workers) as client:

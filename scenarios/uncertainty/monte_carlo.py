@@ -31,7 +31,7 @@ from scenarios.uncertainty.results import (
     UncertaintyResult,
 )
 from scenarios.uncertainty.sampling import draw_coefficients
-from trials.cluster import local_client
+from trials.cluster import local_client, scheduler_client
 from trials.maneuvers import DEFAULT_RUDDER_RATE_DEG_S, Program, standard_set
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
 from trials.run import ModelPlant, run_batch
@@ -136,9 +136,7 @@ def _dask_client(
         yield client
         return
     if scheduler is not None:
-        from distributed import Client
-
-        with Client(scheduler, timeout="10s") as remote:
+        with scheduler_client(scheduler) as remote:
             yield remote
         return
     with local_client(n_workers, processes=processes) as local:
