@@ -157,11 +157,22 @@ class EkfSettings:
     Parameters
     ----------
     state_process_std : tuple of float
-        Model-error standard deviation of (u̇, v̇, ṙ) [m/s², m/s², rad/s²]; the
-        per-step process noise of the motion states is (T · std)².
+        Model-error standard deviation of (u̇, v̇, ṙ) [m/s², m/s², rad/s²], as an
+        average over ``process_noise_interval_s``; the process noise of the motion
+        states over a step of T seconds is std² · T · max(T, that interval).
+    process_noise_interval_s : float
+        Δ, the interval over which ``state_process_std`` was measured (the equation-error
+        residual's, ``EquationErrorFit.sample_interval_s``) [s]. Over steps shorter than Δ
+        the model error is a white noise of intensity std² · Δ, so that the filter allows
+        the same model error per second at any logging rate (with (T · std)² per step,
+        10 Hz logs would allow a tenth of what 1 Hz logs do, and the estimate drifts
+        with the rate: benchmarks/sensitivity.md, "The EKF per second"). 0: (T · std)²
+        for every step, and ``param_random_walk`` per step.
     param_random_walk : float
-        Relative random walk of θ per step: Q_θ = diag((ρ σ_θ0)²) with σ_θ0 the
-        initial standard deviations. 0 gives constant parameters.
+        ρ, the relative random walk of θ over a step of ``process_noise_interval_s``
+        (or over any longer step): Q_θ = diag((ρ σ_θ0)²) · T / max(T, that interval)
+        over a step of T, σ_θ0 the initial standard deviations, so that the filter
+        forgets as fast per second at any logging rate. 0 gives constant parameters.
     divergence_factor : float
         Divergence is declared when a parameter variance grows above this factor
         times its initial value.
@@ -182,6 +193,7 @@ class EkfSettings:
     """
 
     state_process_std: tuple[float, float, float] = (1e-3, 1e-3, 1e-5)
+    process_noise_interval_s: float = 0.0
     param_random_walk: float = 1e-4
     divergence_factor: float = 1e6
     measurements: str = "track"
@@ -356,7 +368,8 @@ def ekf_identify(
                 _add_track_residual(x, track, a, repeated)
             part, rows_part = slice(a, b + 1), slice(a // stride, b // stride + 1)
             status, sample = _run_pass(
-                ekf_pass, seg.name, eq_index, constants, settings.max_substep_s, offset,
+                ekf_pass, seg.name, eq_index, constants, settings.max_substep_s,
+                settings.process_noise_interval_s, offset,
                 *(v if v.shape[0] == 1 else v[part] for v in inputs),
                 x, P, q_state, q_theta, variance_limit, stride, track[part],
                 *(h[rows_part] for h in histories), square_sums,
@@ -433,17 +446,19 @@ _STATUS_MESSAGES = {
 # A template in numba's subset: compiled, and cached on disk, per structure with its
 # kernels bound (_EKF_PASS, fmu_model.kernels).
 def _ekf_pass(
-    phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, constants, max_substep, offset,
-    t, y, r_var, rudder, n_rps, known, x, P, q_state, q_theta, variance_limit, stride, track,
-    states, theta_hist, std_hist, square_sums,
+    phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, constants, max_substep, q_interval,
+    offset, t, y, r_var, rudder, n_rps, known, x, P, q_state, q_theta, variance_limit, stride,
+    track, states, theta_hist, std_hist, square_sums,
 ):  # fmt: skip
     """One segment of the EKF, eq. (4)-(5), in place on x and P; returns (status, sample).
 
     x = (u, v, r, x, y, ψ, θ, c): c the current (North, East) [m/s] when ``q_theta``
     is longer than θ by two (it moves the ship over the ground: ẋ += c_N, ẏ += c_E),
     else none; the measurement is states offset … offset+2, with the
-    variances of row k of ``r_var`` (its only row when it has one). The motion states
-    and θ with its standard deviations after the updates at samples 0, stride, … go to
+    variances of row k of ``r_var`` (its only row when it has one); the motion states'
+    process noise over a step of T is ``q_state`` · T · max(T, ``q_interval``), θ's
+    ``q_theta`` · T / max(T, ``q_interval``) (a current's ``q_theta`` per step). The
+    motion states and θ with its standard deviations after the updates at samples 0, stride, … go to
     ``states``, ``theta_hist`` and ``std_hist``; ``known`` (N, 3) are accelerations of
     known loads added to the model's (one row: the same for every sample);
     ``square_sums`` accumulates the squared filtered-minus-logged position [m²] and
@@ -542,9 +557,10 @@ def _ekf_pass(
                 for a in range(m):
                     acc += G[c, a] * F[d, a]
                 P[c, d] = acc
-            P[c, c] += q_state[c] * T * T
+            P[c, c] += q_state[c] * T * max(T, q_interval)  # EkfSettings
+        theta_share = T / max(T, q_interval)  # the random walk is per interval (EkfSettings)
         for i in range(q_theta.size):
-            P[6 + i, 6 + i] += q_theta[i]
+            P[6 + i, 6 + i] += q_theta[i] * (theta_share if i < p else 1.0)
         # Update: S = H P⁻ Hᵀ + R = L Lᵀ (Cholesky, 3 × 3).
         rk = min(k + 1, last_row)
         s00 = P[o, o] + r_var[rk, 0]

@@ -136,7 +136,8 @@ class FitSettings:
     prior_inflation : float
         Standard-deviation multiplier of the least-squares covariance used as prior.
     param_random_walk : float
-        Relative random walk of the coefficients per step (see ``EkfSettings``).
+        Relative random walk of the coefficients per regression interval of the
+        equation error (about L/U/40; per sample of slower logs; see ``EkfSettings``).
     position_noise_m, heading_noise_rad : float, optional
         Measurement noise of the logs; estimated from the data when None.
     measurements : {"track", "velocities"}
@@ -329,6 +330,7 @@ def _run_ekf(
                 float(ls.residual_std[1]),
                 float(ls.residual_std[2]),
             ),
+            process_noise_interval_s=ls.sample_interval_s,
             param_random_walk=settings.param_random_walk,
             measurements=settings.measurements,
             max_substep_s=settings.max_substep_s,

@@ -210,8 +210,8 @@ def test_the_equation_error_start_is_preferred_unless_its_replay_diverges(
     logs: dict[str, ManeuverLog],
 ) -> None:
     """By default the refinement starts from the equation-error estimate even where the
-    EKF's replays the logs better (it does not drift with the logging rate,
-    benchmarks/sensitivity.md); one whose replay diverges gives way to the best replay."""
+    EKF's replays the logs better (it predicts held-out manoeuvres better,
+    benchmarks/fidelity.md); one whose replay diverges gives way to the best replay."""
     truth, other = _truth(), _perturbed(_truth())
     preferred = refine_output_error(
         truth, list(logs.values()), alternatives={"equation-error": other}, max_nfev=1

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters, get_model, numeric_model
+from fmu_model.kernels import kernel_constants, kernel_module
 from identifier import ekf as ekf_module
 from identifier import equation_error, smoothing
 from identifier import identify as identify_module
@@ -123,6 +124,55 @@ def test_regression_is_decimated_to_about_a_40th_of_l_over_u(rate_hz: float) -> 
     fit = equation_error_fit(get_model("shi2009"), [segment], 100.0)
     assert fit.sample_interval_s == pytest.approx(step / rate_hz)
     assert fit.rows == len(range(0, log.n_samples, step)) - 2
+
+
+def _process_noise_after(
+    rate_hz: float, interval_s: float, q_motion: float, q_theta: float
+) -> np.ndarray:
+    """Variances of the EKF pass's (u, v, r) and θ after 10 s of data that say nothing.
+
+    shi2009 with θ = 0 and next to no variance at the start (1e-15): no acceleration, so
+    the prediction adds the process noise ``q_motion`` (u̇, v̇, ṙ) and ``q_theta`` (θ)
+    alone (give one of them: θ's variance enters u through the thrust terms), and a
+    track measured with a variance of 1e12 takes next to nothing out.
+    """
+    structure = get_model("shi2009")
+    p = structure.n_coefficients
+    n = round(10.0 * rate_hz) + 1
+    t = np.arange(n) / rate_hz
+    x = np.zeros(6 + p)
+    x[0] = 5.0
+    P = 1e-15 * np.eye(6 + p)
+    track = np.column_stack([5.0 * t, 0.0 * t, 0.0 * t])
+    ekf_pass = kernel_module(structure, (ekf_module._EKF_PASS,)).ekf_pass
+    status, _ = ekf_pass(
+        np.asarray(structure.equation_index, dtype=np.int64), kernel_constants(structure, 100.0),
+        0.1, interval_s, 3, t, track, np.full((1, 3), 1e12), 0.0 * t, 0.0 * t + 2.0,
+        np.zeros((1, 3)), x, P, np.array([q_motion] * 3 + [0.0] * 3), np.full(p, q_theta),
+        np.full(p, np.inf), 1, track, np.zeros((n, 6)), np.zeros((n, p)), np.zeros((n, p)),
+        np.zeros(2),
+    )  # fmt: skip
+    assert status == ekf_module._OK
+    return np.concatenate([np.diag(P)[:3], np.diag(P)[6:]])
+
+
+@pytest.mark.parametrize("rate_hz", [2.0, 10.0])
+def test_ekf_process_noise_is_per_second_at_any_rate(rate_hz: float) -> None:
+    """With the regression's interval Δ = 0.5 s, 10 s add the same noise at 2 Hz as at 10 Hz.
+
+    Motion states std² · T · max(T, Δ) per step: 1e-4 · 10 s · 0.5 s; coefficients
+    ρ²σ₀² · T / max(T, Δ): 1e-6 · 10 s / 0.5 s. Per step as before (Δ = 0): at 10 Hz
+    1e-4 · 100 · 0.01 s² and 1e-6 · 100, a fifth and five times the 2 Hz figures, the
+    drift with the logging rate of benchmarks/sensitivity.md.
+    """
+    motion = _process_noise_after(rate_hz, 0.5, q_motion=1e-4, q_theta=0.0)[:3]
+    theta = _process_noise_after(rate_hz, 0.5, q_motion=0.0, q_theta=1e-6)[3:]
+    np.testing.assert_allclose(motion, 1e-4 * 10.0 * 0.5, rtol=1e-6)
+    np.testing.assert_allclose(theta, 1e-6 * 10.0 / 0.5, rtol=1e-6)
+    per_step_motion = _process_noise_after(rate_hz, 0.0, q_motion=1e-4, q_theta=0.0)[:3]
+    per_step_theta = _process_noise_after(rate_hz, 0.0, q_motion=0.0, q_theta=1e-6)[3:]
+    np.testing.assert_allclose(per_step_motion, 1e-4 * 10.0 / rate_hz, rtol=1e-6)
+    np.testing.assert_allclose(per_step_theta, 1e-6 * 10.0 * rate_hz, rtol=1e-6)
 
 
 def test_ekf_histories_are_strided_and_the_fit_quality_uses_every_sample() -> None:

@@ -74,8 +74,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         type=argtypes.within(*PARAM_RANDOM_WALK_RANGE),
         default=1e-4,
         metavar="RHO",
-        help="relative random walk of the coefficients per step, {:g} to {:g} "
-        "(default 1e-4)".format(*PARAM_RANDOM_WALK_RANGE),
+        help="relative random walk of the coefficients per sample, or per L/U/40 of "
+        "faster logs, {:g} to {:g} (default 1e-4)".format(*PARAM_RANDOM_WALK_RANGE),
     )
     fit.add_argument(
         "--position-noise-m",

@@ -60,9 +60,10 @@ class RefineSettings:
     preferred_start : str, optional
         The candidate estimate the refinement starts from whenever its replay of the
         training logs does not diverge: the equation-error estimate, fitted on samples
-        decimated to about L/U/40, does not drift with the logging rate as the EKF's does,
-        and predicts held-out manoeuvres better (benchmarks/fidelity.md, "The start of
-        the refinement: the equation-error estimate"). None, or a name not among the
+        decimated to about L/U/40, predicts held-out manoeuvres better
+        (benchmarks/fidelity.md, "The start of the refinement: the equation-error
+        estimate"; chosen when the EKF's estimate still drifted with the logging rate,
+        before its process noise was set per second). None, or a name not among the
         candidates: whichever candidate replays the logs best.
     verbose : int
         ``least_squares`` verbosity (0 silent).

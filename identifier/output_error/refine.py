@@ -75,7 +75,7 @@ def refine_output_error(
     open-loop replay of the training logs diverges; else, or with no preferred start,
     the candidate whose replay fits best (smallest J at its own estimate, the prior term
     then being zero). The paper's one-step-ahead EKF fit is not always the estimate that
-    simulates or predicts whole manoeuvres best, and it drifts with the logging rate.
+    simulates or predicts whole manoeuvres best.
     When the estimate kept (refined or start)
     fails the sanity guard (a virtual hard-over turn diverges or does not pass 360°) and
     another candidate sails the virtual turns and zig-zags, the refinement runs again
