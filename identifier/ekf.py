@@ -458,9 +458,9 @@ def _ekf_pass(
     variances of row k of ``r_var`` (its only row when it has one); the motion states'
     process noise over a step of T is ``q_state`` · T · max(T, ``q_interval``), θ's
     ``q_theta`` · T / max(T, ``q_interval``) (a current's ``q_theta`` per step). The
-    motion states and θ with its standard deviations after the updates at samples 0, stride, … go to
-    ``states``, ``theta_hist`` and ``std_hist``; ``known`` (N, 3) are accelerations of
-    known loads added to the model's (one row: the same for every sample);
+    motion states and θ with its standard deviations after the updates at samples 0,
+    stride, … go to ``states``, ``theta_hist`` and ``std_hist``; ``known`` (N, 3) are
+    accelerations of known loads added to the model's (one row: the same for every sample);
     ``square_sums`` accumulates the squared filtered-minus-logged position [m²] and
     wrapped heading [rad²] over every sample.
     """
