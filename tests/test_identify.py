@@ -18,6 +18,7 @@ from identifier.cli import fit as fit_cli
 from identifier.identify import (
     FitSettings,
     IdentificationResult,
+    centripetal_warning,
     fixed_thrust_model,
     identify,
     thrust_warning,
@@ -381,6 +382,28 @@ def test_families_without_the_thrust_pair_are_not_judged() -> None:
     model = get_model("shi2009")
     params = ModelParameters.from_vector(model.name, np.zeros(model.n_coefficients), length_m=320.0)
     assert thrust_warning(params) is None
+    assert centripetal_warning(params) is None  # a5·v·r is no prime family's X_vr
+
+
+@pytest.mark.parametrize(
+    ("x_vr", "warned"),
+    [
+        (1.85, False),  # the KVLCC2 MMG model's (m + m_y + X'_vr)/(m + m_x)
+        (0.95, False),  # the Mariner's
+        (0.0, True),
+        (-20.1, True),  # the HSVA 10/10 pair fitted with a current (benchmarks/hsva.md)
+    ],
+)
+def test_a_centripetal_surge_term_of_no_ships_sign_is_warned_about(
+    x_vr: float, warned: bool
+) -> None:
+    model = get_model("prime-rudder-offset")
+    theta = np.ones(model.n_coefficients)
+    theta[list(model.coefficient_names).index("X_vr")] = x_vr
+    warning = centripetal_warning(ModelParameters.from_vector(model.name, theta, length_m=7.0))
+    assert (warning is not None) == warned
+    if warning is not None:
+        assert f"X_vr = {x_vr:.3g}" in warning and "--current none" in warning
 
 
 @pytest.mark.parametrize(
