@@ -78,8 +78,8 @@ def timed_batch(
     with local_client(n_workers) as client:
         first_log = next(fleet.glob("*/*.csv"))
         client.run(_warm_up, str(first_log))
+        address = client.scheduler_info()["address"]  # a round trip: not timed
         start = time.perf_counter()
-        address = client.scheduler_info()["address"]
         summary = run_batch(fleet, out, scheduler=address, build_fmu=build_fmu)
         return summary, time.perf_counter() - start
 
