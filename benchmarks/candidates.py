@@ -43,6 +43,9 @@ shape constants:
   KVLCC2 reference's own hull form;
 * ``rudder-both``: the modulus basis and the cubic terms v′³, v′²r′, v′r′², r′³ together
   (25 coefficients);
+* ``crossflow-lift``, ``crossflow-lift-thrust``: ``prime-rudder-lift``'s u_R² sin³α_R in
+  sway and yaw on ``prime-crossflow`` (the hull's cross-flow drag, ``fmu_model``), and the
+  same with the thrust of fixed open-water slope;
 * ``both-prior002``, ``both-prior010``: ``rudder-both`` with a zero-mean prior on the
   cubic terms (``Term.prior_std``) of 0.02 and 0.1 in the MMG's Y′ and N′ (per ½ρL²d,
   ½ρL³d; KVLCC2 |Y′_vvv| 1.6, |N′_vvr| 0.29): cubic terms that count only where the logs
@@ -58,6 +61,7 @@ import sympy as sp
 from fmu_model.structure import L, ModelStructure, Term, n, r
 from fmu_model.variants import (
     NEUTRAL_RUDDER_OFFSET,
+    PRIME_CROSSFLOW,
     PRIME_CUBIC,
     PRIME_MODULUS,
     PRIME_RUDDER,
@@ -154,7 +158,12 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         (_OFFSET_YAW3,),
         PRIME_RUDDER_OFFSET,
     )
+    crossflow_lift = _with_terms(
+        "crossflow-lift", PRIME_CROSSFLOW.surge, (_OFFSET_SWAY3,), (_OFFSET_YAW3,), PRIME_CROSSFLOW
+    )
     return (
+        crossflow_lift,
+        with_fixed_thrust(crossflow_lift, "crossflow-lift-thrust", "crossflow-lift, fixed thrust"),
         _with_hull("rudder-cubic", *cubic),
         _with_hull("rudder-both", modulus[0] + extra[0], modulus[1] + extra[1]),
         *(

@@ -20,7 +20,8 @@ A ``prime-rudder`` estimate whose free thrust X_nn·n²L + X_un·u·n is not a p
 (:func:`thrust_warning`: no thrust at bollard, or one that grows with the speed; logs at
 one rpm fix the thrust at the approach only) is refitted as ``prime-rudder-thrust``, a
 thrust of fixed open-water slope, with the same settings (a ``prime-rudder-offset`` one as
-``prime-rudder-offset-thrust``): the free split would make the
+``prime-rudder-offset-thrust``, a ``prime-crossflow`` one as ``prime-crossflow-thrust``):
+the free split would make the
 ship lose its thrust as it slows in a hard turn (benchmarks/hsva.md, "The propeller
 thrust is why"). The result says so (a note, ``identification.thrust``); fits of other
 families with such a thrust are warned about.
@@ -44,6 +45,8 @@ from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
 from fmu_model.variants import (
     NEUTRAL_RUDDER_OFFSET,
+    PRIME_CROSSFLOW,
+    PRIME_CROSSFLOW_THRUST,
     PRIME_RUDDER,
     PRIME_RUDDER_OFFSET,
     PRIME_RUDDER_OFFSET_THRUST,
@@ -717,6 +720,7 @@ def identify(
 _FIXED_THRUST_FAMILIES = {
     PRIME_RUDDER.name: PRIME_RUDDER_THRUST.name,
     PRIME_RUDDER_OFFSET.name: PRIME_RUDDER_OFFSET_THRUST.name,
+    PRIME_CROSSFLOW.name: PRIME_CROSSFLOW_THRUST.name,
 }
 """The family a fit of the key family is refitted as when its thrust is not a propeller's."""
 
@@ -724,8 +728,9 @@ _FIXED_THRUST_FAMILIES = {
 def fixed_thrust_model(model: str) -> str | None:
     """Return the model a fit is refitted as when its thrust is not a propeller's.
 
-    ``prime-rudder-thrust`` for ``prime-rudder`` and ``prime-rudder-offset-thrust`` for
-    ``prime-rudder-offset`` (bare or with constants, which the refit fixes as well); None
+    ``prime-rudder-thrust`` for ``prime-rudder``, ``prime-rudder-offset-thrust`` for
+    ``prime-rudder-offset`` and ``prime-crossflow-thrust`` for ``prime-crossflow`` (bare
+    or with constants, which the refit fixes as well); None
     for every other model, whose thrust :func:`thrust_warning` only warns about.
     """
     parsed = parse_family(model)
