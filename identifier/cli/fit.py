@@ -126,13 +126,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _summary(result: IdentificationResult) -> str:
-    """Return the kept estimate (value, σ) per coefficient, nominal point, current, rates."""
+    """Return the kept estimate (value, σ) per coefficient, nominal point, current, rates.
+
+    The identifiable column is the EKF's judgement (``identifier.identify.CoefficientReport``:
+    excitation, collinearity and the EKF posterior's σ against its estimate), the same
+    whichever estimate is kept; value and σ are the kept estimate's.
+    """
     p = result.params
     units = p.units()
     kept = dict(zip(p.names, p.coefficients, strict=True))
     sigma = np.full(len(p.names), math.nan) if p.std is None else p.std
     std = dict(zip(p.names, sigma, strict=True))
-    lines = [f"{'coef':>6} {'value':>14} {'std':>11} {'unit':>9}  identifiable"]
+    lines = [f"{'coef':>6} {'value':>14} {'std':>11} {'unit':>9}  identifiable (EKF)"]
     for c in result.coefficients:
         lines.append(
             f"{c.name:>6} {kept[c.name]:>14.6g} {std[c.name]:>11.3g} {units[c.name]:>9}  "
