@@ -206,6 +206,40 @@ def test_zigzag_json_and_port_first_mirrors(fmu, tmp_path):
     assert stbd["second_overshoot_deg"] == z.second_overshoot_deg
 
 
+@pytest.fixture(scope="session")
+def model_scale_fmu(tmp_path_factory: pytest.TempPathFactory, params: ModelParameters) -> Path:
+    """The test ship as a 7 m tank model (its shi2009 coefficients do not use L)."""
+    model = replace(params, length_m=7.0, vessel_name="tankmodel")
+    return build_native_fmu(model, tmp_path_factory.mktemp("model") / "tankmodel.fmu")
+
+
+def test_a_tank_model_sailed_at_a_ships_steering_rate_is_warned_about(
+    model_scale_fmu, fmu, tmp_path, capsys
+):
+    """The default 2.34 deg/s on a 7 m FMU: one warning line, and the run uses it; the
+    model's own rate (given) and a 100 m ship: no warning, and a faster rudder checks the
+    swing sooner (a smaller first overshoot)."""
+    zz = ["zigzag", "--rudder-deg", "20", "--heading-deg", "20", "--max-time-s", "1200"]
+    records = {}
+    for name, ship, rate in (
+        ("default", model_scale_fmu, []),
+        ("given", model_scale_fmu, ["--rudder-rate-deg-s", "15.8"]),
+        ("ship", fmu, []),
+    ):
+        path = tmp_path / f"{name}.json"
+        assert main([*zz, "--fmu", str(ship), *rate, "--quiet", "--json", str(path)]) == 0
+        records[name] = (json.loads(path.read_text()), capsys.readouterr().err)
+    default, warned = records["default"]
+    line = _one_line(warned)
+    assert line.startswith(f"warning: {model_scale_fmu}: L = 7 m, a model?"), line
+    assert "--rudder-rate-deg-s" in line
+    assert default["run"]["rudder_rate_deg_s"] == pytest.approx(2.34)
+    given, quiet = records["given"]
+    assert quiet == "" and given["run"]["rudder_rate_deg_s"] == pytest.approx(15.8)
+    assert given["first_overshoot_deg"] < default["first_overshoot_deg"] - 0.1
+    assert records["ship"][1] == ""
+
+
 def test_spiral_and_pullout(fmu, tmp_path):
     spiral_json = tmp_path / "spiral.json"
     args = ["spiral", "--fmu", str(fmu), "--rudder-steps-deg", "10,0,-10,0,10"]

@@ -16,6 +16,7 @@ import json
 import logging
 import math
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -422,6 +423,26 @@ def test_cli_writes_json_and_table(
         "first_overshoot_deg",
         "second_overshoot_deg",
     }
+
+
+def test_cli_warns_of_a_ships_steering_rate_on_a_tank_model(
+    client: Client, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A 7 m ship at the default 2.34 deg/s: one warning line; given its rate, none."""
+    path = tmp_path / "model.json"
+    save_params(path, replace(linear_ship(c3_std=0.05 * C3), length_m=7.0))
+    argv = ["uncertainty", "--params", str(path), "--samples", "2", "--chunk-size", "2"]
+    argv += ["--scheduler", client.scheduler_info()["address"], "--quiet"]
+    for rate, expected in (([], 2.34), (["--rudder-rate-deg-s", "15.8"], 15.8)):
+        out = tmp_path / f"mc{len(rate)}.json"
+        assert run_uncertainty_command(_parse([*argv, *rate, "--json", str(out)])) == 0
+        err = capsys.readouterr().err
+        if rate:
+            assert err == ""
+        else:
+            assert err.startswith(f"warning: {path}: L = 7 m, a model?") and err.count("\n") == 1
+        condition = json.loads(out.read_text())["condition"]
+        assert condition["rudder_rate_deg_s"] == pytest.approx(expected)
 
 
 def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

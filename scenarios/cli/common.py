@@ -9,6 +9,7 @@ from contextlib import contextmanager
 from tqdm import tqdm
 
 from scenarios.demo import Bar, BarFactory
+from trials.maneuvers import DEFAULT_RUDDER_RATE_DEG_S
 
 __all__ = [
     "EXIT_DATA_ERROR",
@@ -18,11 +19,37 @@ __all__ = [
     "make_bars",
     "progress",
     "sim_progress",
+    "steering_rate_deg_s",
 ]
 
 PROG = "python -m scenarios"
 EXIT_DATA_ERROR = 1
 EXIT_GATE_FAILED = 3
+
+
+MODEL_SCALE_MAX_LENGTH_M = 20.0
+"""Ships shorter than this [m] are taken for tank models (HSVA's KVLCC2 model: 7 m)."""
+
+
+def steering_rate_deg_s(given: float | None, length_m: float) -> tuple[float, str | None]:
+    """Return a run's steering-gear rate [deg/s] and a warning for the default on a model.
+
+    ``given`` is ``--rudder-rate-deg-s`` (None: not given, the default
+    ``DEFAULT_RUDDER_RATE_DEG_S``, a full-scale ship's: SOLAS, 35° to 30° the other side in
+    28 s). A model of scale λ steers √λ times faster (Froude scaling of time), so the
+    default on a ship shorter than :data:`MODEL_SCALE_MAX_LENGTH_M` makes every overshoot
+    too large: the warning says so.
+    """
+    if given is not None:
+        return given, None
+    warning = None
+    if length_m < MODEL_SCALE_MAX_LENGTH_M:
+        warning = (
+            f"L = {length_m:g} m, a model? The default steering-gear rate "
+            f"{DEFAULT_RUDDER_RATE_DEG_S} deg/s is a full-scale ship's; a model of scale "
+            "lambda steers sqrt(lambda) times faster: pass --rudder-rate-deg-s (its logs' rate)"
+        )
+    return DEFAULT_RUDDER_RATE_DEG_S, warning
 
 
 def progress(message: str, quiet: bool) -> None:

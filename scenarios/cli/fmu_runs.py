@@ -52,7 +52,13 @@ import numpy as np
 from fmu_model import argtypes, load_params
 from fmu_model.envelope import Envelope, trajectory_envelope
 from fmu_model.interface import logged_envelope
-from scenarios.cli.common import EXIT_GATE_FAILED, PROG, make_bars, sim_progress
+from scenarios.cli.common import (
+    EXIT_GATE_FAILED,
+    PROG,
+    make_bars,
+    sim_progress,
+    steering_rate_deg_s,
+)
 from scenarios.cli.sea import add_sea_arguments, sea_environment
 from scenarios.errors import ScenarioError
 from scenarios.fmu_checks import (
@@ -182,9 +188,9 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
     fmu_run.add_argument(
         "--rudder-rate-deg-s",
         type=argtypes.positive,
-        default=DEFAULT_RUDDER_RATE_DEG_S,
         metavar="R",
-        help=f"steering-gear rate [deg/s] (default {DEFAULT_RUDDER_RATE_DEG_S})",
+        help=f"steering-gear rate [deg/s] (default {DEFAULT_RUDDER_RATE_DEG_S}, a full-scale "
+        "ship's; a warning on an FMU shorter than 20 m)",
     )
     fmu_run.add_argument(
         "--dt-s", type=argtypes.positive, default=0.1, metavar="S", help="communication step [s]"
@@ -307,7 +313,10 @@ def _condition(args: argparse.Namespace, info: FmuInfo) -> Condition:
             f"{info.path}: the FMU has no positive start speed u0; pass --speed-mps"
         )
     rpm = args.rpm if args.rpm is not None else info.rpm
-    return Condition(speed, rpm / 60.0, math.radians(args.rudder_rate_deg_s), args.dt_s)
+    rate_deg_s, warning = steering_rate_deg_s(args.rudder_rate_deg_s, info.length_m)
+    if warning is not None and not getattr(args, "like", None):  # --like: the log's rate
+        print(f"warning: {info.path}: {warning}", file=sys.stderr)
+    return Condition(speed, rpm / 60.0, math.radians(rate_deg_s), args.dt_s)
 
 
 def _limit_s(args: argparse.Namespace, info: FmuInfo, condition: Condition) -> float:

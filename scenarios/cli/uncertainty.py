@@ -14,9 +14,9 @@ from typing import Any
 
 from fmu_model import ParamsFormatError, argtypes, load_params
 from fmu_model.atomic import write_atomic
-from scenarios.cli.common import PROG, fail
+from scenarios.cli.common import PROG, fail, steering_rate_deg_s
 from scenarios.errors import UncertaintyError
-from scenarios.uncertainty.monte_carlo import DEFAULT_RUDDER_RATE_RADPS, monte_carlo_metrics
+from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
 
 __all__ = ["add_cluster_arguments", "add_uncertainty_command", "run_uncertainty_command"]
 
@@ -70,9 +70,9 @@ def add_uncertainty_command(subparsers: Any) -> None:
     p.add_argument(
         "--rudder-rate-deg-s",
         type=argtypes.positive,
-        default=math.degrees(DEFAULT_RUDDER_RATE_RADPS),
         metavar="R",
-        help="steering-gear rate [deg/s] (default 2.34)",
+        help="steering-gear rate [deg/s] (default 2.34, a full-scale ship's; a warning on a "
+        "ship shorter than 20 m)",
     )
     p.add_argument(
         "--dt-s", type=argtypes.positive, default=0.5, metavar="S", help="step [s] (default 0.5)"
@@ -91,6 +91,9 @@ def run_uncertainty_command(args: argparse.Namespace) -> int:
     """
     try:
         params = load_params(args.params)
+        rate_deg_s, warning = steering_rate_deg_s(args.rudder_rate_deg_s, params.length_m)
+        if warning is not None:
+            print(f"warning: {args.params}: {warning}", file=sys.stderr)
         if not args.quiet:
             print(
                 f"{PROG} uncertainty: {args.samples} samples of {params.vessel_name} "
@@ -102,7 +105,7 @@ def run_uncertainty_command(args: argparse.Namespace) -> int:
             n_samples=args.samples,
             seed=args.seed,
             dt_s=args.dt_s,
-            rudder_rate_radps=math.radians(args.rudder_rate_deg_s),
+            rudder_rate_radps=math.radians(rate_deg_s),
             speed_mps=args.speed_mps,
             n_rps=None if args.rpm is None else args.rpm / 60.0,
             scheduler=args.scheduler,
