@@ -635,9 +635,9 @@ PRIME_RUDDER_OFFSET_THRUST = register_family(
 # which the integrals tie together: along a hull the cross flow changes sign wherever
 # the pivot point lies on it (zig-zags), and not in a drift (I₀ = |v′|v′ at r′ = 0,
 # I₁ = r′|r′|/32 at v′ = 0). The integrals by Gauss-Legendre quadrature at
-# CROSSFLOW_STATIONS stations (|w′|w′ is smooth but at the pivot point: within 3e-3 of
-# v′² + r′²/12 of the integral for |v′| ≤ 1, |r′| ≤ 1.2, exact where no strip's flow
-# reverses). The linear terms v′, r′ (lift) and the rudder are `prime-rudder-offset`'s.
+# CROSSFLOW_STATIONS stations (|w′|w′ has a kink in its derivative at the pivot point:
+# within 3e-3 of v′² + r′²/12 of the integral for |v′| ≤ 1, |r′| ≤ 1.2, exact where no
+# strip's flow reverses). The linear terms v′, r′ (lift) and the rudder are `prime-rudder-offset`'s.
 # Fossen's strip model is the special case of a constant drag, Y_cf1 = N_cf2 = 0.
 CROSSFLOW_STATIONS = 8
 

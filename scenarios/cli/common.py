@@ -15,6 +15,7 @@ __all__ = [
     "EXIT_DATA_ERROR",
     "EXIT_GATE_FAILED",
     "PROG",
+    "STEERING_RATE_HELP",
     "fail",
     "make_bars",
     "progress",
@@ -29,6 +30,11 @@ EXIT_GATE_FAILED = 3
 
 MODEL_SCALE_MAX_LENGTH_M = 20.0
 """Ships shorter than this [m] are taken for tank models (HSVA's KVLCC2 model: 7 m)."""
+STEERING_RATE_HELP = (
+    f"steering-gear rate [deg/s] (default {DEFAULT_RUDDER_RATE_DEG_S}, a full-scale ship's; "
+    f"a warning on a ship shorter than {MODEL_SCALE_MAX_LENGTH_M:g} m)"
+)
+"""Help of ``--rudder-rate-deg-s`` (:func:`steering_rate_deg_s`)."""
 
 
 def steering_rate_deg_s(given: float | None, length_m: float) -> tuple[float, str | None]:

@@ -55,6 +55,7 @@ from fmu_model.interface import logged_envelope
 from scenarios.cli.common import (
     EXIT_GATE_FAILED,
     PROG,
+    STEERING_RATE_HELP,
     make_bars,
     sim_progress,
     steering_rate_deg_s,
@@ -106,7 +107,6 @@ from trials.current_correction import (
 )
 from trials.logs import ManeuverLog, read_log
 from trials.maneuvers import (
-    DEFAULT_RUDDER_RATE_DEG_S,
     Program,
     pullout,
     spiral,
@@ -189,8 +189,7 @@ def add_fmu_commands(sub: Any, common: argparse.ArgumentParser) -> None:
         "--rudder-rate-deg-s",
         type=argtypes.positive,
         metavar="R",
-        help=f"steering-gear rate [deg/s] (default {DEFAULT_RUDDER_RATE_DEG_S}, a full-scale "
-        "ship's; a warning on an FMU shorter than 20 m)",
+        help=STEERING_RATE_HELP,
     )
     fmu_run.add_argument(
         "--dt-s", type=argtypes.positive, default=0.1, metavar="S", help="communication step [s]"

@@ -14,7 +14,7 @@ from typing import Any
 
 from fmu_model import ParamsFormatError, argtypes, load_params
 from fmu_model.atomic import write_atomic
-from scenarios.cli.common import PROG, fail, steering_rate_deg_s
+from scenarios.cli.common import PROG, STEERING_RATE_HELP, fail, steering_rate_deg_s
 from scenarios.errors import UncertaintyError
 from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
 
@@ -71,8 +71,7 @@ def add_uncertainty_command(subparsers: Any) -> None:
         "--rudder-rate-deg-s",
         type=argtypes.positive,
         metavar="R",
-        help="steering-gear rate [deg/s] (default 2.34, a full-scale ship's; a warning on a "
-        "ship shorter than 20 m)",
+        help=STEERING_RATE_HELP,
     )
     p.add_argument(
         "--dt-s", type=argtypes.positive, default=0.5, metavar="S", help="step [s] (default 0.5)"
