@@ -102,18 +102,17 @@ def local_client(n_workers: int, *, processes: bool = True) -> Iterator[Client]:
 
 
 @contextmanager
-def scheduler_client(address: str, timeout_s: float | None = None) -> Iterator[Client]:
+def scheduler_client(address: str) -> Iterator[Client]:
     """Yield a client of the running dask scheduler at ``address`` (``tcp://host:port``).
 
     Raises
     ------
     OSError
-        Naming the address when the scheduler does not answer within ``timeout_s`` [s]
-        (default :data:`SCHEDULER_TIMEOUT_S`).
+        Naming the address when the scheduler does not answer within
+        :data:`SCHEDULER_TIMEOUT_S`.
 
     """
     from distributed import Client
 
-    timeout = SCHEDULER_TIMEOUT_S if timeout_s is None else timeout_s
-    with Client(address, timeout=timeout) as client:
+    with Client(address, timeout=SCHEDULER_TIMEOUT_S) as client:
         yield client
