@@ -30,7 +30,11 @@ the circle; a straight approach shows its cross component as a drift angle the
 symmetric hull does not have; its along-course component looks like the ship's own
 speed and is told apart only by the heading changes of the manoeuvres and by how the
 hull's response scales with the speed through the water. Zig-zags alone (heading
-±35°) separate it less well (:data:`MIN_HEADING_SPAN_RAD`, warned about).
+±35°) separate it less well (:data:`MIN_HEADING_SPAN_RAD`, warned about), unless the
+logs carry a speed log (``stw_mps``): that measures the speed through the water, so the
+current along the course directly, up to the log's scale error, which the manoeuvres'
+speed changes tell apart (:func:`speed_log_current`). Its estimate and covariance are
+then the prior of the current in every EKF pass, which adds what the track shows.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from identifier.ekf import EkfSegment, body_current
 from identifier.smoothing import SmoothedTrack
@@ -56,6 +61,13 @@ beyond the ordinary."""
 DRIFTING_RANDOM_WALK_MPS = 0.2
 """Random walk of each component of a drifting current in an hour [m/s] (a tidal current
 turns by about 1 kn in a few hours)."""
+
+SPEED_LOG_SCALE_STD = 0.01
+"""Prior standard deviation of a speed log's scale error k (stw = (1 + k) u_w), a fraction
+of the speed: IMO MSC.96(72) allows a speed log 2 % of the ship's speed (or 0.2 kn,
+whichever is more), taken here as two standard deviations (:func:`speed_log_current`).
+At 15 kn, 1 % is 0.08 m/s of current along the course: the manoeuvres' speed changes,
+not this prior, must tell the two apart."""
 
 CURRENT_TOLERANCE_MPS = 1e-3
 """The alternation stops when no component changes by more than this [m/s] or by more
@@ -76,7 +88,7 @@ log at 10 Hz has 864,000; the manoeuvres of a trial at 1 Hz, a few thousand."""
 
 MIN_APPROACH_SPREAD_RAD = math.radians(5.0)
 """Spread of the approaches' headings (RMS about their mean) below which they do not show
-the current's along component without a speed log (:func:`initial_current`). The
+the current's along component (:func:`initial_current`). The
 least-squares solution resolves a component when its singular value exceeds this
 fraction (sin) of the largest, and for approaches on one heading that fraction is the
 RMS heading spread: a compass's noise (0.5° is ordinary for a GNSS compass) would
@@ -124,6 +136,8 @@ class CurrentEstimate:
         ``"constant"`` or ``"drifting"``.
     iterations : int
         EKF passes of the alternation.
+    speed_log : SpeedLogFit, optional
+        What the logs' speed log showed (the EKF's prior of the current); None without.
 
     """
 
@@ -132,6 +146,7 @@ class CurrentEstimate:
     covariance: np.ndarray
     mode: str
     iterations: int
+    speed_log: SpeedLogFit | None = None
 
     @property
     def vector(self) -> np.ndarray:
@@ -166,6 +181,7 @@ class CurrentEstimate:
             "current_to_deg": math.degrees(self.to_rad),
             "current_covariance_m2ps2": self.covariance.tolist(),
             "iterations": self.iterations,
+            "speed_log": None if self.speed_log is None else self.speed_log.as_dict(),
         }
 
 
@@ -174,27 +190,124 @@ def initial_current(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]
 
     On a straight approach with the rudder amidships a (nearly) symmetric hull sails
     without drift, v ≈ 0 through the water, so the smoothed sway velocity over the ground
-    is the current's cross component there: −c_N sin ψ + c_E cos ψ = v_g. A speed log
-    adds the along component: c_N cos ψ + c_E sin ψ = u_g − stw. Least squares over the
-    approach samples of every log (before execute); with all approaches on one heading
-    (within :data:`MIN_APPROACH_SPREAD_RAD`) and no speed log the along component is not
-    seen, and the minimum-norm solution leaves it 0 for the EKF to find. Without an
-    approach: (0, 0).
+    is the current's cross component there: −c_N sin ψ + c_E cos ψ = v_g. Least squares
+    over the approach samples of every log (before execute); with all approaches on one
+    heading (within :data:`MIN_APPROACH_SPREAD_RAD`) the along component is not seen, and
+    the minimum-norm solution leaves it 0 for the EKF to find. Without an approach:
+    (0, 0). (A speed log shows the along component too: :func:`speed_log_current`.)
     """
     rows, rhs = [], []
     for log, track in zip(logs, tracks, strict=True):
         end = execute_index(log)
         heading = np.asarray(track.heading_rad)[:end]
-        sin_psi, cos_psi = np.sin(heading), np.cos(heading)
-        rows.append(np.column_stack([-sin_psi, cos_psi]))
+        rows.append(np.column_stack([-np.sin(heading), np.cos(heading)]))
         rhs.append(np.asarray(track.v_mps)[:end])
-        if log.stw_mps is not None:
-            rows.append(np.column_stack([cos_psi, sin_psi]))
-            rhs.append(np.asarray(track.u_mps)[:end] - log.stw_mps[:end])
     a, b = np.concatenate(rows), np.concatenate(rhs)
     if b.size < 2:
         return np.zeros(2)
     return np.linalg.lstsq(a, b, rcond=math.sin(MIN_APPROACH_SPREAD_RAD))[0]
+
+
+@dataclass(frozen=True)
+class SpeedLogFit:
+    """The current a speed log shows, with the log's scale error (:func:`speed_log_current`).
+
+    Attributes
+    ----------
+    current_ne : numpy.ndarray
+        Current (North, East) [m/s].
+    covariance : numpy.ndarray
+        Its covariance (2, 2) [m²/s²], the scale error's uncertainty included.
+    scale_error, scale_error_std : float
+        k of stw = (1 + k) u_w and its standard deviation [-].
+    samples : int
+        Speed-log samples fitted.
+    noise_mps : float
+        Standard deviation of the residual (the log's noise and the smoothed
+        velocities') [m/s].
+
+    """
+
+    current_ne: np.ndarray
+    covariance: np.ndarray
+    scale_error: float
+    scale_error_std: float
+    samples: int
+    noise_mps: float
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the ``speed_log`` record of ``identification.environment`` (units in keys)."""
+        return {
+            "samples": self.samples,
+            "scale_error": self.scale_error,
+            "scale_error_std": self.scale_error_std,
+            "noise_mps": self.noise_mps,
+            "current_north_mps": float(self.current_ne[0]),
+            "current_east_mps": float(self.current_ne[1]),
+            "current_covariance_m2ps2": self.covariance.tolist(),
+        }
+
+
+def speed_log_current(
+    logs: Sequence[ManeuverLog],
+    tracks: Sequence[SmoothedTrack],
+    scale_std: float = SPEED_LOG_SCALE_STD,
+) -> SpeedLogFit | None:
+    """Return the current and the speed log's scale error that every speed-log sample shows.
+
+    A speed log measures the speed through the water along the ship, stw = (1 + k) u_w,
+    and u_w = u_g − c_u(ψ) with u_g the smoothed surge velocity over the ground and
+    c_u = c_N cos ψ + c_E sin ψ the current's forward component
+    (:func:`identifier.ekf.body_current`), so that
+
+        stw = (1 + k)(u_g − c_N cos ψ − c_E sin ψ) + ε.
+
+    The heading changes of the manoeuvres show both components of c; the speed changes
+    (a zig-zag loses some of it at every swing) tell the scale error k apart from the
+    current along the course. Least squares (``scipy.optimize.least_squares``) with the
+    priors c ~ N(0, :data:`CURRENT_PRIOR_STD_MPS`²) and k ~ N(0, ``scale_std``²). The
+    noise ε's variance and lag-one correlation ρ (the smoothed u_g is correlated from
+    sample to sample) come from the residuals of a first fit with k = 0; every sample
+    then counts as (1 − ρ)/(1 + ρ) of an independent one (an AR(1) residual's effective
+    sample size). The covariance is (JᵀJ)⁻¹ at the solution, its (c_N, c_E) block the
+    current's. None when no log carries ``stw_mps``.
+    """
+    if scale_std <= 0.0:
+        raise ValueError("scale_std must be positive")
+    pairs = zip(logs, tracks, strict=True)
+    parts = [(log, track) for log, track in pairs if log.stw_mps is not None]
+    if not parts:
+        return None
+    stw = [np.asarray(log.stw_mps) for log, _ in parts]
+    u_g = [np.asarray(track.u_mps) for _, track in parts]
+    heading = [np.asarray(track.heading_rad) for _, track in parts]
+    a = np.concatenate([np.column_stack([np.cos(h), np.sin(h)]) for h in heading])
+    speed, measured = np.concatenate(u_g), np.concatenate(stw)
+    first = np.linalg.lstsq(a, speed - measured, rcond=None)[0]
+    residuals = np.split(speed - measured - a @ first, np.cumsum([s.size for s in stw])[:-1])
+    variance = float(np.mean(np.concatenate(residuals) ** 2))
+    lagged = sum(float(np.dot(e[:-1], e[1:])) for e in residuals)
+    lag_pairs = sum(e.size - 1 for e in residuals)
+    rho = min(max(lagged / max(lag_pairs, 1) / variance, 0.0), 0.99) if variance > 0.0 else 0.0
+    noise = math.sqrt(variance * (1.0 + rho) / (1.0 - rho)) or 1e-6  # per effective sample
+
+    def weighted_residuals(p: np.ndarray) -> np.ndarray:
+        water = speed - a @ p[:2]
+        return np.concatenate(
+            [(measured - (1.0 + p[2]) * water) / noise, p[:2] / CURRENT_PRIOR_STD_MPS,
+             [p[2] / scale_std]]
+        )  # fmt: skip
+
+    solution = least_squares(weighted_residuals, np.append(first, 0.0), method="lm")
+    covariance = np.linalg.inv(solution.jac.T @ solution.jac)
+    return SpeedLogFit(
+        current_ne=solution.x[:2].copy(),
+        covariance=covariance[:2, :2].copy(),
+        scale_error=float(solution.x[2]),
+        scale_error_std=math.sqrt(covariance[2, 2]),
+        samples=int(measured.size),
+        noise_mps=math.sqrt(variance),
+    )
 
 
 def water_segments(

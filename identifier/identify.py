@@ -63,10 +63,12 @@ from identifier.current import (
     MAX_CURRENT_ITERATIONS,
     MIN_HEADING_SPAN_RAD,
     SHAPE_PASSES,
+    SPEED_LOG_SCALE_STD,
     CurrentEstimate,
     current_tolerance_mps,
     heading_span_rad,
     initial_current,
+    speed_log_current,
     water_frame,
     water_segments,
 )
@@ -108,6 +110,9 @@ HEADING_NOISE_RANGE_DEG = (1e-6, 90.0)
 # Largest Euler substep of the EKF [s]: 1 ms (a thousand substeps per second of log)
 # to inf (one step per sample, the paper's).
 MAX_SUBSTEP_RANGE_S = (1e-3, math.inf)
+# Prior σ of a speed log's scale error, a fraction of the speed: from 1e-6 (a log taken as
+# exact) to 0.5 (a log that says little of the speed).
+SPEED_LOG_SCALE_STD_RANGE = (1e-6, 0.5)
 # Above these estimated noise levels the logger is suspect (warning) [m], [rad].
 MAX_POSITION_NOISE_M = 20.0
 MAX_HEADING_NOISE_RAD = math.radians(3.0)
@@ -162,6 +167,9 @@ class FitSettings:
     current : {"constant", "drifting", "none"}
         Uniform current estimated with the coefficients (``identifier.current``):
         constant over all logs, a random walk, or none (still water, the paper's).
+    speed_log_scale_std : float
+        Prior standard deviation of the speed log's scale error, a fraction of the speed
+        (``identifier.current.speed_log_current``); used when logs carry ``stw_mps``.
     windage : Windage, optional
         The vessel's windage: the load of the logs' measured wind is taken out
         (``identifier.wind``) and the windage goes into params.json (the FMU applies the
@@ -182,6 +190,7 @@ class FitSettings:
     max_variance_inflation: float = 1e4
     method: str = "output-error"
     current: str = "constant"
+    speed_log_scale_std: float = SPEED_LOG_SCALE_STD
     windage: Windage | None = None
 
 
@@ -311,10 +320,14 @@ def _run_ekf(
     segments: Sequence[EkfSegment],
     length_m: float,
     progress: Callable[[int], None] | None,
-    current_ne: np.ndarray | None = None,
+    current_prior: tuple[np.ndarray, np.ndarray] | None = None,
     current_random_walk_mps: float = 0.0,
 ) -> EkfResult:
-    """Run the augmented-state EKF from the start ``settings.initial`` (and a current)."""
+    """Run the augmented-state EKF from the start ``settings.initial`` (and a current).
+
+    ``current_prior``: the current's (mean (North, East) [m/s], covariance [m²/s²]) at the
+    first sample; None estimates no current.
+    """
     if settings.initial == "equation-error":
         theta0 = ls.theta
         cov0 = ls.covariance * settings.prior_inflation**2
@@ -340,8 +353,8 @@ def _run_ekf(
             current_random_walk_mps=current_random_walk_mps,
         ),
         progress=progress,
-        current0=current_ne,
-        current_covariance0=None if current_ne is None else CURRENT_PRIOR_STD_MPS**2 * np.eye(2),
+        current0=None if current_prior is None else current_prior[0],
+        current_covariance0=None if current_prior is None else current_prior[1],
     )
 
 
@@ -357,16 +370,29 @@ def _estimate_current(
     """Estimate current and coefficients together (``identifier.current``).
 
     The equation-error start is fitted on the velocities through the water for the
-    current so far (from what the approaches show, ``initial_current``), the EKF
-    estimates the current with the coefficients from it, until the current settles; the
-    shape is chosen for the starting current and once more for the settled one. A last
-    EKF pass over every sample (with progress, and the random walk of a drifting
-    current) gives the estimate. The passes before it (on windows of long logs,
-    ``ALTERNATION_MAX_SAMPLES``) report no progress; when one of them diverges (a start
-    the filter cannot follow), the alternation stops and the last pass starts where the
-    last pass that converged started.
+    current so far (from what a speed log shows, ``speed_log_current``, else from what
+    the approaches show, ``initial_current``), the EKF estimates the current with the
+    coefficients from it, until the current settles; the shape is chosen for the
+    starting current and once more for the settled one. The EKF's prior of the current
+    is the speed log's estimate and covariance (the same in every pass: the speed log
+    counted once), else the current so far with :data:`CURRENT_PRIOR_STD_MPS`; a
+    drifting current's widened by its random walk over the logs. A last EKF pass over
+    every sample (with progress, and the random walk of a drifting current) gives the
+    estimate. The passes before it (on windows of long logs, ``ALTERNATION_MAX_SAMPLES``)
+    report no progress; when one of them diverges (a start the filter cannot follow),
+    the alternation stops and the last pass starts where the last pass that converged
+    started.
     """
-    current = initial_current(logs, tracks)
+    speed_log = speed_log_current(logs, tracks, settings.speed_log_scale_std)
+    walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
+    hours = sum(float(log.time_s[-1] - log.time_s[0]) for log in logs) / 3600.0
+
+    def prior(current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if speed_log is None:
+            return current, CURRENT_PRIOR_STD_MPS**2 * np.eye(2)
+        return speed_log.current_ne, speed_log.covariance + walk**2 * hours * np.eye(2)
+
+    current = initial_current(logs, tracks) if speed_log is None else speed_log.current_ne
     iterations = 0
     settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
     settled = None  # (shape, structure, start, current) of the last pass that converged
@@ -380,7 +406,7 @@ def _estimate_current(
         for _ in range(MAX_CURRENT_ITERATIONS):
             stage(f"current: EKF pass {iterations + 1}")
             try:
-                ekf = _run_ekf(settings, structure, ls, settling, length_m, None, current)
+                ekf = _run_ekf(settings, structure, ls, settling, length_m, None, prior(current))
             except IdentificationError:
                 if settled is None:
                     raise
@@ -403,9 +429,8 @@ def _estimate_current(
             assert settled is not None  # set by the pass before, or the error was raised
             shape, structure, ls, current = settled
             break
-    walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
     stage("EKF on every sample")
-    ekf = _run_ekf(settings, structure, ls, segments, length_m, progress, current, walk)
+    ekf = _run_ekf(settings, structure, ls, segments, length_m, progress, prior(current), walk)
     assert ekf.current is not None and ekf.current_covariance is not None
     estimate = CurrentEstimate(
         north_mps=float(ekf.current[0]),
@@ -413,6 +438,7 @@ def _estimate_current(
         covariance=ekf.current_covariance,
         mode=settings.current,
         iterations=iterations,
+        speed_log=speed_log,
     )
     return shape, structure, ls, ekf, estimate
 
@@ -673,6 +699,12 @@ def identify(
         raise IdentificationError("no logs given")
     if settings.initial not in ("equation-error", "zero"):
         raise ValueError(f"unknown initial guess {settings.initial!r}")
+    low, high = SPEED_LOG_SCALE_STD_RANGE
+    if not low <= settings.speed_log_scale_std <= high:
+        raise ValueError(
+            f"speed_log_scale_std must be from {low:g} to {high:g}, "
+            f"got {settings.speed_log_scale_std!r}"
+        )
     if settings.method not in METHODS:
         raise ValueError(f"unknown method {settings.method!r} (known: {', '.join(METHODS)})")
     if settings.current not in CURRENT_MODES:
@@ -881,12 +913,13 @@ def _fit(
         nominal_speed_mps, nominal_n_rps = _nominal(logs, water)
         envelope = _envelope(logs, water, length)
         del water  # a copy of every velocity: not held through the refinement
-        if heading_span_rad(tracks) < MIN_HEADING_SPAN_RAD:
+        if current.speed_log is None and heading_span_rad(tracks) < MIN_HEADING_SPAN_RAD:
             warnings.append(
                 f"the logs' headings span {math.degrees(heading_span_rad(tracks)):.0f} deg: "
                 "the current along the course is barely told apart from the ship's own "
                 "speed (add a turning circle of 360 deg or more, or runs on other headings, "
-                "or fit with --current none if the water was still)"
+                "or a speed log's column stw_mps, or fit with --current none if the water "
+                "was still)"
             )
     ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
     std = np.sqrt(np.diag(ekf.covariance))

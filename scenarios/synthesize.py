@@ -8,9 +8,9 @@ is written wrapped to [0, 360) like a gyro compass.
 
 At sea (a reference ship given a :class:`~scenarios.sea.SeaEnvironment`) the log also
 carries what the ship's own sensors measure, drawn after the noise above so that the
-required columns are those of the same seed in calm water: ``stw_mps`` from a speed
-log, the magnitude of the velocity through the water at midship √(u² + v_m²) with
-Gaussian noise of :data:`STW_NOISE_MPS` (folded at 0); and, when there is a wind,
+required columns are those of the same seed in calm water: ``stw_mps`` from a
+single-axis speed log, the speed through the water along the ship u (exactly calibrated)
+with Gaussian noise of :data:`STW_NOISE_MPS` (folded at 0); and, when there is a wind,
 ``wind_speed_mps`` and ``wind_angle_deg`` from an anemometer, the apparent wind at
 midship (``fmu_model.environment.apparent_wind``: true wind, gusts included, minus the
 velocity over ground; no yaw-rate lever arm, no flow distortion by the superstructure)
@@ -244,7 +244,7 @@ def synthesize_log(
     plant = ship.plant
     if isinstance(plant, ReferencePlant) and plant.environment is not None:
         # drawn after the required columns' noise: those stay as in calm water
-        stw = np.hypot(run["u_mps"], run["v_mps"]) + STW_NOISE_MPS * next(noise)
+        stw = run["u_mps"] + STW_NOISE_MPS * next(noise)
         sensors["stw_mps"] = np.abs(stw)
         source += f"; speed-log noise {STW_NOISE_MPS:g} m/s"
         if plant.environment.has_wind:

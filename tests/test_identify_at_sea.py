@@ -24,6 +24,7 @@ from identifier.current import (
     current_tolerance_mps,
     heading_span_rad,
     initial_current,
+    speed_log_current,
     water_frame,
     water_segments,
 )
@@ -141,7 +142,8 @@ def test_a_diverging_alternation_pass_keeps_the_last_settled_start(
     run_ekf = identify_module._run_ekf
 
     def third_pass_diverges(*args: Any, **kwargs: Any) -> Any:
-        starts.append(args[6] if len(args) > 6 else kwargs.get("current_ne"))
+        prior = args[6] if len(args) > 6 else kwargs.get("current_prior")
+        starts.append(None if prior is None else prior[0])  # the pass's starting current
         if len(starts) == 3:
             raise IdentificationError("state or covariance became non-finite", log="x")
         return run_ekf(*args, **kwargs)
@@ -223,10 +225,60 @@ def test_the_approach_shows_the_cross_current(calm_logs: list[ManeuverLog]) -> N
     # Heading North: the cross component is c_E; the along one is not seen (minimum norm).
     assert start[1] == pytest.approx(CURRENT_NE[1], abs=0.02)
     assert start[0] == pytest.approx(0.0, abs=1e-3)
-    # With a speed log (speed through the water) the along component is seen too.
-    stw = np.hypot(track.u_mps, track.v_mps) - CURRENT_NE[0]
-    logged = replace(log, stw_mps=np.maximum(stw, 0.0))
-    assert initial_current([logged], [track]) == pytest.approx(CURRENT_NE, abs=0.02)
+
+
+def _with_speed_log(
+    log: ManeuverLog, calm: ManeuverLog, scale_error: float = 0.0, seed: int = 3
+) -> ManeuverLog:
+    """``log`` with a speed log: (1 + k) times the calm run's surge speed, 0.05 m/s of noise.
+
+    Smoothing is linear, so the calm log's smoothed surge speed is the current log's less
+    the current's forward component: u_w of the model's equation, to rounding.
+    """
+    u_w = smooth_track(calm.time_s, calm.x_m, calm.y_m, calm.heading_rad).u_mps
+    noise = np.random.default_rng(seed).normal(0.0, 0.05, log.n_samples)
+    return replace(log, stw_mps=np.abs((1.0 + scale_error) * u_w + noise))
+
+
+def test_a_speed_log_shows_the_current_and_its_scale_error(calm_logs: list[ManeuverLog]) -> None:
+    """stw = (1 + k)(u_g − c_u(ψ)): a zig-zag's heading and speed changes show c and k."""
+    zigzags = calm_logs[1:]  # headings within ±40 deg of North, one rpm
+    logs = [
+        _with_speed_log(_with_current(g, CURRENT_NE), g, 0.015, i) for i, g in enumerate(zigzags)
+    ]
+    tracks = [smooth_track(g.time_s, g.x_m, g.y_m, g.heading_rad) for g in logs]
+    assert speed_log_current(zigzags, tracks) is None  # no log carries stw_mps
+    fit = speed_log_current(logs, tracks)
+    assert fit is not None and fit.samples == sum(g.n_samples for g in logs)
+    std = np.sqrt(np.diag(fit.covariance))
+    assert np.all(np.abs(fit.current_ne - CURRENT_NE) <= 3.0 * std), (fit, std)
+    assert abs(fit.scale_error - 0.015) <= 3.0 * fit.scale_error_std
+    # The logs narrow the 1 % prior: the scale error's σ, and the along (North) component's
+    # against the 0.05 m/s that 1 % of this ship's 5 m/s would leave it.
+    assert std[0] < 0.7 * 0.05 and fit.scale_error_std < 0.7 * 0.01
+    assert fit.noise_mps == pytest.approx(0.05, rel=0.3)
+    # A log taken as exact (prior σ 1e-6) puts its 1.5 % into the current along the course.
+    exact = speed_log_current(logs, tracks, scale_std=1e-6)
+    assert exact is not None and abs(exact.scale_error) < 1e-5
+    assert CURRENT_NE[0] - exact.current_ne[0] > 0.05  # a log 1.5 % fast: c_u = u_g − stw
+
+
+def test_a_speed_log_is_the_prior_of_the_current(calm_logs: list[ManeuverLog]) -> None:
+    """From zig-zags alone, a speed log pins the current along the course the track barely shows."""
+    zigzags = calm_logs[1:]
+    logs = [_with_speed_log(_with_current(g, CURRENT_NE), g, 0.0, i) for i, g in enumerate(zigzags)]
+    track_only = identify([_with_current(g, CURRENT_NE) for g in zigzags], SEED)
+    with_log = identify(logs, SEED)
+    assert track_only.current is not None and with_log.current is not None
+    assert track_only.current.speed_log is None and with_log.current.speed_log is not None
+    assert with_log.current.std_mps[0] < 0.75 * track_only.current.std_mps[0]
+    std = np.array(with_log.current.std_mps)
+    assert np.all(np.abs(with_log.current.vector - CURRENT_NE) <= np.maximum(3.0 * std, 0.01))
+    assert not any("barely told apart" in w for w in with_log.warnings)
+    record = with_log.params.identification["environment"]["speed_log"]
+    assert record["samples"] == sum(g.n_samples for g in logs)
+    assert record["scale_error"] == pytest.approx(with_log.current.speed_log.scale_error)
+    assert track_only.params.identification["environment"]["speed_log"] is None
 
 
 def test_a_noisy_compass_does_not_show_an_along_current(calm_logs: list[ManeuverLog]) -> None:
@@ -361,6 +413,23 @@ def test_fit_cli_current_and_windage(
     assert shown is not None
     assert float(shown.group(1)) == pytest.approx(0.3, abs=0.02)
     assert float(shown.group(2)) == pytest.approx(60.0, abs=3.0)
+    assert "speed log:" not in capsys.readouterr().out  # no stw_mps in these logs
+    for i, log in enumerate(calm_logs):
+        write_log(paths[i], _with_speed_log(_with_current(log, CURRENT_NE), log, 0.0, i))
+    status = main(["fit", *paths, "--model", "shi2009", "--method", "ekf", "-o", out])
+    assert status == 0
+    shown = re.search(
+        r"speed log: ([\d,]+) samples, scale error ([-+][\d.]+) ± ([\d.]+) %",
+        capsys.readouterr().out,
+    )
+    assert shown is not None, "the summary says what the speed log showed"
+    assert int(shown.group(1).replace(",", "")) == sum(g.n_samples for g in calm_logs)
+    assert abs(float(shown.group(2))) <= 3.0 * float(shown.group(3))
+    with pytest.raises(SystemExit):
+        main(["fit", *paths, "--speed-log-scale-std-pct", "0", "-o", out])
+    assert "--speed-log-scale-std-pct: expected a number from 0.0001 to 50 %" in (
+        capsys.readouterr().err
+    )
     status = main(["fit", *paths, "--measurements", "velocities", "--current", "constant",
                    "-o", out])  # fmt: skip
     assert status == 2

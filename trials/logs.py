@@ -56,7 +56,7 @@ from MWV and VHW/VBW sentences):
   wind comes **from**: 0 = from ahead, positive from starboard (90 = on the starboard
   beam, 180 = from astern, 270 or -90 = on the port beam) [deg]. Wrapped (0..360) or
   not; it is read as it is (converted to radians, not unwrapped).
-- ``stw_mps``: speed through the water from a speed log [m/s].
+- ``stw_mps``: speed through the water along the ship (forward) from a speed log [m/s].
 
 Every violation raises :class:`~trials.errors.LogFormatError` with the file,
 the 1-based line number (None for whole-file problems), the column where one
@@ -233,8 +233,8 @@ class ManeuverLog:
         from ahead, positive from starboard [rad] (column ``wind_angle_deg``, not
         unwrapped); None when absent.
     stw_mps : numpy.ndarray or None
-        Speed through the water from a speed log [m/s] (column ``stw_mps``); None when
-        absent.
+        Speed through the water along the ship from a speed log [m/s] (column
+        ``stw_mps``); None when absent.
 
     Raises
     ------

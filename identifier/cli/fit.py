@@ -15,7 +15,7 @@ from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, logged_envelope
 from fmu_model.kernels import numba_compilations
 from fmu_model.variants import family_name
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
-from identifier.current import CURRENT_MODES
+from identifier.current import CURRENT_MODES, SPEED_LOG_SCALE_STD
 from identifier.identify import (
     ALPHA_RANGE,
     HEADING_NOISE_RANGE_DEG,
@@ -23,6 +23,7 @@ from identifier.identify import (
     METHODS,
     PARAM_RANDOM_WALK_RANGE,
     POSITION_NOISE_RANGE_M,
+    SPEED_LOG_SCALE_STD_RANGE,
     FitSettings,
     IdentificationResult,
     identify,
@@ -106,6 +107,16 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="uniform current estimated with the coefficients: constant (default), drifting "
         "(a random walk) or none (still water; the default with --measurements velocities)",
     )
+    low_pct, high_pct = (100.0 * f for f in SPEED_LOG_SCALE_STD_RANGE)
+    fit.add_argument(
+        "--speed-log-scale-std-pct",
+        type=argtypes.within(low_pct, high_pct, "%"),
+        default=100.0 * SPEED_LOG_SCALE_STD,
+        metavar="PCT",
+        help="prior sigma of the speed log's (stw_mps) scale error [%% of the speed], "
+        f"{low_pct:g} to {high_pct:g} (default {100.0 * SPEED_LOG_SCALE_STD:g}: IMO "
+        "MSC.96(72)'s 2 %% as two sigma); the current and the scale error are fitted together",
+    )
     fit.add_argument(
         "--windage",
         metavar="FILE.json",
@@ -155,6 +166,15 @@ def _summary(result: IdentificationResult) -> str:
             f"{math.degrees(cur.to_rad):.1f} deg (North {cur.north_mps:+.3f} ± {std_n:.3f}, "
             f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s)"
         )
+        log = cur.speed_log
+        if log is not None:
+            alone_n, alone_e = np.sqrt(np.diag(log.covariance))
+            lines.append(
+                f"speed log: {log.samples:,} samples, scale error "
+                f"{100.0 * log.scale_error:+.2f} ± {100.0 * log.scale_error_std:.2f} %; "
+                f"alone it shows North {log.current_ne[0]:+.3f} ± {alone_n:.3f}, East "
+                f"{log.current_ne[1]:+.3f} ± {alone_e:.3f} m/s (the EKF's prior)"
+            )
     ls = result.equation_error
     rates = f"regression on {ls.rows:,} rows at {ls.sample_interval_s:g} s (about L/U/40"
     shape = p.identification.get("shape")
@@ -194,6 +214,7 @@ def _fit(args: argparse.Namespace) -> int:
         ),
         method=args.method,
         current=current,
+        speed_log_scale_std=args.speed_log_scale_std_pct / 100.0,
         windage=windage,
     )
     total = 2 * sum(log.n_samples for log in logs)
