@@ -69,6 +69,10 @@ whichever is more), taken here as two standard deviations (:func:`speed_log_curr
 At 15 kn, 1 % is 0.08 m/s of current along the course: the manoeuvres' speed changes,
 not this prior, must tell the two apart."""
 
+SPEED_LOG_HUBER_SIGMAS = 3.0
+"""Speed-log residuals beyond this many σ count linearly, not squared (Huber loss,
+:func:`speed_log_current`): a spike or a drop-out is one bad sample, not a current."""
+
 CURRENT_TOLERANCE_MPS = 1e-3
 """The alternation stops when no component changes by more than this [m/s] or by more
 than :data:`CURRENT_TOLERANCE_SIGMAS` of the estimate's own standard deviation."""
@@ -224,7 +228,7 @@ class SpeedLogFit:
         Speed-log samples fitted.
     noise_mps : float
         Standard deviation of the residual (the log's noise and the smoothed
-        velocities') [m/s].
+        velocities'), robust (from the median absolute residual) [m/s].
 
     """
 
@@ -265,12 +269,16 @@ def speed_log_current(
     The heading changes of the manoeuvres show both components of c; the speed changes
     (a zig-zag loses some of it at every swing) tell the scale error k apart from the
     current along the course. Least squares (``scipy.optimize.least_squares``) with the
-    priors c ~ N(0, :data:`CURRENT_PRIOR_STD_MPS`²) and k ~ N(0, ``scale_std``²). The
-    noise ε's variance and lag-one correlation ρ (the smoothed u_g is correlated from
-    sample to sample) come from the residuals of a first fit with k = 0; every sample
-    then counts as (1 − ρ)/(1 + ρ) of an independent one (an AR(1) residual's effective
-    sample size). The covariance is (JᵀJ)⁻¹ at the solution, its (c_N, c_E) block the
-    current's. None when no log carries ``stw_mps``.
+    priors c ~ N(0, :data:`CURRENT_PRIOR_STD_MPS`²) and k ~ N(0, ``scale_std``²), and a
+    Huber loss beyond :data:`SPEED_LOG_HUBER_SIGMAS` σ, so that a speed log's spikes and
+    drop-outs (aerated water, a fouled sensor) weigh as little as they deserve. The noise
+    ε's σ (from the median absolute residual) and lag-one correlation ρ (the smoothed u_g
+    is correlated from sample to sample; from the samples within
+    :data:`SPEED_LOG_HUBER_SIGMAS` σ) come from the residuals of a first fit with k = 0;
+    every sample then counts as (1 − ρ)/(1 + ρ) of an independent one (an AR(1) residual's
+    effective sample size). The covariance is (JᵀJ)⁻¹ at the solution (the loss's
+    Gauss-Newton J), its (c_N, c_E) block the current's. None when no log carries
+    ``stw_mps``.
     """
     if scale_std <= 0.0:
         raise ValueError("scale_std must be positive")
@@ -284,12 +292,17 @@ def speed_log_current(
     a = np.concatenate([np.column_stack([np.cos(h), np.sin(h)]) for h in heading])
     speed, measured = np.concatenate(u_g), np.concatenate(stw)
     first = np.linalg.lstsq(a, speed - measured, rcond=None)[0]
-    residuals = np.split(speed - measured - a @ first, np.cumsum([s.size for s in stw])[:-1])
-    variance = float(np.mean(np.concatenate(residuals) ** 2))
-    lagged = sum(float(np.dot(e[:-1], e[1:])) for e in residuals)
-    lag_pairs = sum(e.size - 1 for e in residuals)
-    rho = min(max(lagged / max(lag_pairs, 1) / variance, 0.0), 0.99) if variance > 0.0 else 0.0
-    noise = math.sqrt(variance * (1.0 + rho) / (1.0 - rho)) or 1e-6  # per effective sample
+    residual = speed - measured - a @ first
+    sigma = 1.4826 * float(np.median(np.abs(residual - np.median(residual)))) or 1e-6
+    calm = np.abs(residual) <= SPEED_LOG_HUBER_SIGMAS * sigma
+    ends = np.cumsum([s.size for s in stw])[:-1]
+    lagged = lag_pairs = 0.0
+    for e, ok in zip(np.split(residual, ends), np.split(calm, ends), strict=True):
+        both = ok[:-1] & ok[1:]
+        lagged += float(np.dot(e[:-1][both], e[1:][both]))
+        lag_pairs += float(np.count_nonzero(both))
+    rho = min(max(lagged / max(lag_pairs, 1.0) / sigma**2, 0.0), 0.99)
+    noise = sigma * math.sqrt((1.0 + rho) / (1.0 - rho))  # per effective sample
 
     def weighted_residuals(p: np.ndarray) -> np.ndarray:
         water = speed - a @ p[:2]
@@ -298,7 +311,12 @@ def speed_log_current(
              [p[2] / scale_std]]
         )  # fmt: skip
 
-    solution = least_squares(weighted_residuals, np.append(first, 0.0), method="lm")
+    solution = least_squares(
+        weighted_residuals,
+        np.append(first, 0.0),
+        loss="huber",
+        f_scale=SPEED_LOG_HUBER_SIGMAS * sigma / noise,
+    )
     covariance = np.linalg.inv(solution.jac.T @ solution.jac)
     return SpeedLogFit(
         current_ne=solution.x[:2].copy(),
@@ -306,7 +324,7 @@ def speed_log_current(
         scale_error=float(solution.x[2]),
         scale_error_std=math.sqrt(covariance[2, 2]),
         samples=int(measured.size),
-        noise_mps=math.sqrt(variance),
+        noise_mps=sigma,
     )
 
 

@@ -257,6 +257,19 @@ def test_a_speed_log_shows_the_current_and_its_scale_error(calm_logs: list[Maneu
     # against the 0.05 m/s that 1 % of this ship's 5 m/s would leave it.
     assert std[0] < 0.7 * 0.05 and fit.scale_error_std < 0.7 * 0.01
     assert fit.noise_mps == pytest.approx(0.05, rel=0.3)
+    # Spikes and drop-outs on 1 % of the samples (aerated water): one bad sample each.
+    rng = np.random.default_rng(11)
+    glitched = []
+    for log in logs:
+        assert log.stw_mps is not None
+        bad = rng.choice(log.n_samples, size=max(1, log.n_samples // 100), replace=False)
+        stw = log.stw_mps.copy()
+        stw[bad] = np.where(np.arange(bad.size) % 2 == 0, 0.0, 2.0 * stw[bad])
+        glitched.append(replace(log, stw_mps=stw))
+    robust = speed_log_current(glitched, tracks)
+    assert robust is not None
+    assert np.all(np.abs(robust.current_ne - fit.current_ne) <= 0.5 * std), (robust, fit)
+    assert robust.noise_mps == pytest.approx(fit.noise_mps, rel=0.1)
     # A log taken as exact (prior σ 1e-6) puts its 1.5 % into the current along the course.
     exact = speed_log_current(logs, tracks, scale_std=1e-6)
     assert exact is not None and abs(exact.scale_error) < 1e-5
