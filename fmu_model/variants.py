@@ -623,22 +623,25 @@ PRIME_RUDDER_OFFSET_THRUST = register_family(
 )
 
 # --- Cross-flow drag of the hull, strip by strip (issue 13, benchmarks/hsva.md) ------------
-# The hull's nonlinear sway force and yaw moment as the drag of its strips in the cross
-# flow (Hooft 1994, "The cross-flow drag on a manoeuvring ship", Ocean Eng. 21(3); Fossen
+# The hull's nonlinear yaw moment as the moment of its strips' drag in the cross flow
+# (Hooft 1994, "The cross-flow drag on a manoeuvring ship", Ocean Eng. 21(3); Fossen
 # 2021, Handbook of Marine Craft Hydrodynamics and Motion Control, 2nd ed., strip-theory
 # cross-flow drag): the strip at x = x′L from midship sees the transverse velocity
 # v + x·r, and its drag is −½ρ·C_D(x)·T(x)·|v + xr|(v + xr). With a drag distribution
-# C_D·T linear in x′ and the prime variables, w′ = v′ + x′r′, the hull accelerations are
-#   sway  q·(Y_cf0·I₀ + Y_cf1·I₁),   yaw  q/L·(N_cf1·I₁ + N_cf2·I₂),
-#   I_k(v′, r′) = ∫_{−½}^{½} x′^k |w′| w′ dx′,
-# in place of the four modulus terms of each equation (v′|v′|, r′|r′|, v′|r′|, |v′|r′),
-# which the integrals tie together: along a hull the cross flow changes sign wherever
-# the pivot point lies on it (zig-zags), and not in a drift (I₀ = |v′|v′ at r′ = 0,
-# I₁ = r′|r′|/32 at v′ = 0). The integrals by Gauss-Legendre quadrature at
+# C_D·T linear in x′ and the prime variables, w′ = v′ + x′r′, the yaw acceleration is
+#   q/L·(N_cf1·I₁ + N_cf2·I₂),   I_k(v′, r′) = ∫_{−½}^{½} x′^k |w′| w′ dx′,
+# in place of the four modulus terms of the yaw equation (v′|v′|, r′|r′|, v′|r′|,
+# |v′|r′), which the integrals tie together: along a hull the cross flow changes sign
+# wherever the pivot point lies on it (zig-zags), and not in a drift (I₂ = |v′|v′/12 at
+# r′ = 0, I₁ = r′|r′|/32 at v′ = 0). The sway equation keeps its four modulus terms: the
+# measured HSVA runs hold out better so (12.3° in sum against 12.9° with the integrals
+# in both equations, q·(Y_cf0·I₀ + Y_cf1·I₁) in sway, and 16.1° with them in sway only;
+# the Mariner's turns 7.4–11.0 % against 8.8–15.5 % off; benchmarks/hsva.md, "Cross-flow
+# drag of the hull"). The integrals by Gauss-Legendre quadrature at
 # CROSSFLOW_STATIONS stations (|w′|w′ has a kink in its derivative at the pivot point:
 # within 3e-3 of v′² + r′²/12 of the integral for |v′| ≤ 1, |r′| ≤ 1.2, exact where no
-# strip's flow reverses). The linear terms v′, r′ (lift) and the rudder are `prime-rudder-offset`'s.
-# Fossen's strip model is the special case of a constant drag, Y_cf1 = N_cf2 = 0.
+# strip's flow reverses). The linear terms v′, r′ (lift), the sway equation and the rudder
+# are `prime-rudder-offset`'s.
 CROSSFLOW_STATIONS = 8
 
 
@@ -661,17 +664,11 @@ PRIME_CROSSFLOW = register_family(
     replace(
         PRIME_RUDDER_OFFSET,
         name="prime-crossflow",
-        description="prime-rudder-offset with the hull's nonlinear sway force and yaw moment "
-        "as strip-theory cross-flow drag of a linear drag distribution, integrals of "
-        "x'^k |v' + x'r'|(v' + x'r'), 17 coefficients",
+        description="prime-rudder-offset with the hull's nonlinear yaw moment as the "
+        "strip-theory cross-flow drag of a linear drag distribution, integrals of "
+        "x'^k |v' + x'r'|(v' + x'r'), 19 coefficients",
         reference="Hooft (1994) cross-flow drag; Fossen (2021) strip-theory cross-flow drag; "
         "benchmarks/hsva.md (issue 13)",
-        sway=(
-            *_hull("Y", sp.Integer(1), _MODULUS[:2]),
-            Term("Y_cf0", _q * crossflow_integral(0)),
-            Term("Y_cf1", _q * crossflow_integral(1)),
-            *PRIME_RUDDER_OFFSET.sway[-1:],
-        ),
         yaw=(
             *_hull("N", 1 / L, _MODULUS[:2]),
             Term("N_cf1", _q / L * crossflow_integral(1)),
@@ -685,6 +682,6 @@ PRIME_CROSSFLOW_THRUST = register_family(
     with_fixed_thrust(
         PRIME_CROSSFLOW,
         "prime-crossflow-thrust",
-        f"prime-crossflow with {_FIXED_THRUST_TEXT}, 16 coefficients",
+        f"prime-crossflow with {_FIXED_THRUST_TEXT}, 18 coefficients",
     )
 )

@@ -424,7 +424,7 @@ def test_outputs_equal_python_rk4(unzipped: Path, params: ModelParameters, sched
 # Gains of the speed-dependent variants: the prime-rudder tanker of test_shape, with
 # rudder terms for the free-rudder variants, a cubic lift of a third of the linear one
 # (prime-rudder-lift), the same approach thrust of fixed slope (prime-rudder-thrust) and
-# a cross-flow drag of about the modulus terms' size (prime-crossflow);
+# a cross-flow yaw moment of about the modulus terms' size (prime-crossflow);
 # absent names are 0.
 PRIME_GAINS = {
     **PRIME_RUDDER_COEFFICIENTS,
@@ -434,8 +434,6 @@ PRIME_GAINS = {
     "Y_R3": -0.018,
     "N_R3": 0.17,
     "X_T": 9e-6,
-    "Y_cf0": -0.8,
-    "Y_cf1": 0.4,
     "N_cf1": -8.0,
     "N_cf2": -0.6,
 }
