@@ -116,3 +116,20 @@ def scheduler_client(address: str) -> Iterator[Client]:
 
     with Client(address, timeout=SCHEDULER_TIMEOUT_S) as client:
         yield client
+
+
+@contextmanager
+def cluster_client(
+    scheduler: str | None, n_workers: int, *, processes: bool = True
+) -> Iterator[Client]:
+    """Yield a client of ``scheduler`` or, when None, of a new local cluster.
+
+    The scheduler's is :func:`scheduler_client`'s (an OSError when it does not answer), the
+    local cluster :func:`local_client`'s (``n_workers``, ``processes``; silent).
+    """
+    if scheduler is not None:
+        with scheduler_client(scheduler) as client:
+            yield client
+    else:
+        with local_client(n_workers, processes=processes) as client:
+            yield client

@@ -27,7 +27,6 @@ import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import FrameType
-from typing import Any
 
 from fmu_model import DEFAULT_MODEL, model_names
 from identifier.batch.manifest import VesselSpec, read_vessels
@@ -42,7 +41,7 @@ from identifier.batch.summary import BatchSummary, VesselResult, write_summary
 from identifier.batch.task import VesselJob, describe_error, identify_vessel, sha256_of
 from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS
-from trials.cluster import local_client, scheduler_client
+from trials.cluster import cluster_client
 
 __all__ = ["run_batch"]
 
@@ -101,22 +100,6 @@ def _children_end_with_us() -> Iterator[None]:
         for signum in ours:
             if signal.getsignal(signum) is end:
                 signal.signal(signum, signal.SIG_DFL)
-
-
-@contextlib.contextmanager
-def _client(scheduler: str | None, n_workers: int) -> Iterator[Any]:
-    """Yield a ``distributed.Client`` on ``scheduler`` or on a new LocalCluster of processes.
-
-    The scheduler's is ``trials.cluster.scheduler_client``'s (an OSError when it does not
-    answer); the local cluster is ``trials.cluster.local_client``'s (silent, a quiet
-    teardown), whose worker processes end with this process (:func:`_children_end_with_us`).
-    """
-    if scheduler is not None:
-        with scheduler_client(scheduler) as client:
-            yield client
-        return
-    with _children_end_with_us(), local_client(n_workers) as client:
-        yield client
 
 
 def run_batch(
@@ -233,7 +216,9 @@ def run_batch(
         # Longest first (by the bytes of its logs): the last task to start is a short
         # one, so the workers finish together (LPT scheduling).
         pending.sort(key=lambda item: -sum(Path(p).stat().st_size for p in item[1].logs))
-        with _client(scheduler, n_workers) as client:
+        # A local cluster's worker processes end with this process (a scheduler's do not).
+        local = contextlib.nullcontext() if scheduler else _children_end_with_us()
+        with local, cluster_client(scheduler, n_workers) as client:
             futures = {}
             for rank, (spec, job) in enumerate(pending):
                 future = client.submit(identify_vessel, job, pure=False, priority=-rank)

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -31,7 +31,7 @@ from scenarios.uncertainty.results import (
     UncertaintyResult,
 )
 from scenarios.uncertainty.sampling import draw_coefficients
-from trials.cluster import local_client, scheduler_client
+from trials.cluster import cluster_client
 from trials.maneuvers import DEFAULT_RUDDER_RATE_DEG_S, Program, standard_set
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
 from trials.run import ModelPlant, run_batch
@@ -122,25 +122,6 @@ def simulate_chunk(theta: np.ndarray, setup: RunSetup) -> list[tuple[np.ndarray,
 # --------------------------------------------------------------------------------------
 # Monte Carlo on a dask cluster
 # --------------------------------------------------------------------------------------
-
-
-@contextmanager
-def _dask_client(
-    scheduler: str | None, client: Client | None, n_workers: int, processes: bool
-) -> Iterator[Client]:
-    """Yield ``client``, a client of ``scheduler``, or one of a new, silent local cluster.
-
-    The local one is ``trials.cluster.local_client``'s: nothing logged, a quiet teardown.
-    """
-    if client is not None:
-        yield client
-        return
-    if scheduler is not None:
-        with scheduler_client(scheduler) as remote:
-            yield remote
-        return
-    with local_client(n_workers, processes=processes) as local:
-        yield local
 
 
 def monte_carlo_metrics(
@@ -260,17 +241,22 @@ def monte_carlo_metrics(
         dt_s=float(dt_s),
         divergence_factor=float(divergence_factor),
     )
-    with _dask_client(scheduler, client, n_workers, processes) as cluster_client:
+    connected = (
+        nullcontext(client)
+        if client is not None
+        else cluster_client(scheduler, n_workers, processes=processes)
+    )
+    with connected as dask_client:
         if chunk_size is None:
-            threads = max(1, sum(cluster_client.nthreads().values()))
+            threads = max(1, sum(dask_client.nthreads().values()))
             chunk_size = min(_MAX_DEFAULT_CHUNK, max(1, math.ceil(n_samples / (2 * threads))))
         # θ̂ rides as an extra first column of the first chunk: a task of its own would
         # cost almost as much as a whole chunk (the step loop, not the width, dominates).
         columns = np.vstack((params.to_vector(), samples)).T
         bounds = [0, *range(chunk_size + 1, n_samples + 1, chunk_size), n_samples + 1]
         chunks = [np.ascontiguousarray(columns[:, a:b]) for a, b in itertools.pairwise(bounds)]
-        futures = cluster_client.map(simulate_chunk, chunks, setup=setup)
-        parts = cluster_client.gather(futures)
+        futures = dask_client.map(simulate_chunk, chunks, setup=setup)
+        parts = dask_client.gather(futures)
 
     results = []
     for i, program in enumerate(chosen):
