@@ -45,6 +45,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.stats import median_abs_deviation
 
 from identifier.ekf import EkfSegment, body_current
 from identifier.smoothing import SmoothedTrack
@@ -293,7 +294,7 @@ def speed_log_current(
     speed, measured = np.concatenate(u_g), np.concatenate(stw)
     first = np.linalg.lstsq(a, speed - measured, rcond=None)[0]
     residual = speed - measured - a @ first
-    sigma = 1.4826 * float(np.median(np.abs(residual - np.median(residual)))) or 1e-6
+    sigma = float(median_abs_deviation(residual, scale="normal")) or 1e-6
     calm = np.abs(residual) <= SPEED_LOG_HUBER_SIGMAS * sigma
     ends = np.cumsum([s.size for s in stw])[:-1]
     lagged = lag_pairs = 0.0
