@@ -458,6 +458,14 @@ def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert run_uncertainty_command(args) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no covariance" in err
+    # A tank model's steering-rate warning does not come before a failing run's error.
+    model = tmp_path / "nocov_model.json"
+    save_params(
+        model, replace(linear_ship(), length_m=7.0).with_vector(linear_ship().to_vector(), None)
+    )
+    assert run_uncertainty_command(_parse(["uncertainty", "--params", str(model), "--quiet"])) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no covariance" in err and "warning" not in err
 
 
 def test_cli_usage_error_exits_2() -> None:

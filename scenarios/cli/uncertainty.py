@@ -90,9 +90,8 @@ def run_uncertainty_command(args: argparse.Namespace) -> int:
     """
     try:
         params = load_params(args.params)
+        # its warning once the run has succeeded: an error stays the one line on stderr
         rate_deg_s, warning = steering_rate_deg_s(args.rudder_rate_deg_s, params.length_m)
-        if warning is not None:
-            print(f"warning: {args.params}: {warning}", file=sys.stderr)
         if not args.quiet:
             print(
                 f"{PROG} uncertainty: {args.samples} samples of {params.vessel_name} "
@@ -116,6 +115,8 @@ def run_uncertainty_command(args: argparse.Namespace) -> int:
             write_atomic(args.json, json.dumps(document, indent=2, allow_nan=False) + "\n")
     except (ParamsFormatError, UncertaintyError, OSError, TimeoutError) as exc:
         return fail("uncertainty", exc)
+    if warning is not None:
+        print(f"warning: {args.params}: {warning}", file=sys.stderr)
     print(result.summary_table(), end="")
     failed = [
         f"{p.program.name}: {p.n_diverged} diverged, {p.n_incomplete} incomplete"
