@@ -70,6 +70,13 @@ whichever is more), taken here as two standard deviations (:func:`speed_log_curr
 At 15 kn, 1 % is 0.08 m/s of current along the course: the manoeuvres' speed changes,
 not this prior, must tell the two apart."""
 
+MAX_SPEED_LOG_CURRENT_MPS = 3.0
+"""A speed log that implies a current above this [m/s] (6 kn: beyond the open sea's, a
+tidal race's) is not used (:meth:`SpeedLogFit.implausible`)."""
+
+MAX_SPEED_LOG_SCALE_ERROR = 0.1
+"""... nor one whose scale error is above this fraction (ten times IMO MSC.96(72)'s 2 %)."""
+
 SPEED_LOG_HUBER_SIGMAS = 3.0
 """Speed-log residuals beyond this many σ count linearly, not squared (Huber loss,
 :func:`speed_log_current`): a spike or a drop-out is one bad sample, not a current."""
@@ -143,6 +150,8 @@ class CurrentEstimate:
         EKF passes of the alternation.
     speed_log : SpeedLogFit, optional
         What the logs' speed log showed (the EKF's prior of the current); None without.
+    speed_log_ignored : str, optional
+        Why the logs' speed log was not used (:meth:`SpeedLogFit.implausible`); None.
 
     """
 
@@ -152,6 +161,7 @@ class CurrentEstimate:
     mode: str
     iterations: int
     speed_log: SpeedLogFit | None = None
+    speed_log_ignored: str | None = None
 
     @property
     def vector(self) -> np.ndarray:
@@ -187,6 +197,7 @@ class CurrentEstimate:
             "current_covariance_m2ps2": self.covariance.tolist(),
             "iterations": self.iterations,
             "speed_log": None if self.speed_log is None else self.speed_log.as_dict(),
+            "speed_log_ignored": self.speed_log_ignored,
         }
 
 
@@ -239,6 +250,26 @@ class SpeedLogFit:
     scale_error_std: float
     samples: int
     noise_mps: float
+
+    def implausible(self) -> str | None:
+        """Return why this fit is no measurement of a current, or None when it may be.
+
+        A current above :data:`MAX_SPEED_LOG_CURRENT_MPS` or a scale error above
+        :data:`MAX_SPEED_LOG_SCALE_ERROR` says the log is broken (stuck at 0, another
+        unit, a fouled sensor), not that the sea is so.
+        """
+        speed = math.hypot(*self.current_ne)
+        if speed > MAX_SPEED_LOG_CURRENT_MPS:
+            return (
+                f"it implies a current of {speed:.2f} m/s, more than "
+                f"{MAX_SPEED_LOG_CURRENT_MPS:g} m/s (a log stuck or in other units?)"
+            )
+        if abs(self.scale_error) > MAX_SPEED_LOG_SCALE_ERROR:
+            return (
+                f"its scale error is {100.0 * self.scale_error:+.0f} %, beyond "
+                f"±{100.0 * MAX_SPEED_LOG_SCALE_ERROR:g} %"
+            )
+        return None
 
     def as_dict(self) -> dict[str, object]:
         """Return the ``speed_log`` record of ``identification.environment`` (units in keys)."""

@@ -384,6 +384,9 @@ def _estimate_current(
     started.
     """
     speed_log = speed_log_current(logs, tracks, settings.speed_log_scale_std)
+    ignored = None if speed_log is None else speed_log.implausible()
+    if ignored is not None:
+        speed_log = None  # a broken log: the track alone, as without one
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
     hours = sum(float(log.time_s[-1] - log.time_s[0]) for log in logs) / 3600.0
 
@@ -439,6 +442,7 @@ def _estimate_current(
         mode=settings.current,
         iterations=iterations,
         speed_log=speed_log,
+        speed_log_ignored=ignored,
     )
     return shape, structure, ls, ekf, estimate
 
@@ -913,6 +917,8 @@ def _fit(
         nominal_speed_mps, nominal_n_rps = _nominal(logs, water)
         envelope = _envelope(logs, water, length)
         del water  # a copy of every velocity: not held through the refinement
+        if current.speed_log_ignored is not None:
+            warnings.append(f"the speed log (stw_mps) was not used: {current.speed_log_ignored}")
         if current.speed_log is None and heading_span_rad(tracks) < MIN_HEADING_SPAN_RAD:
             warnings.append(
                 f"the logs' headings span {math.degrees(heading_span_rad(tracks)):.0f} deg: "

@@ -270,6 +270,8 @@ def test_a_speed_log_shows_the_current_and_its_scale_error(calm_logs: list[Maneu
     assert robust is not None
     assert np.all(np.abs(robust.current_ne - fit.current_ne) <= 0.5 * std), (robust, fit)
     assert robust.noise_mps == pytest.approx(fit.noise_mps, rel=0.1)
+    assert fit.implausible() is None
+    assert "scale error is +20 %" in str(replace(fit, scale_error=0.2).implausible())
     # A log taken as exact (prior σ 1e-6) puts its 1.5 % into the current along the course.
     exact = speed_log_current(logs, tracks, scale_std=1e-6)
     assert exact is not None and abs(exact.scale_error) < 1e-5
@@ -292,6 +294,18 @@ def test_a_speed_log_is_the_prior_of_the_current(calm_logs: list[ManeuverLog]) -
     assert record["samples"] == sum(g.n_samples for g in logs)
     assert record["scale_error"] == pytest.approx(with_log.current.speed_log.scale_error)
     assert track_only.params.identification["environment"]["speed_log"] is None
+    # A log stuck at 0 would "show" a current of the ship's own speed: not used, warned.
+    stuck = identify([replace(g, stw_mps=np.zeros(g.n_samples)) for g in logs], SEED)
+    assert stuck.current is not None and stuck.current.speed_log is None
+    np.testing.assert_array_equal(stuck.current.vector, track_only.current.vector)
+    (warning,) = [w for w in stuck.warnings if "was not used" in w]
+    assert any("barely told apart" in w for w in stuck.warnings)  # the track alone again
+    assert re.fullmatch(
+        r"the speed log \(stw_mps\) was not used: it implies a current of [\d.]+ m/s, more "
+        r"than 3 m/s \(a log stuck or in other units\?\)",
+        warning,
+    ), warning
+    assert stuck.params.identification["environment"]["speed_log_ignored"].startswith("it implies")
 
 
 def test_a_noisy_compass_does_not_show_an_along_current(calm_logs: list[ManeuverLog]) -> None:
