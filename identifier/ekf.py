@@ -25,12 +25,19 @@ motion rows of Φ differ from the identity, so the prediction updates only those
 columns of P, and the update needs only a 3 × 3 innovation covariance (explicit
 Cholesky).
 
+With a current estimated, a speed log (``EkfSegment.speed_log_mps``) is a fourth,
+scalar measurement: stw = (1 + k) u + ε, u through the water, with the log's scale error k
+one more augmented state (:class:`SpeedLogMeasurement`), updated after the track's
+(sequential updates: the two noises are independent). An innovation beyond
+:data:`SPEED_LOG_GATE_NIS` is a spike or a drop-out, not taken.
+
 Several logs are processed in one identification: the motion states restart at each
 log's first (smoothed) sample, θ and its covariance carry over.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -40,9 +47,15 @@ import numpy as np
 
 from fmu_model import ModelStructure, numeric_model
 from fmu_model.kernels import Binding, kernel_constants, kernel_module
+from identifier.smoothing import GATE_NIS_HEADING
 from trials.errors import IdentificationError
 
 MEASUREMENTS = ("track", "velocities")
+
+SPEED_LOG_GATE_NIS = GATE_NIS_HEADING
+"""A speed-log sample whose innovation squared exceeds this many times its variance
+(χ²₁ at the smoother's false-alarm probability, ``identifier.smoothing``: 6.1 σ) is not
+taken: a log's spike or drop-out, not the ship's speed."""
 
 #: Samples of a log the compiled pass runs at a time (rounded up to a whole number of
 #: history strides), so that ``progress`` hears from a long log while it runs.
@@ -78,6 +91,9 @@ class EkfSegment:
         Accelerations (u̇ [m/s²], v̇ [m/s²], ṙ [rad/s²]) of known external loads (a
         measured wind's, ``identifier.wind``), shape (N, 3), added to the model's, so
         that the coefficients are the ship's alone; None: none.
+    speed_log_mps : numpy.ndarray, optional
+        Logged speed through the water along the ship [m/s], shape (N,) (a measurement
+        when :func:`ekf_identify` is given a :class:`SpeedLogMeasurement`); None: none.
 
     """
 
@@ -91,6 +107,7 @@ class EkfSegment:
     rudder_rad: np.ndarray
     n_rps: np.ndarray
     known_acceleration: np.ndarray | None = None
+    speed_log_mps: np.ndarray | None = None
 
     def known_acceleration_or_zero(self) -> np.ndarray:
         """Return the known accelerations (N, 3), or one row of zeros (1, 3) for none.
@@ -122,6 +139,7 @@ class EkfSegment:
             known_acceleration=None
             if self.known_acceleration is None
             else self.known_acceleration[part],
+            speed_log_mps=None if self.speed_log_mps is None else self.speed_log_mps[part],
         )
 
 
@@ -203,6 +221,25 @@ class EkfSettings:
 
 
 @dataclass(frozen=True)
+class SpeedLogMeasurement:
+    """A speed log as a measurement of the EKF: stw = (1 + k) u + ε.
+
+    Parameters
+    ----------
+    noise_std_mps : float
+        Standard deviation of ε per sample [m/s] (a white noise's; a log whose noise is
+        correlated from sample to sample inflated to count as fewer samples,
+        ``identifier.current.speed_log_noise``).
+    scale_error_std : float
+        Prior standard deviation of the scale error k (mean 0) [-].
+
+    """
+
+    noise_std_mps: float
+    scale_error_std: float
+
+
+@dataclass(frozen=True)
 class EkfResult:
     """Output of :func:`ekf_identify`.
 
@@ -215,7 +252,8 @@ class EkfResult:
     each segment ends. ``filtered`` are the filtered motion states (u, v, r, x, y, ψ) at
     the same samples, one (M_i, 6) array per segment. ``track_rms`` is, per segment and
     over every sample, the RMS of the filtered minus the logged position [m] and heading
-    (wrapped) [rad].
+    (wrapped) [rad]. With a speed log: its scale error k and standard deviation [-], and
+    the samples taken and rejected by the gate (:data:`SPEED_LOG_GATE_NIS`).
     """
 
     theta: np.ndarray
@@ -228,6 +266,9 @@ class EkfResult:
     track_rms: tuple[tuple[float, float], ...]
     current: np.ndarray | None = None
     current_covariance: np.ndarray | None = None
+    speed_log_scale_error: float | None = None
+    speed_log_scale_error_std: float | None = None
+    speed_log_samples: tuple[int, int] = (0, 0)  # (taken, rejected)
 
 
 def ekf_identify(
@@ -240,6 +281,7 @@ def ekf_identify(
     progress: Callable[[int], None] | None = None,
     current0: np.ndarray | None = None,
     current_covariance0: np.ndarray | None = None,
+    speed_log: SpeedLogMeasurement | None = None,
 ) -> EkfResult:
     """Identify the coefficients θ of ``structure`` with the augmented-state EKF.
 
@@ -270,6 +312,10 @@ def ekf_identify(
         Initial current (North, East) [m/s]; None estimates no current.
     current_covariance0 : numpy.ndarray, optional
         Its covariance (2, 2) [m²/s²]; required with ``current0``.
+    speed_log : SpeedLogMeasurement, optional
+        Measure the segments' ``speed_log_mps`` (those that have one) with the scale
+        error k as one more state after the current (module docstring); only with
+        ``current0``.
 
     Raises
     ------
@@ -311,6 +357,20 @@ def ekf_identify(
         variance_limit = np.concatenate(
             [variance_limit, settings.divergence_factor * np.diag(P_theta)[p:]]
         )
+    speed_log_var = 0.0
+    if speed_log is not None:
+        if not estimated_current:
+            raise ValueError("a speed log is measured only with a current estimated")
+        # k follows c in the augmented block, constant, from its prior N(0, σ_k²).
+        k_var = speed_log.scale_error_std**2
+        theta = np.append(theta, 0.0)
+        P_theta = np.block(
+            [[P_theta, np.zeros((p + 2, 1))], [np.zeros((1, p + 2)), np.array([[k_var]])]]
+        )
+        q_theta = np.append(q_theta, 0.0)
+        variance_limit = np.append(variance_limit, settings.divergence_factor * k_var)
+        speed_log_var = speed_log.noise_std_mps**2
+    speed_log_counts = np.zeros(2, dtype=np.int64)
     # Model error enters the accelerations; the kinematics are exact.
     q_state = np.concatenate(
         [np.asarray(settings.state_process_std, dtype=float) ** 2, np.zeros(3)]
@@ -327,12 +387,12 @@ def ekf_identify(
     for seg in segments:
         n = seg.time_s.size
         # Motion states restart at the segment's first smoothed sample (through the water:
-        # less the current's body components); θ (and c) carry over.
+        # less the current's body components); θ (and c, k) carry over.
         velocities0 = seg.velocities[0].copy()
         velocity_var0 = seg.velocity_std[0] ** 2
         if estimated_current:
-            velocities0[:2] -= body_current(theta[p:], seg.initial_track[2])
-            velocity_var0[:2] += np.trace(P_theta[p:, p:])
+            velocities0[:2] -= body_current(theta[p : p + 2], seg.initial_track[2])
+            velocity_var0[:2] += np.trace(P_theta[p : p + 2, p : p + 2])
         x = np.concatenate([velocities0, seg.initial_track, theta])
         P = np.zeros((6 + theta.size, 6 + theta.size))
         P[:3, :3] = np.diag(velocity_var0)
@@ -345,13 +405,19 @@ def ekf_identify(
         states = np.empty((rows[len(filtered)], 6))
         square_sums = np.zeros(2)
         track = np.ascontiguousarray(seg.track, dtype=float)
-        inputs = (  # t, y, R, δ, n, known loads: the pass's arguments in its order
+        measured_speed = (  # one NaN: no speed-log measurement in this segment
+            np.full(1, np.nan)
+            if speed_log is None or seg.speed_log_mps is None
+            else np.ascontiguousarray(seg.speed_log_mps, dtype=float)
+        )
+        inputs = (  # t, y, R, δ, n, known loads, speed log: the pass's arguments in order
             np.ascontiguousarray(seg.time_s, dtype=float),
             track if offset == 3 else np.ascontiguousarray(y, dtype=float),
             np.ascontiguousarray(r_var, dtype=float),
             np.ascontiguousarray(seg.rudder_rad, dtype=float),
             np.ascontiguousarray(seg.n_rps, dtype=float),
             seg.known_acceleration_or_zero(),
+            measured_speed,
         )
         histories = (states, theta_hist[row : row + states.shape[0]],
                      std_hist[row : row + states.shape[0]])  # fmt: skip
@@ -359,7 +425,8 @@ def ekf_identify(
         # the pass carries x and P on, so the filter is the same as in one pass; the
         # history row of a chunk's first sample is written again with the same values,
         # and its track residual, added again, is taken back out. An input of one row
-        # stands for every sample (R with track measurements, no known loads): not cut.
+        # stands for every sample (R with track measurements, no known loads, no speed
+        # log): not cut.
         chunk = -(-EKF_CHUNK_SAMPLES // stride) * stride
         for a in range(0, max(n - 1, 1), chunk):
             b = min(a + chunk, n - 1)
@@ -370,9 +437,9 @@ def ekf_identify(
             status, sample = _run_pass(
                 ekf_pass, seg.name, eq_index, constants, settings.max_substep_s,
                 settings.process_noise_interval_s, offset,
-                *(v if v.shape[0] == 1 else v[part] for v in inputs),
+                *(v if v.shape[0] == 1 else v[part] for v in inputs), speed_log_var,
                 x, P, q_state, q_theta, variance_limit, stride, track[part],
-                *(h[rows_part] for h in histories), square_sums,
+                *(h[rows_part] for h in histories), square_sums, speed_log_counts,
             )  # fmt: skip
             if status != _OK:
                 raise IdentificationError(
@@ -395,6 +462,7 @@ def ekf_identify(
         ends.append(row)
         filtered.append(states)
         track_rms.append((float(np.sqrt(square_sums[0] / n)), float(np.sqrt(square_sums[1] / n))))
+    scale = p + 2  # k's index in θ's augmented block, with a speed log
     return EkfResult(
         theta=theta[:p],
         covariance=P_theta[:p, :p],
@@ -404,8 +472,13 @@ def ekf_identify(
         filtered=tuple(filtered),
         history_stride=stride,
         track_rms=tuple(track_rms),
-        current=theta[p:] if estimated_current else None,
-        current_covariance=P_theta[p:, p:] if estimated_current else None,
+        current=theta[p : p + 2] if estimated_current else None,
+        current_covariance=P_theta[p : p + 2, p : p + 2] if estimated_current else None,
+        speed_log_scale_error=None if speed_log is None else float(theta[scale]),
+        speed_log_scale_error_std=None
+        if speed_log is None
+        else math.sqrt(float(P_theta[scale, scale])),
+        speed_log_samples=(int(speed_log_counts[0]), int(speed_log_counts[1])),
     )
 
 
@@ -447,15 +520,19 @@ _STATUS_MESSAGES = {
 # kernels bound (_EKF_PASS, fmu_model.kernels).
 def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, constants, max_substep, q_interval,
-    offset, t, y, r_var, rudder, n_rps, known, x, P, q_state, q_theta, variance_limit, stride,
-    track, states, theta_hist, std_hist, square_sums,
+    offset, t, y, r_var, rudder, n_rps, known, speed_log, speed_log_var, x, P, q_state,
+    q_theta, variance_limit, stride, track, states, theta_hist, std_hist, square_sums,
+    speed_log_counts,
 ):  # fmt: skip
     """One segment of the EKF, eq. (4)-(5), in place on x and P; returns (status, sample).
 
-    x = (u, v, r, x, y, ψ, θ, c): c the current (North, East) [m/s] when ``q_theta``
-    is longer than θ by two (it moves the ship over the ground: ẋ += c_N, ẏ += c_E),
-    else none; the measurement is states offset … offset+2, with the
-    variances of row k of ``r_var`` (its only row when it has one); the motion states'
+    x = (u, v, r, x, y, ψ, θ, c, k): c the current (North, East) [m/s] when ``q_theta``
+    is longer than θ by two or more (it moves the ship over the ground: ẋ += c_N,
+    ẏ += c_E), else none; k a speed log's scale error when longer by three; the
+    measurement is states offset … offset+2, with the
+    variances of row k of ``r_var`` (its only row when it has one), then with k the
+    speed log ``speed_log`` (N; one NaN: none) of variance ``speed_log_var``, gated by
+    :data:`SPEED_LOG_GATE_NIS` (``speed_log_counts`` += taken, rejected); the motion states'
     process noise over a step of T is ``q_state`` · T · max(T, ``q_interval``), θ's
     ``q_theta`` · T / max(T, ``q_interval``) (a current's ``q_theta`` per step). The
     motion states and θ with its standard deviations after the updates at samples 0,
@@ -467,6 +544,8 @@ def _ekf_pass(
     p = eq_index.size
     m = 6 + q_theta.size
     current = q_theta.size > p
+    scale = 6 + p + 2 if q_theta.size > p + 2 else -1  # k's index in x, or none
+    last_speed = speed_log.shape[0] - 1
     phi = np.empty(p)
     grad = np.empty(3 * p)
     kin = np.empty(3)
@@ -604,6 +683,28 @@ def _ekf_pass(
                 value = P[a, b] - (K[a, 0] * PH[b, 0] + K[a, 1] * PH[b, 1] + K[a, 2] * PH[b, 2])
                 P[a, b] = value
                 P[b, a] = value
+        # The speed log, stw = (1 + k) u + ε: H has 1 + k at u and u at k; the scalar
+        # update after the track's (independent noises), unless gated out.
+        stw = speed_log[min(k + 1, last_speed)]
+        if scale > 0 and np.isfinite(stw):
+            gain = 1.0 + x[scale]
+            for a in range(m):
+                PH[a, 0] = gain * P[a, 0] + x[0] * P[a, scale]
+            s_log = gain * PH[0, 0] + x[0] * PH[scale, 0] + speed_log_var
+            if not s_log > 0.0:
+                return _NOT_PD, k + 1
+            innovation = stw - gain * x[0]
+            if innovation * innovation <= SPEED_LOG_GATE_NIS * s_log:
+                for a in range(m):
+                    x[a] += PH[a, 0] / s_log * innovation
+                for a in range(m):
+                    for b in range(a, m):
+                        value = P[a, b] - PH[a, 0] * PH[b, 0] / s_log
+                        P[a, b] = value
+                        P[b, a] = value
+                speed_log_counts[0] += 1
+            else:
+                speed_log_counts[1] += 1
         for a in range(m):
             if not (np.isfinite(x[a]) and np.isfinite(P[a, a])):
                 return _NONFINITE, k + 1

@@ -65,14 +65,23 @@ from identifier.current import (
     SHAPE_PASSES,
     SPEED_LOG_SCALE_STD,
     CurrentEstimate,
+    SpeedLogInEkf,
     current_tolerance_mps,
     heading_span_rad,
     initial_current,
     speed_log_current,
+    speed_log_noise_mps,
     water_frame,
     water_segments,
 )
-from identifier.ekf import EkfResult, EkfSegment, EkfSettings, ekf_identify, sample_windows
+from identifier.ekf import (
+    EkfResult,
+    EkfSegment,
+    EkfSettings,
+    SpeedLogMeasurement,
+    ekf_identify,
+    sample_windows,
+)
 from identifier.equation_error import EquationErrorFit, equation_error_fit
 from identifier.output_error import RefinementResult, refine_output_error
 from identifier.shape import ShapeSelection, select_shape
@@ -322,11 +331,13 @@ def _run_ekf(
     progress: Callable[[int], None] | None,
     current_prior: tuple[np.ndarray, np.ndarray] | None = None,
     current_random_walk_mps: float = 0.0,
+    speed_log: SpeedLogMeasurement | None = None,
 ) -> EkfResult:
     """Run the augmented-state EKF from the start ``settings.initial`` (and a current).
 
     ``current_prior``: the current's (mean (North, East) [m/s], covariance [m²/s²]) at the
-    first sample; None estimates no current.
+    first sample; None estimates no current. ``speed_log``: measure the segments' speed
+    logs (with a current only).
     """
     if settings.initial == "equation-error":
         theta0 = ls.theta
@@ -355,6 +366,7 @@ def _run_ekf(
         progress=progress,
         current0=None if current_prior is None else current_prior[0],
         current_covariance0=None if current_prior is None else current_prior[1],
+        speed_log=speed_log,
     )
 
 
@@ -370,13 +382,14 @@ def _estimate_current(
     """Estimate current and coefficients together (``identifier.current``).
 
     The equation-error start is fitted on the velocities through the water for the
-    current so far (from what a speed log shows, ``speed_log_current``, else from what
-    the approaches show, ``initial_current``), the EKF estimates the current with the
-    coefficients from it, until the current settles; the shape is chosen for the
+    current so far (from what a speed log shows alone, ``speed_log_current``, else from
+    what the approaches show, ``initial_current``), the EKF estimates the current with
+    the coefficients from it, until the current settles; the shape is chosen for the
     starting current and once more for the settled one. The EKF's prior of the current
-    is the speed log's estimate and covariance (the same in every pass: the speed log
-    counted once), else the current so far with :data:`CURRENT_PRIOR_STD_MPS`; a
-    drifting current's widened by its random walk over the logs. A last EKF pass over
+    is the current so far with :data:`CURRENT_PRIOR_STD_MPS`; a speed log (a plausible
+    one, :meth:`SpeedLogFit.implausible`) is a measurement of every pass, its scale error
+    a state (``identifier.ekf.SpeedLogMeasurement``, its noise from the log,
+    ``speed_log_noise_mps``). A last EKF pass over
     every sample (with progress, and the random walk of a drifting current) gives the
     estimate. The passes before it (on windows of long logs, ``ALTERNATION_MAX_SAMPLES``)
     report no progress; when one of them diverges (a start the filter cannot follow),
@@ -385,15 +398,20 @@ def _estimate_current(
     """
     speed_log = speed_log_current(logs, tracks, settings.speed_log_scale_std)
     ignored = None if speed_log is None else speed_log.implausible()
+    measurement = None
     if ignored is not None:
         speed_log = None  # a broken log: the track alone, as without one
+    elif speed_log is not None:
+        noise_mps = speed_log_noise_mps(logs)
+        assert noise_mps is not None  # a log carries stw_mps
+        measurement = SpeedLogMeasurement(noise_mps, settings.speed_log_scale_std)
+        segments = [
+            replace(seg, speed_log_mps=log.stw_mps) for seg, log in zip(segments, logs, strict=True)
+        ]
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
-    hours = sum(float(log.time_s[-1] - log.time_s[0]) for log in logs) / 3600.0
 
     def prior(current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if speed_log is None:
-            return current, CURRENT_PRIOR_STD_MPS**2 * np.eye(2)
-        return speed_log.current_ne, speed_log.covariance + walk**2 * hours * np.eye(2)
+        return current, CURRENT_PRIOR_STD_MPS**2 * np.eye(2)
 
     current = initial_current(logs, tracks) if speed_log is None else speed_log.current_ne
     iterations = 0
@@ -409,7 +427,10 @@ def _estimate_current(
         for _ in range(MAX_CURRENT_ITERATIONS):
             stage(f"current: EKF pass {iterations + 1}")
             try:
-                ekf = _run_ekf(settings, structure, ls, settling, length_m, None, prior(current))
+                ekf = _run_ekf(
+                    settings, structure, ls, settling, length_m, None, prior(current),
+                    speed_log=measurement,
+                )  # fmt: skip
             except IdentificationError:
                 if settled is None:
                     raise
@@ -433,8 +454,20 @@ def _estimate_current(
             shape, structure, ls, current = settled
             break
     stage("EKF on every sample")
-    ekf = _run_ekf(settings, structure, ls, segments, length_m, progress, prior(current), walk)
+    ekf = _run_ekf(
+        settings, structure, ls, segments, length_m, progress, prior(current), walk, measurement
+    )
     assert ekf.current is not None and ekf.current_covariance is not None
+    in_ekf = None
+    if measurement is not None:
+        assert ekf.speed_log_scale_error is not None and ekf.speed_log_scale_error_std is not None
+        in_ekf = SpeedLogInEkf(
+            scale_error=ekf.speed_log_scale_error,
+            scale_error_std=ekf.speed_log_scale_error_std,
+            noise_mps=measurement.noise_std_mps,
+            samples=ekf.speed_log_samples[0],
+            rejected=ekf.speed_log_samples[1],
+        )
     estimate = CurrentEstimate(
         north_mps=float(ekf.current[0]),
         east_mps=float(ekf.current[1]),
@@ -443,6 +476,7 @@ def _estimate_current(
         iterations=iterations,
         speed_log=speed_log,
         speed_log_ignored=ignored,
+        speed_log_ekf=in_ekf,
     )
     return shape, structure, ls, ekf, estimate
 

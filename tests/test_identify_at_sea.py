@@ -25,6 +25,7 @@ from identifier.current import (
     heading_span_rad,
     initial_current,
     speed_log_current,
+    speed_log_noise_mps,
     water_frame,
     water_segments,
 )
@@ -278,7 +279,7 @@ def test_a_speed_log_shows_the_current_and_its_scale_error(calm_logs: list[Maneu
     assert CURRENT_NE[0] - exact.current_ne[0] > 0.05  # a log 1.5 % fast: c_u = u_g − stw
 
 
-def test_a_speed_log_is_the_prior_of_the_current(calm_logs: list[ManeuverLog]) -> None:
+def test_the_ekf_measures_a_speed_log(calm_logs: list[ManeuverLog]) -> None:
     """From zig-zags alone, a speed log pins the current along the course the track barely shows."""
     zigzags = calm_logs[1:]
     logs = [_with_speed_log(_with_current(g, CURRENT_NE), g, 0.0, i) for i, g in enumerate(zigzags)]
@@ -290,13 +291,37 @@ def test_a_speed_log_is_the_prior_of_the_current(calm_logs: list[ManeuverLog]) -
     std = np.array(with_log.current.std_mps)
     assert np.all(np.abs(with_log.current.vector - CURRENT_NE) <= np.maximum(3.0 * std, 0.01))
     assert not any("barely told apart" in w for w in with_log.warnings)
+    in_ekf = with_log.current.speed_log_ekf
+    assert in_ekf is not None
+    # Every sample but each log's first (the filter's start) measured, none gated out.
+    assert (in_ekf.samples, in_ekf.rejected) == (sum(g.n_samples - 1 for g in logs), 0)
+    assert abs(in_ekf.scale_error) <= 3.0 * in_ekf.scale_error_std < 3.0 * 0.01
+    # The log's own noise, from the log: the 0.05 m/s added (to a smoothed speed).
+    assert in_ekf.noise_mps == pytest.approx(0.05, rel=0.2)
     record = with_log.params.identification["environment"]["speed_log"]
-    assert record["samples"] == sum(g.n_samples for g in logs)
-    assert record["scale_error"] == pytest.approx(with_log.current.speed_log.scale_error)
+    assert record["samples"] == in_ekf.samples and record["rejected_samples"] == 0
+    assert record["scale_error"] == in_ekf.scale_error
+    assert record["alone"]["samples"] == sum(g.n_samples for g in logs)
     assert track_only.params.identification["environment"]["speed_log"] is None
+    # Spikes and drop-outs (0 or twice the speed) on 1 % of the samples: gated out one by
+    # one, and the current stays where the clean log put it.
+    rng = np.random.default_rng(11)
+    glitched, bad_samples = [], 0
+    for log in logs:
+        assert log.stw_mps is not None
+        bad = rng.choice(np.arange(1, log.n_samples), size=log.n_samples // 100, replace=False)
+        stw = log.stw_mps.copy()
+        stw[bad] = np.where(np.arange(bad.size) % 2 == 0, 0.0, 2.0 * stw[bad])
+        glitched.append(replace(log, stw_mps=stw))
+        bad_samples += bad.size
+    spiky = identify(glitched, SEED)
+    assert spiky.current is not None and spiky.current.speed_log_ekf is not None
+    assert spiky.current.speed_log_ekf.rejected == bad_samples > 0
+    assert np.all(np.abs(spiky.current.vector - with_log.current.vector) <= 0.5 * std)
     # A log stuck at 0 would "show" a current of the ship's own speed: not used, warned.
     stuck = identify([replace(g, stw_mps=np.zeros(g.n_samples)) for g in logs], SEED)
     assert stuck.current is not None and stuck.current.speed_log is None
+    assert stuck.current.speed_log_ekf is None
     np.testing.assert_array_equal(stuck.current.vector, track_only.current.vector)
     (warning,) = [w for w in stuck.warnings if "was not used" in w]
     assert any("barely told apart" in w for w in stuck.warnings)  # the track alone again
@@ -306,6 +331,70 @@ def test_a_speed_log_is_the_prior_of_the_current(calm_logs: list[ManeuverLog]) -
         warning,
     ), warning
     assert stuck.params.identification["environment"]["speed_log_ignored"].startswith("it implies")
+
+
+def test_the_ekf_tells_a_speed_logs_scale_error_from_the_current(
+    calm_logs: list[ManeuverLog],
+) -> None:
+    """A log 1.5 % fast: the EKF's k is the 1.5 % (within 3σ), not a current along the course."""
+    zigzags = calm_logs[1:]
+    logs = [
+        _with_speed_log(_with_current(g, CURRENT_NE), g, 0.015, i) for i, g in enumerate(zigzags)
+    ]
+    result = identify(logs, SEED)
+    assert result.current is not None and result.current.speed_log_ekf is not None
+    in_ekf = result.current.speed_log_ekf
+    assert abs(in_ekf.scale_error - 0.015) <= 3.0 * in_ekf.scale_error_std
+    assert in_ekf.scale_error_std < 0.7 * 0.01  # the logs narrow the 1 % prior
+    std = np.array(result.current.std_mps)
+    assert np.all(np.abs(result.current.vector - CURRENT_NE) <= np.maximum(3.0 * std, 0.01))
+
+
+def test_speed_log_noise_from_the_log_itself() -> None:
+    """σ and the lag-one correlation from second differences: white, correlated, spiky, none."""
+    n = 4000
+    t = np.arange(n, dtype=float)
+    speed = 7.0 - 4.0 * np.sin(2.0 * np.pi * t / 600.0)  # a turn's speed loss, 0.04 m/s/s
+
+    def ar1(rho: float, seed: int) -> np.ndarray:  # stationary σ = 0.05 m/s
+        white = np.random.default_rng(seed).normal(0.0, 0.05, n)
+        noise = np.empty(n)
+        noise[0] = white[0]
+        for k in range(1, n):
+            noise[k] = rho * noise[k - 1] + math.sqrt(1.0 - rho**2) * white[k]
+        return noise
+
+    def noise(stw: np.ndarray) -> float | None:
+        return speed_log_noise_mps([_ship_log_with_speed(stw)])
+
+    assert noise(speed) is not None and noise(speed) < 0.04  # its own speed: below a log's
+    for seed in range(3):
+        assert noise(speed + ar1(0.0, seed)) == pytest.approx(0.05, rel=0.1)
+        # Correlated: σ·√((1 + ρ)/(1 − ρ)), as many independent samples as it holds.
+        assert noise(speed + ar1(0.5, seed)) == pytest.approx(0.05 * math.sqrt(3.0), rel=0.15)
+        assert noise(speed + ar1(0.8, seed)) == pytest.approx(0.15, rel=0.3)
+    # Spikes and drop-outs on 1 % of the samples do not count.
+    spiky = speed + ar1(0.0, 0)
+    spiky[np.random.default_rng(9).choice(n, size=n // 100, replace=False)] = 0.0
+    assert noise(spiky) == pytest.approx(0.05, rel=0.15)
+    # A log that never changes is no measurement to the millimetre.
+    assert noise(np.full(n, 7.0)) == 0.005
+    assert speed_log_noise_mps([replace(_ship_log_with_speed(speed), stw_mps=None)]) is None
+
+
+def _ship_log_with_speed(stw_mps: np.ndarray) -> ManeuverLog:
+    """A straight-ahead log of ``stw_mps.size`` samples at 1 Hz carrying the speed log given."""
+    n = stw_mps.size
+    zeros = np.zeros(n)
+    return ManeuverLog(
+        time_s=np.arange(n, dtype=float),
+        x_m=np.cumsum(stw_mps),
+        y_m=zeros,
+        heading_rad=zeros,
+        rudder_rad=zeros,
+        n_rps=np.ones(n),
+        stw_mps=stw_mps,
+    )
 
 
 def test_a_noisy_compass_does_not_show_an_along_current(calm_logs: list[ManeuverLog]) -> None:
@@ -446,12 +535,16 @@ def test_fit_cli_current_and_windage(
     status = main(["fit", *paths, "--model", "shi2009", "--method", "ekf", "-o", out])
     assert status == 0
     shown = re.search(
-        r"speed log: ([\d,]+) samples, scale error ([-+][\d.]+) ± ([\d.]+) %",
+        r"speed log: ([\d,]+) samples measured \((\d+) rejected\), noise ([\d.]+) m/s, "
+        r"scale error ([-+][\d.]+) ± ([\d.]+) %; alone it shows North [-+][\d.]+ ± [\d.]+, "
+        r"East [-+][\d.]+ ± [\d.]+ m/s",
         capsys.readouterr().out,
     )
     assert shown is not None, "the summary says what the speed log showed"
-    assert int(shown.group(1).replace(",", "")) == sum(g.n_samples for g in calm_logs)
-    assert abs(float(shown.group(2))) <= 3.0 * float(shown.group(3))
+    assert int(shown.group(1).replace(",", "")) == sum(g.n_samples - 1 for g in calm_logs)
+    assert int(shown.group(2)) == 0
+    assert float(shown.group(3)) == pytest.approx(0.05, rel=0.2)
+    assert abs(float(shown.group(4))) <= 3.0 * float(shown.group(5))
     with pytest.raises(SystemExit):
         main(["fit", *paths, "--speed-log-scale-std-pct", "0", "-o", out])
     assert "--speed-log-scale-std-pct: expected a number from 0.0001 to 50 %" in (

@@ -96,7 +96,10 @@ def test_module_name_follows_its_text(monkeypatch: pytest.MonkeyPatch, tmp_path:
     # The template's own body, its kernel parameters bound to the module's kernels.
     assert "def ekf_pass(eq_index, constants, max_substep, q_interval, offset," in text
     assert "phi_fn = phi\ngrad_fn = grad\nkin_fn = kin\nkin_grad_fn = kin_grad\n" in text
-    assert "from identifier.ekf import _EXPLODED, _NONFINITE, _NOT_PD, _OK," in text
+    assert (
+        "from identifier.ekf import SPEED_LOG_GATE_NIS, _EXPLODED, _NONFINITE, _NOT_PD, _OK,"
+        in text
+    )
 
 
 def test_kernels_fill_the_symbolic_regressors(

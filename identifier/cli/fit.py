@@ -166,14 +166,15 @@ def _summary(result: IdentificationResult) -> str:
             f"{math.degrees(cur.to_rad):.1f} deg (North {cur.north_mps:+.3f} ± {std_n:.3f}, "
             f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s)"
         )
-        log = cur.speed_log
-        if log is not None:
-            alone_n, alone_e = np.sqrt(np.diag(log.covariance))
+        alone, log = cur.speed_log, cur.speed_log_ekf
+        if alone is not None and log is not None:
+            alone_n, alone_e = np.sqrt(np.diag(alone.covariance))
             lines.append(
-                f"speed log: {log.samples:,} samples, scale error "
-                f"{100.0 * log.scale_error:+.2f} ± {100.0 * log.scale_error_std:.2f} %; "
-                f"alone it shows North {log.current_ne[0]:+.3f} ± {alone_n:.3f}, East "
-                f"{log.current_ne[1]:+.3f} ± {alone_e:.3f} m/s (the EKF's prior)"
+                f"speed log: {log.samples:,} samples measured ({log.rejected:,} rejected), "
+                f"noise {log.noise_mps:.3f} m/s, scale error {100.0 * log.scale_error:+.2f} "
+                f"± {100.0 * log.scale_error_std:.2f} %; alone it shows North "
+                f"{alone.current_ne[0]:+.3f} ± {alone_n:.3f}, East "
+                f"{alone.current_ne[1]:+.3f} ± {alone_e:.3f} m/s"
             )
     ls = result.equation_error
     rates = f"regression on {ls.rows:,} rows at {ls.sample_interval_s:g} s (about L/U/40"
