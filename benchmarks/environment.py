@@ -3,7 +3,7 @@
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
         [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf] [--same-noise]
-        [--out benchmarks/environment.md]
+        [--calm-speed-log] [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
 each true wind speed from ``--wind-from-deg``) and every noise draw d, the KVLCC2 reference
@@ -16,6 +16,7 @@ wind ends the zig-zags a few samples earlier; ``environment.md``). With ``--same
 every log draws each channel's noise from a generator of its own
 (``synthesize_log(noise_per_channel=True)``), so the calm-water and the sea logs of a draw
 carry the same noise sample by sample (other noise than the default's). With
+``--calm-speed-log`` the calm-water logs carry the speed log too, as the logs at sea do. With
 ``--position-noise-m 0.01 --heading-noise-deg 0.001`` what remains is the sea's own effect
 on the identification, without the noise's. Two fits:
 
@@ -91,13 +92,23 @@ class Condition:
 
 
 def training_logs(
-    condition: Condition, draw: int, quality: LogQuality, *, same_noise: bool = False
+    condition: Condition,
+    draw: int,
+    quality: LogQuality,
+    *,
+    same_noise: bool = False,
+    speed_log: bool = False,
 ) -> list[ManeuverLog]:
     """Sail the zig-zags of draw ``draw`` in ``condition``, logged at ``quality``.
 
-    ``same_noise``: one noise generator per channel (module docstring).
+    ``same_noise``: one noise generator per channel (module docstring). ``speed_log``:
+    calm-water logs carry the speed log too (sailed in a sea of no current and no wind,
+    which moves the ship exactly as calm water does); at sea they always do.
     """
-    ship = reference_ship("kvlcc2", "full", condition.environment())
+    environment = condition.environment()
+    if environment is None and speed_log:
+        environment = SeaEnvironment()
+    ship = reference_ship("kvlcc2", "full", environment)
     return [
         synthesize_log(
             ship,
@@ -162,6 +173,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="one noise generator per channel: calm and sea logs of a draw share their noise",
     )
+    parser.add_argument(
+        "--calm-speed-log",
+        action="store_true",
+        help="the calm-water logs carry a speed log too, as the logs at sea do",
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
     quality = replace(
@@ -189,7 +205,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "true wind; calm-water predictions (35° turn both sides, both zig-zags) compared "
         "with what the same procedure gives from the calm-water logs of the same noise "
         f"draw (logger noise {quality.position_noise_m:g} m, {quality.heading_noise_deg:g}°"
-        f"{', one noise generator per channel' if same else ''}; model {args.model}, "
+        f"{', one noise generator per channel' if same else ''}"
+        f"{'; the calm-water logs with a speed log too' if args.calm_speed_log else ''}; "
+        f"model {args.model}, "
         f"method {args.method}). "
         "Columns: largest difference of a turning index [points] and of an overshoot "
         "[deg]; error of the current estimate [m/s, deg]; fit time [s].",
@@ -203,7 +221,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     for draw in range(args.draws):
         start = time.perf_counter()
         calm_fit = identify(
-            training_logs(Condition(0.0, 0.0, 0.0, 0.0), draw, quality, same_noise=same),
+            training_logs(
+                Condition(0.0, 0.0, 0.0, 0.0),
+                draw,
+                quality,
+                same_noise=same,
+                speed_log=args.calm_speed_log,
+            ),
             settings,
         )
         calm[draw] = (indices(ModelPlant(calm_fit.params), ship, args.dt_s),

@@ -953,9 +953,10 @@ def _fit(
         del water  # a copy of every velocity: not held through the refinement
         if current.speed_log_ignored is not None:
             warnings.append(f"the speed log (stw_mps) was not used: {current.speed_log_ignored}")
-        if current.speed_log is None and heading_span_rad(tracks) < MIN_HEADING_SPAN_RAD:
+        span_rad = math.inf if current.speed_log is not None else heading_span_rad(tracks)
+        if span_rad < MIN_HEADING_SPAN_RAD:
             warnings.append(
-                f"the logs' headings span {math.degrees(heading_span_rad(tracks)):.0f} deg: "
+                f"the logs' headings span {math.degrees(span_rad):.0f} deg: "
                 "the current along the course is barely told apart from the ship's own "
                 "speed (add a turning circle of 360 deg or more, or runs on other headings, "
                 "or a speed log's column stw_mps, or fit with --current none if the water "

@@ -381,6 +381,14 @@ def test_synthesized_log_at_sea_carries_the_sensor_columns() -> None:
     )
     assert only_current.stw_mps is not None and only_current.wind_speed_mps is None
     assert "; no wind;" in only_current.metadata["source"]
+    # A sea of no current and no wind: the calm log to the bit, and a speed log
+    # (benchmarks/environment.py --calm-speed-log).
+    still = synthesize_log(
+        reference_ship("kvlcc2", "model", SeaEnvironment()), _quick_turn(), approach_s=5.0, seed=4
+    )
+    assert still.stw_mps is not None and still.wind_speed_mps is None
+    for column in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps"):
+        np.testing.assert_array_equal(getattr(still, column), getattr(calm, column))
 
 
 def _noise(program: Program, *, per_channel: bool) -> np.ndarray:
