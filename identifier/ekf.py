@@ -229,7 +229,7 @@ class SpeedLogMeasurement:
     noise_std_mps : float
         Standard deviation of ε per sample [m/s] (a white noise's; a log whose noise is
         correlated from sample to sample inflated to count as fewer samples,
-        ``identifier.current.speed_log_noise``).
+        ``identifier.current.speed_log_noise_mps``).
     scale_error_std : float
         Prior standard deviation of the scale error k (mean 0) [-].
 

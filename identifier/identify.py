@@ -409,10 +409,7 @@ def _estimate_current(
             replace(seg, speed_log_mps=log.stw_mps) for seg, log in zip(segments, logs, strict=True)
         ]
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
-
-    def prior(current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return current, CURRENT_PRIOR_STD_MPS**2 * np.eye(2)
-
+    prior_covariance = CURRENT_PRIOR_STD_MPS**2 * np.eye(2)
     current = initial_current(logs, tracks) if speed_log is None else speed_log.current_ne
     iterations = 0
     settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
@@ -428,7 +425,7 @@ def _estimate_current(
             stage(f"current: EKF pass {iterations + 1}")
             try:
                 ekf = _run_ekf(
-                    settings, structure, ls, settling, length_m, None, prior(current),
+                    settings, structure, ls, settling, length_m, None, (current, prior_covariance),
                     speed_log=measurement,
                 )  # fmt: skip
             except IdentificationError:
@@ -455,7 +452,15 @@ def _estimate_current(
             break
     stage("EKF on every sample")
     ekf = _run_ekf(
-        settings, structure, ls, segments, length_m, progress, prior(current), walk, measurement
+        settings,
+        structure,
+        ls,
+        segments,
+        length_m,
+        progress,
+        (current, prior_covariance),
+        walk,
+        measurement,
     )
     assert ekf.current is not None and ekf.current_covariance is not None
     in_ekf = None
