@@ -348,6 +348,10 @@ def test_the_ekf_tells_a_speed_logs_scale_error_from_the_current(
     assert in_ekf.scale_error_std < 0.7 * 0.01  # the logs narrow the 1 % prior
     std = np.array(result.current.std_mps)
     assert np.all(np.abs(result.current.vector - CURRENT_NE) <= np.maximum(3.0 * std, 0.01))
+    # One log with a speed log, one without: the one measured, the other the track alone.
+    mixed = identify([logs[0], replace(logs[1], stw_mps=None)], SEED)
+    assert mixed.current is not None and mixed.current.speed_log_ekf is not None
+    assert mixed.current.speed_log_ekf.samples == logs[0].n_samples - 1
 
 
 def test_speed_log_noise_from_the_log_itself() -> None:
