@@ -68,9 +68,10 @@ turns by about 1 kn in a few hours)."""
 SPEED_LOG_SCALE_STD = 0.01
 """Prior standard deviation of a speed log's scale error k (stw = (1 + k) u_w), a fraction
 of the speed: IMO MSC.96(72) allows a speed log 2 % of the ship's speed (or 0.2 kn,
-whichever is more), taken here as two standard deviations (:func:`speed_log_current`).
-At 15 kn, 1 % is 0.08 m/s of current along the course: the manoeuvres' speed changes,
-not this prior, must tell the two apart."""
+whichever is more), taken here as two standard deviations (:func:`speed_log_current`
+and the EKF, ``identifier.ekf.SpeedLogMeasurement``). At 15 kn, 1 % is 0.08 m/s of
+current along the course: the manoeuvres' speed changes, not this prior, must tell the
+two apart."""
 
 MAX_SPEED_LOG_CURRENT_MPS = 3.0
 """A speed log that implies a current above this [m/s] (6 kn: beyond the open sea's, a

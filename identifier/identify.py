@@ -178,7 +178,8 @@ class FitSettings:
         constant over all logs, a random walk, or none (still water, the paper's).
     speed_log_scale_std : float
         Prior standard deviation of the speed log's scale error, a fraction of the speed
-        (``identifier.current.speed_log_current``); used when logs carry ``stw_mps``.
+        (the EKF's, ``identifier.ekf.SpeedLogMeasurement``, and the separate fit's,
+        ``identifier.current.speed_log_current``); used when logs carry ``stw_mps``.
     windage : Windage, optional
         The vessel's windage: the load of the logs' measured wind is taken out
         (``identifier.wind``) and the windage goes into params.json (the FMU applies the
