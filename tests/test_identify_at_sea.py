@@ -377,6 +377,7 @@ def test_speed_log_noise_from_the_log_itself() -> None:
         # Correlated: σ·√((1 + ρ)/(1 − ρ)), as many independent samples as it holds.
         assert noise(speed + ar1(0.5, seed)) == pytest.approx(0.05 * math.sqrt(3.0), rel=0.15)
         assert noise(speed + ar1(0.8, seed)) == pytest.approx(0.15, rel=0.3)
+        assert noise(speed + ar1(0.9, seed)) == pytest.approx(0.05 * math.sqrt(19.0), rel=0.3)
     # Spikes and drop-outs on 1 % of the samples do not count.
     spiky = speed + ar1(0.0, 0)
     spiky[np.random.default_rng(9).choice(n, size=n // 100, replace=False)] = 0.0
