@@ -87,6 +87,9 @@ its noise then counts as a 39th of a white noise's samples."""
 SPEED_LOG_NOISE_LAGS = (1, 2, 4, 8)
 """The lags of :func:`speed_log_noise_mps`'s second differences [samples]."""
 
+MIN_SPEED_LOG_DIFFERENCES = 8
+"""Fewest second differences of a lag :func:`speed_log_noise_mps` takes a variance of."""
+
 MIN_SPEED_LOG_NOISE_MPS = 0.005
 """Least noise σ a speed log is taken to have [m/s] (0.01 kn: a log's resolution at
 best); a log whose samples never change is no measurement to the millimetre."""
@@ -425,7 +428,9 @@ def speed_log_noise_mps(logs: Sequence[ManeuverLog]) -> float | None:
     :data:`MAX_SPEED_LOG_CORRELATION`] (beyond, σ² again with ρ at the bound: noise that
     wanders that slowly is not told from the ship's own speed). The variances are robust
     ones (the median absolute deviation; the plain variance where a log's resolution makes
-    most differences 0): spikes do not count. Returned is σ·√((1 + ρ)/(1 − ρ)), at least
+    most differences 0): spikes do not count. A lag of fewer than
+    :data:`MIN_SPEED_LOG_DIFFERENCES` differences is not taken; with lag 1 alone the noise
+    is taken as white. Returned is σ·√((1 + ρ)/(1 − ρ)), at least
     :data:`MIN_SPEED_LOG_NOISE_MPS`: correlated noise counts as fewer independent samples
     to a filter that takes it as white. (Checked on AR(1) noise of σ = 0.05 m/s over a
     turn's speed loss, 4,000 samples, eight seeds: ρ = 0 within 8 %, 0.5 within 10 %, 0.8
@@ -435,17 +440,18 @@ def speed_log_noise_mps(logs: Sequence[ManeuverLog]) -> float | None:
     usable = [log.stw_mps for log in logs if log.stw_mps is not None]
     if not usable:
         return None
-    lags = np.array(SPEED_LOG_NOISE_LAGS, dtype=float)
-    variances = np.array(
-        [
-            _robust_variance(
-                np.concatenate([z[2 * lag :] - 2.0 * z[lag:-lag] + z[: -2 * lag] for z in usable])
-            )
-            for lag in SPEED_LOG_NOISE_LAGS
-        ]
-    )
-    if not np.all(variances > 0.0):
+    differences = {
+        lag: np.concatenate([z[2 * lag :] - 2.0 * z[lag:-lag] + z[: -2 * lag] for z in usable])
+        for lag in SPEED_LOG_NOISE_LAGS
+    }
+    # The lags the logs are long enough for (a short log: the white-noise σ of lag 1).
+    taken = [lag for lag, d in differences.items() if d.size >= MIN_SPEED_LOG_DIFFERENCES]
+    variances = np.array([_robust_variance(differences[lag]) for lag in taken])
+    if not taken or not np.all(variances > 0.0):
         return MIN_SPEED_LOG_NOISE_MPS
+    if len(taken) == 1:
+        return max(math.sqrt(variances[0] / 6.0), MIN_SPEED_LOG_NOISE_MPS)
+    lags = np.array(taken, dtype=float)
 
     def shape(rho: float) -> np.ndarray:  # var(D_L)/σ² of AR(1) noise
         return 2.0 * (1.0 - rho**lags) * (3.0 - rho**lags)

@@ -384,6 +384,9 @@ def test_speed_log_noise_from_the_log_itself() -> None:
     assert noise(spiky) == pytest.approx(0.05, rel=0.15)
     # A log that never changes is no measurement to the millimetre.
     assert noise(np.full(n, 7.0)) == 0.005
+    # Logs too short for the longer lags: lag 1 alone, the noise taken as white.
+    short = noise(speed[:10] + ar1(0.0, 0)[:10])
+    assert short is not None and 0.02 < short < 0.1
     assert speed_log_noise_mps([replace(_ship_log_with_speed(speed), stw_mps=None)]) is None
 
 
