@@ -330,15 +330,15 @@ def _run_ekf(
     segments: Sequence[EkfSegment],
     length_m: float,
     progress: Callable[[int], None] | None,
-    current_prior: tuple[np.ndarray, np.ndarray] | None = None,
+    current_ne: np.ndarray | None = None,
     current_random_walk_mps: float = 0.0,
     speed_log: SpeedLogMeasurement | None = None,
 ) -> EkfResult:
     """Run the augmented-state EKF from the start ``settings.initial`` (and a current).
 
-    ``current_prior``: the current's (mean (North, East) [m/s], covariance [m²/s²]) at the
-    first sample; None estimates no current. ``speed_log``: measure the segments' speed
-    logs (with a current only).
+    ``current_ne``: the current's prior mean (North, East) [m/s] at the first sample, of
+    σ :data:`CURRENT_PRIOR_STD_MPS`; None estimates no current. ``speed_log``: measure the
+    segments' speed logs (with a current only).
     """
     if settings.initial == "equation-error":
         theta0 = ls.theta
@@ -365,8 +365,8 @@ def _run_ekf(
             current_random_walk_mps=current_random_walk_mps,
         ),
         progress=progress,
-        current0=None if current_prior is None else current_prior[0],
-        current_covariance0=None if current_prior is None else current_prior[1],
+        current0=current_ne,
+        current_covariance0=None if current_ne is None else CURRENT_PRIOR_STD_MPS**2 * np.eye(2),
         speed_log=speed_log,
     )
 
@@ -409,8 +409,6 @@ def _estimate_current(
         segments = [
             replace(seg, speed_log_mps=log.stw_mps) for seg, log in zip(segments, logs, strict=True)
         ]
-    walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
-    prior_covariance = CURRENT_PRIOR_STD_MPS**2 * np.eye(2)
     current = initial_current(logs, tracks) if speed_log is None else speed_log.current_ne
     iterations = 0
     settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
@@ -426,9 +424,15 @@ def _estimate_current(
             stage(f"current: EKF pass {iterations + 1}")
             try:
                 ekf = _run_ekf(
-                    settings, structure, ls, settling, length_m, None, (current, prior_covariance),
+                    settings,
+                    structure,
+                    ls,
+                    settling,
+                    length_m,
+                    None,
+                    current,
                     speed_log=measurement,
-                )  # fmt: skip
+                )
             except IdentificationError:
                 if settled is None:
                     raise
@@ -452,16 +456,9 @@ def _estimate_current(
             shape, structure, ls, current = settled
             break
     stage("EKF on every sample")
+    walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
     ekf = _run_ekf(
-        settings,
-        structure,
-        ls,
-        segments,
-        length_m,
-        progress,
-        (current, prior_covariance),
-        walk,
-        measurement,
+        settings, structure, ls, segments, length_m, progress, current, walk, measurement
     )
     assert ekf.current is not None and ekf.current_covariance is not None
     in_ekf = None
