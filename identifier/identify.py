@@ -66,6 +66,7 @@ from identifier.current import (
     SPEED_LOG_SCALE_STD,
     CurrentEstimate,
     SpeedLogInEkf,
+    current_model_form,
     current_tolerance_mps,
     heading_span_rad,
     initial_current,
@@ -461,7 +462,7 @@ def _estimate_current(
         settings, structure, ls, segments, length_m, progress, current, walk, measurement
     )
     assert ekf.current is not None and ekf.current_covariance is not None
-    in_ekf = None
+    in_ekf, model_form = None, np.zeros((2, 2))
     if measurement is not None:
         assert ekf.speed_log_scale_error is not None and ekf.speed_log_scale_error_std is not None
         in_ekf = SpeedLogInEkf(
@@ -471,6 +472,8 @@ def _estimate_current(
             samples=ekf.speed_log_samples[0],
             rejected=ekf.speed_log_samples[1],
         )
+        if speed_log is not None and settings.current == "constant":
+            model_form = current_model_form(ekf.current, speed_log)
     estimate = CurrentEstimate(
         north_mps=float(ekf.current[0]),
         east_mps=float(ekf.current[1]),
@@ -480,6 +483,7 @@ def _estimate_current(
         speed_log=speed_log,
         speed_log_ignored=ignored,
         speed_log_ekf=in_ekf,
+        model_form=model_form,
     )
     return shape, structure, ls, ekf, estimate
 

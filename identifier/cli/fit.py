@@ -175,6 +175,11 @@ def _summary(result: IdentificationResult) -> str:
                 f"± {100.0 * log.scale_error_std:.2f} %; alone it shows North "
                 f"{alone.current_ne[0]:+.3f} ± {alone_n:.3f}, East "
                 f"{alone.current_ne[1]:+.3f} ± {alone_e:.3f} m/s"
+                + (
+                    "; the current's ± include the two estimates' distance (model form)"
+                    if np.any(cur.model_form)
+                    else ""
+                )
             )
     ls = result.equation_error
     rates = f"regression on {ls.rows:,} rows at {ls.sample_interval_s:g} s (about L/U/40"
