@@ -23,6 +23,12 @@ shape constants:
   and yaw on the default ``prime-rudder-offset`` (both angles of attack with δ₀), and the
   same with the thrust of fixed open-water slope (what a fit at one rpm whose free split
   is not a propeller's would be refitted as);
+* ``offset-xflow``, ``offset-xflow-thrust``: a rudder normal force with a cross-flow
+  drag part, u_R² sin α_R |sin α_R| beside u_R² sin α_R in sway and yaw on the default
+  ``prime-rudder-offset`` (Hoerner's low-aspect-ratio wing, C_N = C_Lα sin α +
+  C_Dc sin α |sin α|: a normal force that grows faster than sin α from small angles on,
+  where ``prime-rudder-lift``'s sin³α is nearly silent at 10°), and the same with the
+  thrust of fixed open-water slope;
 * ``helm``: the neutral-rudder offset linearised, so that it is estimated with the other
   gains instead of gridded: u_R² sin(α_R + δ₀) ≈ u_R² sin α_R + δ₀·u_R² cos α_R, the
   second term with its own gain in sway and yaw (Y_R0, N_R0; Y_R0/Y_R ≈ δ₀): the
@@ -144,6 +150,11 @@ _, _HELM_SWAY, _HELM_YAW = rudder_gain_terms(
 
 _OFFSET_SWAY3, _OFFSET_YAW3 = rudder_lift_terms(NEUTRAL_RUDDER_OFFSET)
 
+_ALPHA_OFFSET = rudder_angle_of_attack(NEUTRAL_RUDDER_OFFSET)
+_, _XFLOW_SWAY, _XFLOW_YAW = rudder_gain_terms(
+    RUDDER_INFLOW_SQUARED * sp.sin(_ALPHA_OFFSET) * sp.Abs(sp.sin(_ALPHA_OFFSET)), suffix="2"
+)
+
 
 def candidate_families() -> tuple[ModelFamily, ...]:
     """Return the candidate families of the module docstring."""
@@ -156,6 +167,13 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         PRIME_RUDDER_OFFSET.surge,
         (_OFFSET_SWAY3,),
         (_OFFSET_YAW3,),
+        PRIME_RUDDER_OFFSET,
+    )
+    offset_xflow = _with_terms(
+        "offset-xflow",
+        PRIME_RUDDER_OFFSET.surge,
+        (_XFLOW_SWAY,),
+        (_XFLOW_YAW,),
         PRIME_RUDDER_OFFSET,
     )
     crossflow_lift = _with_terms(
@@ -179,6 +197,8 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         with_fixed_thrust(PRIME_RUDDER_LIFT, "lift-thrust", "prime-rudder-lift, fixed thrust"),
         offset_lift,
         with_fixed_thrust(offset_lift, "offset-lift-thrust", "offset-lift, fixed thrust"),
+        offset_xflow,
+        with_fixed_thrust(offset_xflow, "offset-xflow-thrust", "offset-xflow, fixed thrust"),
         _with_terms(
             "helm",
             base.surge,
