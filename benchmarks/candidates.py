@@ -90,6 +90,7 @@ from fmu_model.variants import (
 )
 
 SWIRL_RAD = sp.Symbol("swirl", real=True)
+_SWIRL = ShapeConstant(SWIRL_RAD, -0.3, 0.3, 0.0, (-0.15, 0.0, 0.15))
 SLIPSTREAM_C = sp.Symbol("c", nonnegative=True)
 SLIPSTREAM_C_GRID = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # c·(n₀L)² / U₀²
 CUBIC_HULL = ("v", "r", "vvv", "vvr", "vrr", "rrr")  # the MMG hull basis, prime-cubic's
@@ -150,9 +151,13 @@ _, _HELM_SWAY, _HELM_YAW = rudder_gain_terms(
 
 _OFFSET_SWAY3, _OFFSET_YAW3 = rudder_lift_terms(NEUTRAL_RUDDER_OFFSET)
 
-_ALPHA_OFFSET = rudder_angle_of_attack(NEUTRAL_RUDDER_OFFSET)
+_SIN_ALPHA = sp.sin(rudder_angle_of_attack(NEUTRAL_RUDDER_OFFSET))
+# sin α |sin α| as a Piecewise: sympy's Abs of an expression it cannot prove real
+# differentiates into re() and im(), which the code printers do not print.
 _, _XFLOW_SWAY, _XFLOW_YAW = rudder_gain_terms(
-    RUDDER_INFLOW_SQUARED * sp.sin(_ALPHA_OFFSET) * sp.Abs(sp.sin(_ALPHA_OFFSET)), suffix="2"
+    RUDDER_INFLOW_SQUARED
+    * sp.Piecewise((_SIN_ALPHA**2, _SIN_ALPHA >= 0), (-(_SIN_ALPHA**2), True)),
+    suffix="2",
 )
 
 
@@ -174,6 +179,13 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         PRIME_RUDDER_OFFSET.surge,
         (_XFLOW_SWAY,),
         (_XFLOW_YAW,),
+        PRIME_RUDDER_OFFSET,
+    )
+    offset_asym_hull = _with_terms(
+        "offset-asym-hull",
+        PRIME_RUDDER_OFFSET.surge,
+        (Term("Y_rr", r**2 * L),),
+        (Term("N_rr", r**2),),
         PRIME_RUDDER_OFFSET,
     )
     crossflow_lift = _with_terms(
@@ -199,6 +211,20 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         with_fixed_thrust(offset_lift, "offset-lift-thrust", "offset-lift, fixed thrust"),
         offset_xflow,
         with_fixed_thrust(offset_xflow, "offset-xflow-thrust", "offset-xflow, fixed thrust"),
+        offset_asym_hull,
+        with_fixed_thrust(
+            offset_asym_hull, "offset-asym-hull-thrust", "offset-asym-hull, fixed thrust"
+        ),
+        with_fixed_thrust(
+            with_rudder_force(
+                PRIME_RUDDER_OFFSET,
+                "offset-swirl",
+                rudder_normal_force(NEUTRAL_RUDDER_OFFSET + SWIRL_RAD * SLIPSTREAM_SHARE),
+                (*PRIME_RUDDER_OFFSET.shape, _SWIRL),
+            ),
+            "offset-swirl-thrust",
+            "offset with the swirl angle, fixed thrust",
+        ),
         _with_terms(
             "helm",
             base.surge,
@@ -209,7 +235,7 @@ def candidate_families() -> tuple[ModelFamily, ...]:
             PRIME_RUDDER,
             "swirl",
             rudder_normal_force(SWIRL_RAD * SLIPSTREAM_SHARE),
-            (*base.shape, ShapeConstant(SWIRL_RAD, -0.3, 0.3, 0.0, (-0.15, 0.0, 0.15))),
+            (*base.shape, _SWIRL),
         ),
         with_rudder_force(
             PRIME_RUDDER,
