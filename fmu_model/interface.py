@@ -164,8 +164,11 @@ _WINDAGE = (
      "surge force", MIN_WINDAGE_INERTIA, None),
     ("sway_mass", "kg", "mass plus sway added mass m + m_y [kg], divides the wind's "
      "sway force", MIN_WINDAGE_INERTIA, None),
-    ("yaw_inertia", "kg.m2", "yaw inertia plus added inertia I_z + J_z [kg m2], divides "
-     "the wind's yaw moment", MIN_WINDAGE_INERTIA, None),
+    ("yaw_inertia", "kg.m2", "yaw inertia plus added inertia about midship I_z + J_z "
+     "[kg m2], divides the wind's yaw moment", MIN_WINDAGE_INERTIA, None),
+    ("sway_yaw_coupling", "kg.m", "x_G m, centre of gravity forward of midship times the "
+     "mass [kg m]: couples the wind's sway force and yaw moment (0: none; its square below "
+     "sway_mass * yaw_inertia)", None, None),
 )  # fmt: skip
 WINDAGE_NAMES = tuple(item[0] for item in _WINDAGE)
 assert len(WINDAGE_NAMES) == len(WINDAGE_FIELDS)  # the same order as Windage's fields

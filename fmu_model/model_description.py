@@ -140,7 +140,12 @@ _ANGULAR_UNITS = (
     FmiUnit("rpm", s=-1, factor=1.0 / 60.0),
 )
 # Units of the windage parameters (fmu_model.environment.Windage).
-_WINDAGE_UNITS = (FmiUnit("m2", m=2), FmiUnit("kg", kg=1), FmiUnit("kg.m2", kg=1, m=2))
+_WINDAGE_UNITS = (
+    FmiUnit("m2", m=2),
+    FmiUnit("kg", kg=1),
+    FmiUnit("kg.m2", kg=1, m=2),
+    FmiUnit("kg.m", kg=1, m=1),
+)
 # Dimensions of the state, derivative and parameter units: m, s, m/s, m/s2.
 _STATE_DIMENSIONS = ((1, 0), (0, 1), (1, -1), (1, -2))
 

@@ -93,6 +93,7 @@ WINDAGE_NAMES = (
     "surge_mass",
     "sway_mass",
     "yaw_inertia",
+    "sway_yaw_coupling",
 )
 
 # pythonfmu 0.7 has no causality "independent": the time is registered as a local (the

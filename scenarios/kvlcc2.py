@@ -680,8 +680,9 @@ def kvlcc2_windage(scale: str = "full") -> Windage:
     funnel and deck fittings of a typical VLCC. Full scale: A_F = 1714.0 m^2,
     A_L = 3994.6 m^2, L_oa = 330 m, lateral centroid 30.98 m aft of midship. The model
     (L = 7 m) is its Froude scale (areas / lambda^2, lengths / lambda). The effective
-    inertias are this ship's about midship: m + m_x, m + m_y and I_zG + x_G^2 m + J_z
-    (the MMG equations use the forces; the inertias complete the :class:`Windage`).
+    inertias are this ship's about midship: m + m_x, m + m_y, I_zG + x_G^2 m + J_z and the
+    coupling x_G m of Y&Y2015 eq. (4) (the MMG equations use the forces; the inertias
+    complete the :class:`Windage`, so that its accelerations are the reference's).
 
     Parameters
     ----------
@@ -709,6 +710,7 @@ def kvlcc2_windage(scale: str = "full") -> Windage:
         yaw_inertia_kgm2=m * ship.yaw_gyration_radius_m**2
         + ship.x_g_m**2 * m
         + ship.J_z * half_rho_L2_d * ship.length_m**2,
+        sway_yaw_coupling_kgm=ship.x_g_m * m,
     )
 
 

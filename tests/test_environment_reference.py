@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmu_model.environment import Windage
+from fmu_model.environment import Windage, wind_accelerations
 from scenarios import synthesize
 from scenarios.cli import PROG, main
 from scenarios.kvlcc2 import (
@@ -120,6 +120,18 @@ def test_still_ship_in_a_beam_wind_from_starboard() -> None:
     assert rhs[1] == pytest.approx(v_dot, rel=1e-12)
     assert rhs[2] == pytest.approx(r_dot, rel=1e-12)
     np.testing.assert_array_equal(rhs[3:], 0.0)
+
+
+@pytest.mark.parametrize("from_deg", [30.0, 90.0, 135.0, -60.0])
+def test_the_windage_accelerations_are_the_references(from_deg: float) -> None:
+    """What the identification takes out (``wind_accelerations`` of ``kvlcc2_windage``) is
+    what the wind does to the reference, coupling of sway and yaw included (a still ship
+    heading North: the apparent wind is the true wind)."""
+    ship = kvlcc2("full")
+    env = SeaEnvironment(wind_speed_mps=15.0, wind_from_rad=math.radians(from_deg))
+    rhs = mmg_rhs(ship, np.zeros(6), 0.0, 0.0, environment=env)
+    du, dv, dr = wind_accelerations(15.0, math.radians(from_deg), kvlcc2_windage("full"))
+    assert (du, dv, dr) == pytest.approx(tuple(rhs[:3]), rel=1e-12, abs=1e-18)
 
 
 def test_head_wind_adds_what_the_wind_adds_to_the_still_air_drag() -> None:

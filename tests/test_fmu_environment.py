@@ -84,6 +84,7 @@ WINDAGE = Windage(
     surge_mass_kg=1.3e7,
     sway_mass_kg=2.0e7,
     yaw_inertia_kgm2=1.0e10,
+    sway_yaw_coupling_kgm=1.0e8,  # centre of gravity 8 m forward of midship
 )
 # Current 1 m/s setting towards 60 deg, wind 20 m/s from 120 deg.
 ENVIRONMENT = {
@@ -246,6 +247,7 @@ def test_numpy_and_sympy_forms_of_the_formulas_agree() -> None:
         ({"yaw_inertia_kgm2": 10**400}, "yaw_inertia_kgm2 must be finite"),
         ({"length_overall_m": True}, "length_overall_m must be a number"),
         ({"lateral_area_m2": 0.0}, "lateral_area_m2 must be > 0 when frontal_area_m2 is"),
+        ({"sway_yaw_coupling_kgm": -5.0e8}, r"sway_yaw_coupling_kgm must be below"),
     ],
 )
 def test_windage_refuses_bad_values(changes: dict[str, Any], message: str) -> None:
@@ -253,8 +255,30 @@ def test_windage_refuses_bad_values(changes: dict[str, Any], message: str) -> No
         Windage(**{**WINDAGE.to_dict(), **changes})
 
 
+def test_wind_accelerations_solve_the_sway_yaw_mass_matrix() -> None:
+    """M·(v̇, ṙ) = (Y, N) with M = [[m + m_y, x_G m], [x_G m, I_z + J_z]] (Y&Y2015 eq. (4))."""
+    angle = math.radians(70.0)
+    x_n, y_n, n_nm = wind_loads(15.0, angle, WINDAGE)
+    du, dv, dr = wind_accelerations(15.0, angle, WINDAGE)
+    assert du == pytest.approx(x_n / 1.3e7, rel=1e-15)
+    assert 2.0e7 * dv + 1.0e8 * dr == pytest.approx(y_n, rel=1e-12)
+    assert 1.0e8 * dv + 1.0e10 * dr == pytest.approx(n_nm, rel=1e-12)
+    # Cramer's rule by hand, and the coupling's share: at 70° off the bow it moves the yaw
+    # acceleration by 40 % of N/(I_z + J_z) here
+    det = 2.0e7 * 1.0e10 - 1.0e8**2
+    assert (dv, dr) == pytest.approx(
+        ((1.0e10 * y_n - 1.0e8 * n_nm) / det, (2.0e7 * n_nm - 1.0e8 * y_n) / det), rel=1e-12
+    )
+    _, dv0, dr0 = wind_accelerations(15.0, angle, replace(WINDAGE, sway_yaw_coupling_kgm=0.0))
+    assert (dv0, dr0) == (y_n / 2.0e7, n_nm / 1.0e10)
+    assert abs(dr - dr0) > 0.1 * abs(dr0)
+
+
 def test_windage_round_trips_through_params_json() -> None:
     assert Windage.from_dict(WINDAGE.to_dict()) == WINDAGE
+    # a windage written before the coupling (its key absent): a centre of gravity at midship
+    older = {k: v for k, v in WINDAGE.to_dict().items() if k != "sway_yaw_coupling_kgm"}
+    assert Windage.from_dict(older) == replace(WINDAGE, sway_yaw_coupling_kgm=0.0)
     params = make_params(windage=WINDAGE)
     doc = json.loads(json.dumps(params.to_json_dict()))
     assert doc["vessel"]["windage"]["frontal_area_m2"] == 300.0
@@ -331,7 +355,7 @@ def test_interface_lists_the_environment_in_both_backends(
     variables = {v.name: v for v in fmu_variables(params)}
     names = list(variables)
     assert names.index("time") + 1 == names.index("current_speed")  # appended: old VRs stay
-    assert names[-13:] == [*ENVIRONMENT_NAMES, *GROUND_NAMES, *WINDAGE_NAMES]
+    assert names[-14:] == [*ENVIRONMENT_NAMES, *GROUND_NAMES, *WINDAGE_NAMES]
     assert (SLAVE_ENVIRONMENT_NAMES, SLAVE_GROUND_NAMES, SLAVE_WINDAGE_NAMES) == (
         ENVIRONMENT_NAMES,
         GROUND_NAMES,
@@ -339,7 +363,7 @@ def test_interface_lists_the_environment_in_both_backends(
     )
     assert [variables[n].start for n in WINDAGE_NAMES] == list(WINDAGE.to_dict().values())
     bare = {v.name: v for v in fmu_variables(make_params())}
-    assert [bare[n].start for n in WINDAGE_NAMES] == [0.0, 0.0, 100.0, 0.0, 1.0, 1.0, 1.0]
+    assert [bare[n].start for n in WINDAGE_NAMES] == [0.0, 0.0, 100.0, 0.0, 1.0, 1.0, 1.0, 0.0]
     for key in fmus:
         md = read_model_description(str(fmus[key]))
         declared = {v.name: v for v in md.modelVariables}
@@ -354,6 +378,7 @@ def test_interface_lists_the_environment_in_both_backends(
         assert float(declared["wind_speed"].min) == 0.0
         assert (declared["cog"].causality, declared["cog"].unit) == ("output", "rad")
         assert (declared["yaw_inertia"].unit, declared["lateral_area"].unit) == ("kg.m2", "m2")
+        assert declared["sway_yaw_coupling"].unit == "kg.m"
         assert "Blendermann (1994)" in md.description
     assert "no windage" not in read_model_description(str(fmus["native2"])).description
 

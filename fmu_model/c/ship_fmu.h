@@ -26,8 +26,9 @@
  *     VR_ENVIRONMENT          first of the 4 inputs current_speed [m/s], current_direction
  *                             [rad, towards], wind_speed [m/s], wind_direction [rad, from]
  *     VR_GROUND               first of the 2 outputs sog [m/s] and cog [rad], calculated
- *     VR_WINDAGE              first of the 7 windage parameters (frontal_area_m2 ...
- *                             yaw_inertia_kgm2, the order of fmu_model.environment.Windage)
+ *     VR_WINDAGE              first of the 8 windage parameters (frontal_area_m2 ...
+ *                             sway_yaw_coupling_kgm, the order of
+ *                             fmu_model.environment.Windage)
  *     MODEL_VARIABLES         ShipVariable table, one entry per value reference
  *     DIVERGENCE_MAX_SPEED    bound of |u| and |v| [m/s]; beyond it the state diverged
  *     DIVERGENCE_MAX_YAW_RATE bound of |r| [rad/s]; beyond it the state diverged
@@ -105,7 +106,7 @@
 /* Number of environment inputs (current speed and direction, wind speed and direction). */
 #define SHIP_N_ENVIRONMENT 4
 /* Number of windage parameters (fmu_model.environment.Windage). */
-#define SHIP_N_WINDAGE 7
+#define SHIP_N_WINDAGE 8
 /* Number of outputs over ground (sog, cog). */
 #define SHIP_N_GROUND 2
 
