@@ -433,16 +433,17 @@ def current_model_form(current_ne: np.ndarray, alone: SpeedLogFit) -> np.ndarray
     The EKF's covariance of the current holds the identification noise of the chosen
     structure only. Where the structure is not the ship's, the filter puts part of what
     the hull does not explain into the current, the same way in every noise draw: on the
-    KVLCC2 reference (zig-zags in 0.5 and 1.0 m/s and a 10 m/s wind, five draws each,
-    ``--method ekf``) the error across the track is a steady 2–6 mm/s against a σ of
-    1.6 mm/s, and the error's eᵀC⁻¹e (χ²₂: 2 on average) is 2.0–15.2. What the speed log
+    KVLCC2 reference (zig-zags in 0.5 and 1.0 m/s and a 10 m/s wind, five draws each) the
+    error across the track is a steady 2–6 mm/s against a σ of 1.6 mm/s, and the error's
+    eᵀC⁻¹e (χ²₂: 2 on average) is 2.2–15.8. What the speed log
     shows alone (:func:`speed_log_current`: the smoothed track and the log, no hull model)
     is an estimate of the same current that this error does not reach. Their distance d
     is taken as the model-form term, as the spread of the fit's alternative estimates is
     for the predictions (``scenarios.uncertainty.model_form``): a term measured on the
     data, added to the EKF's covariance (independent sources). With it the same runs
-    give eᵀC⁻¹e 0.2–2.1 in eight of ten, 9.6 and 10.2 in the draw whose two estimates
-    are wrong alike (``benchmarks/environment.md``, "The current's model-form term").
+    give eᵀC⁻¹e 0.2–2.4 in eight of ten, 9.2 and 9.7 in the draw whose two estimates are
+    wrong alike (``benchmarks/environment.md``, "The wind's sway-yaw coupling"; before
+    that fix the same eight of ten, "The current's model-form term").
     """
     d = np.asarray(current_ne, dtype=float) - alone.current_ne
     return np.outer(d, d)
