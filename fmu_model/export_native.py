@@ -71,6 +71,7 @@ from fmu_model.fmi_rules import (
     STEP_TIME_TOLERANCE,
     SUBSTEP_LIMIT_FORMAT,
     TIME_STALL_FORMAT,
+    WINDAGE_COUPLING_FORMAT,
     FmuVariable,
     model_identifier,
 )
@@ -302,6 +303,14 @@ def _config_header(
         f"#define TIME_STALL_FORMAT {_c_string(TIME_STALL_FORMAT)}",
         f"#define MIN_START_SPEED {_c_double(min_start_speed)}",
         f"#define START_SPEED_FORMAT {_c_string(START_SPEED_FORMAT)}",
+        "",
+        "/* The windage's sway-yaw mass matrix must not be singular: the offsets of m + m_y,",
+        "   I_z + J_z and x_G m in the windage block, and the message of a refused one. */",
+        *(
+            f"#define WINDAGE_{name.upper()} {WINDAGE_NAMES.index(name)}"
+            for name in ("sway_mass", "yaw_inertia", "sway_yaw_coupling")
+        ),
+        f"#define WINDAGE_COUPLING_FORMAT {_c_string(WINDAGE_COUPLING_FORMAT)}",
         "",
         "/* Messages of a restored FMU state with a value fmi2SetReal would refuse. */",
         f"#define STATE_RANGE_FORMAT {_c_string(STATE_RANGE_FORMAT)}",

@@ -125,6 +125,15 @@ START_SPEED_FORMAT = (
     "set u0 or v0"
 )
 
+# The message of a refused windage (at ExitInitializationMode, where its parameters are
+# all set): the sway-yaw coupling x_G m [kg m] and the bound sqrt(sway_mass * yaw_inertia)
+# [kg m] its size must stay below, or the sway-yaw mass matrix of the wind's
+# accelerations is singular (fmu_model.environment.Windage refuses the same).
+WINDAGE_COUPLING_FORMAT = (
+    "the windage's sway_yaw_coupling %g kg.m makes the sway-yaw mass matrix singular: its "
+    "size must stay below sqrt(sway_mass * yaw_inertia) = %g kg.m; set sway_yaw_coupling"
+)
+
 # The messages of a restored FMU state with a value fmi2SetReal would refuse: the
 # function, the variable name, its value, and (out of range) its min and max (-inf and
 # inf when not declared).
@@ -274,6 +283,32 @@ def start_speed_problem(
     if min_start_speed_mps > 0.0 and not speed >= min_start_speed_mps:
         return f"{function}: " + START_SPEED_FORMAT % (speed, min_start_speed_mps)
     return None
+
+
+def windage_problem(
+    function: str, sway_mass_kg: float, yaw_inertia_kgm2: float, coupling_kgm: float
+) -> str | None:
+    """Return the message refusing a windage whose sway-yaw mass matrix is singular, or None.
+
+    Parameters
+    ----------
+    function : str
+        The FMI function, for the message (``"fmi2ExitInitializationMode"``).
+    sway_mass_kg, yaw_inertia_kgm2 : float
+        m + m_y [kg] and I_z + J_z [kg m²] (positive by their declared minimum).
+    coupling_kgm : float
+        x_G·m [kg m].
+
+    Returns
+    -------
+    str or None
+        :data:`WINDAGE_COUPLING_FORMAT` filled in, or ``None``.
+
+    """
+    if coupling_kgm * coupling_kgm < sway_mass_kg * yaw_inertia_kgm2:
+        return None
+    bound = math.sqrt(sway_mass_kg * yaw_inertia_kgm2)
+    return f"{function}: " + WINDAGE_COUPLING_FORMAT % (coupling_kgm, bound)
 
 
 def fmu_state_problem(

@@ -76,6 +76,7 @@ from fmu_model.fmi_rules import (
     start_speed_problem,
     state_diverged,
     step_problem,
+    windage_problem,
 )
 from fmu_model.integrate import n_substeps, rk4_into
 
@@ -108,6 +109,7 @@ PYTHONFMU_CAUSALITY = {
 _VARIABILITY = {"continuous": Fmi2Variability.continuous, "fixed": Fmi2Variability.fixed}
 # Keys of self._problems that are not variable names: they block steps until cleared.
 _START_SPEED = "(start speed)"
+_WINDAGE = "(windage)"
 _RESTORED_STATE = "(restored FMU state)"
 # Key of a serialised state that could not be read (see _fmu_state_from_bytes).
 _UNREADABLE = "unreadable"
@@ -278,8 +280,8 @@ class ShipManoeuvringSlave(Fmi2Slave):
     def exit_initialization_mode(self) -> None:
         """Fix the parameters and start the state from u0 ... psi0.
 
-        A start speed below the model's least (the native FMU's fmi2Error) is logged
-        and blocks every step.
+        A start speed below the model's least or a windage whose sway-yaw mass matrix is
+        singular (the native FMU's fmi2Error) is logged and blocks every step.
         """
         self._theta = [self._values[k] for k in self._vr_theta]
         self._windage = [self._values[k] for k in self._vr_windage]
@@ -287,14 +289,25 @@ class ShipManoeuvringSlave(Fmi2Slave):
         self._initialised = True
         if self._watch is not None:
             self._watch.warned.clear()
-        message = self._start_speed_problem()
-        if message is not None:
-            self._problems[_START_SPEED] = message
+        for key, message in self._start_problems().items():
+            self._problems[key] = message
             self.log(message, Fmi2Status.error)
 
-    def _start_speed_problem(self) -> str | None:
+    def _start_problems(self) -> dict[str, str]:
+        """Return the start speed's and the windage's problems, by key of ``self._problems``."""
+        function = "fmi2ExitInitializationMode"
         u0, v0 = (self._values[k] for k in self._vr_initial[:2])
-        return start_speed_problem("fmi2ExitInitializationMode", u0, v0, self._min_start_speed)
+        windage = dict(zip(WINDAGE_NAMES, self._windage, strict=True))
+        found = {
+            _START_SPEED: start_speed_problem(function, u0, v0, self._min_start_speed),
+            _WINDAGE: windage_problem(
+                function,
+                windage["sway_mass"],
+                windage["yaw_inertia"],
+                windage["sway_yaw_coupling"],
+            ),
+        }
+        return {key: message for key, message in found.items() if message is not None}
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         """Advance the state over one communication step; ``False`` means fmi2Discard.
@@ -397,10 +410,7 @@ class ShipManoeuvringSlave(Fmi2Slave):
         self._windage = [values[k] for k in self._vr_windage]
         self._initialised = initialised
         self._step_failed = step_failed
-        self._problems = {}
-        message = self._start_speed_problem() if initialised else None
-        if message is not None:
-            self._problems[_START_SPEED] = message
+        self._problems = self._start_problems() if initialised else {}
 
     def _read_fmu_state(
         self, state: Any

@@ -31,6 +31,7 @@ from fmpy.fmi2 import FMU2Slave, fmi2FMUstate
 from fmu_model import ModelParameters
 from fmu_model.export_native import build_native_fmu, render_native_fmu
 from fmu_model.export_pythonfmu import build_pythonfmu_fmu
+from fmu_model.fmi_rules import WINDAGE_COUPLING_FORMAT
 from fmu_model.interface import (
     DIVERGENCE_FORMAT,
     MAX_SPEED_MPS,
@@ -354,6 +355,27 @@ def test_both_backends_refuse_a_start_below_the_least_speed(
         assert status(fmu.exitInitializationMode) == FMI_OK  # an exception would be fatal
         assert _problems(log) == [expected]
         assert log.messages[-1][0] == FMI_ERROR
+        assert status(lambda: fmu.doStep(0.0, 0.1)) == FMI_DISCARD
+        assert _problems(log)[-1] == expected
+
+
+@pytest.mark.parametrize("coupling_kgm", [1.0, -1.5])
+def test_both_backends_refuse_a_singular_windage(
+    coupling_kgm: float, unzipped: dict[str, Path]
+) -> None:
+    """x_G m with (x_G m)² ≥ (m + m_y)(I_z + J_z): the wind's mass matrix would be singular
+    (PARAMS has no windage: unit inertias, so the bound is 1 kg m)."""
+    start = {"sway_yaw_coupling": coupling_kgm}
+    expected = "fmi2ExitInitializationMode: " + WINDAGE_COUPLING_FORMAT % (coupling_kgm, 1.0)
+    with instantiated(unzipped["native"], start) as (fmu, log):
+        assert status(fmu.exitInitializationMode) == FMI_ERROR
+        assert _problems(log) == [expected]
+        fmu.setReal([VR["sway_yaw_coupling"]], [0.5])  # still in initialization mode
+        fmu.exitInitializationMode()
+        assert status(lambda: fmu.doStep(0.0, 0.1)) == FMI_OK
+    with instantiated(unzipped["pythonfmu"], start) as (fmu, log):
+        assert status(fmu.exitInitializationMode) == FMI_OK  # an exception would be fatal
+        assert _problems(log) == [expected]
         assert status(lambda: fmu.doStep(0.0, 0.1)) == FMI_DISCARD
         assert _problems(log)[-1] == expected
 

@@ -539,15 +539,24 @@ static void ship_enter_initialization_mode(Instance *inst)
 
 /* Leave initialization mode for stepComplete / Step Mode (co-simulation) or Event Mode
    (model exchange). A model that divides by the speed is 0/0 at rest: such a start is
-   refused, and the instance stays in initialization mode, so that the master can set u0
-   or v0 and try again. */
+   refused, and so is a windage whose sway-yaw mass matrix is singular (its parameters are
+   all set only now); the instance stays in initialization mode, so that the master can
+   set u0 or v0, or the windage, and try again. */
 static ShipStatus ship_exit_initialization_mode(Instance *inst, const char *function)
 {
     const double u0 = inst->s.values[VR_INITIAL_STATE];
     const double v0 = inst->s.values[VR_INITIAL_STATE + 1];
     const double speed = sqrt(u0 * u0 + v0 * v0);
+    const double *windage = &inst->s.values[VR_WINDAGE];
+    const double mass_product =
+        windage[WINDAGE_SWAY_MASS] * windage[WINDAGE_YAW_INERTIA];
+    const double coupling = windage[WINDAGE_SWAY_YAW_COUPLING];
     if (MIN_START_SPEED > 0.0 && !(speed >= MIN_START_SPEED)) {
         LOG_ERROR(inst, "%s: " START_SPEED_FORMAT, function, speed, MIN_START_SPEED);
+        return SHIP_ERROR;
+    }
+    if (!(coupling * coupling < mass_product)) {
+        LOG_ERROR(inst, "%s: " WINDAGE_COUPLING_FORMAT, function, coupling, sqrt(mass_product));
         return SHIP_ERROR;
     }
     reset_state_from_parameters(inst);
