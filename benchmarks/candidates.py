@@ -29,6 +29,10 @@ shape constants:
   C_Dc sin α |sin α|: a normal force that grows faster than sin α from small angles on,
   where ``prime-rudder-lift``'s sin³α is nearly silent at 10°), and the same with the
   thrust of fixed open-water slope;
+* ``offset-asym-hull``, ``offset-asym-hull-thrust``: ``asym-hull``'s even yaw-rate terms on
+  the default ``prime-rudder-offset``, and the same with the fixed thrust;
+* ``offset-swirl-thrust``: ``swirl``'s angle beside the neutral-rudder offset δ₀, with the
+  fixed thrust;
 * ``helm``: the neutral-rudder offset linearised, so that it is estimated with the other
   gains instead of gridded: u_R² sin(α_R + δ₀) ≈ u_R² sin α_R + δ₀·u_R² cos α_R, the
   second term with its own gain in sway and yaw (Y_R0, N_R0; Y_R0/Y_R ≈ δ₀): the

@@ -138,13 +138,17 @@ def worst_differences(predicted: Indices, calm: Indices, truth: Indices) -> tupl
     return max(turning), max(overshoot)
 
 
+def current_vector(condition: Condition) -> np.ndarray:
+    """Return the condition's current (North, East) [m/s]."""
+    angle = math.radians(condition.current_to_deg)
+    return condition.current_mps * np.array([math.cos(angle), math.sin(angle)])
+
+
 def current_error(result: IdentificationResult, condition: Condition) -> tuple[float, float]:
     """Error of the current estimate: |ĉ − c| [m/s] and direction [deg] (nan without one)."""
     if result.current is None:
         return math.nan, math.nan
-    true_n = condition.current_mps * math.cos(math.radians(condition.current_to_deg))
-    true_e = condition.current_mps * math.sin(math.radians(condition.current_to_deg))
-    speed = math.hypot(result.current.north_mps - true_n, result.current.east_mps - true_e)
+    speed = float(np.hypot(*(result.current.vector - current_vector(condition))))
     if condition.current_mps == 0.0:
         return speed, math.nan
     angle = math.degrees(result.current.to_rad) - condition.current_to_deg
@@ -159,10 +163,7 @@ def current_consistency(result: IdentificationResult, condition: Condition) -> t
     """
     if result.current is None:
         return math.nan, math.nan
-    angle = math.radians(condition.current_to_deg)
-    error = result.current.vector - condition.current_mps * np.array(
-        [math.cos(angle), math.sin(angle)]
-    )
+    error = result.current.vector - current_vector(condition)
     return (
         float(error @ np.linalg.solve(result.current.covariance, error)),
         float(error @ np.linalg.solve(result.current.total_covariance, error)),
