@@ -49,6 +49,7 @@ from fmu_model.export_native import (
     osp_sidecar_path,
     render_native_fmu,
 )
+from fmu_model.fmi_rules import WINDAGE_COUPLING_FORMAT
 from fmu_model.interface import (
     MAX_PROPELLER_RPM,
     MAX_SPEED_MPS,
@@ -786,6 +787,65 @@ def test_a_serialised_state_with_a_value_no_fmu_could_have_is_refused(
         assert message in text, text
         assert fmu.getReal(everything) == before
         assert do_step(fmu, 0.1, 0.1) == FMI_OK
+
+
+def test_a_serialised_state_past_initialisation_with_a_singular_windage_is_refused(
+    unzipped: Path, params: ModelParameters
+) -> None:
+    """(x_G m)^2 >= (m + m_y)(I_z + J_z) makes the wind's accelerations divide by zero:
+    ExitInitializationMode refuses such a windage, and so does the restore of a state past
+    it. In initialization mode the windage may still be corrected, so a state there is
+    restored. The test ship has no windage: unit inertias, so the bound is 1 kg m."""
+    vr = {v.name: v.value_reference for v in fmu_variables(params)}
+    everything = list(range(len(vr)))
+    offset = SERIAL_VALUES_OFFSET + 8 * vr["sway_yaw_coupling"]
+    expected = (
+        "fmi2DeSerializeFMUstate: the FMU state is not restored: "
+        + WINDAGE_COUPLING_FORMAT % (1.0, 1.0)
+    )
+    logger = LogRecorder()
+    with slave(unzipped, logger=logger) as fmu:
+        assert do_step(fmu, 0.0, 0.1) == FMI_OK
+        for running in (True, False):  # step complete, then terminated
+            if not running:
+                fmu.terminate()
+            before = fmu.getReal(everything)
+            state = fmu.getFMUstate()
+            serialized = bytearray(fmu.serializeFMUstate(state))
+            fmu.freeFMUstate(state)
+            assert struct.unpack_from("=d", serialized, offset)[0] == 0.0  # the layout
+            struct.pack_into("=d", serialized, offset, 1.0)
+            with pytest.raises(FMICallException) as info:
+                fmu.deSerializeFMUstate(bytes(serialized))
+            assert info.value.status == FMI_ERROR
+            assert logger.last() == (FMI_ERROR, "logStatusError", expected)
+            assert fmu.getReal(everything) == before  # the state is not restored
+            if running:
+                assert do_step(fmu, 0.1, 0.1) == FMI_OK  # it goes on
+
+    md = read_model_description(unzipped)
+    fmu = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=str(unzipped),
+        modelIdentifier=md.coSimulation.modelIdentifier,
+    )
+    fmu.instantiate(callbacks=logger.callbacks)
+    try:
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.setReal([vr["sway_yaw_coupling"]], [1.0])
+        state = fmu.getFMUstate()
+        restored = fmu.deSerializeFMUstate(fmu.serializeFMUstate(state))
+        fmu.setFMUstate(restored)
+        assert fmu.getReal([vr["sway_yaw_coupling"]]) == [1.0]
+        assert status(fmu.exitInitializationMode) == FMI_ERROR  # refused here instead
+        fmu.setReal([vr["sway_yaw_coupling"]], [0.5])
+        fmu.exitInitializationMode()
+        assert do_step(fmu, 0.0, 0.1) == FMI_OK
+        fmu.freeFMUstate(state)
+        fmu.freeFMUstate(restored)
+    finally:
+        fmu.freeInstance()
 
 
 def test_diverging_state_discards_the_step(unzipped: Path, params: ModelParameters) -> None:

@@ -49,10 +49,12 @@
  *   unchanged, so a master may correct the call and continue:
  *     a non-finite value or a value outside a declared min/max passed to SetReal (the
  *     whole call is rejected, no value of it is applied), or found in an FMU state given
- *     to SetFMUState or DeserializeFMUState (the state is not restored); setting an
- *     output, local or the time, or a parameter after ExitInitializationMode; an unknown
- *     value reference; a call not allowed in the current state; a start below the least
- *     start speed; a non-positive or non-finite communication step, a
+ *     to SetFMUState or DeserializeFMUState (the state is not restored); an FMU state
+ *     past initialization whose windage has a singular sway-yaw mass matrix (not
+ *     restored either); setting an output, local or the time, or a parameter after
+ *     ExitInitializationMode; an unknown value reference; a call not allowed in the
+ *     current state; a start below the least start speed or a windage whose sway-yaw
+ *     mass matrix is singular; a non-positive or non-finite communication step, a
  *     currentCommunicationPoint that is not the FMU's time, a step too small to advance
  *     the time (t + h == t), or a step needing more than MAX_SUBSTEPS internal steps
  *     (about 1 s of CPU); non-finite continuous states, time or seeds; every function
@@ -147,6 +149,8 @@ typedef enum {
 /* After initialisation, before termination: where inputs may be set and values read. */
 #define STATES_RUNNING                                                               \
     (STATE_STEP_COMPLETE | STATE_STEP_FAILED | STATE_EVENT_MODE | STATE_CONTINUOUS_TIME_MODE)
+/* Past ExitInitializationMode: the parameters are fixed and were accepted by it. */
+#define STATES_INITIALIZED (STATES_RUNNING | STATE_TERMINATED)
 /* Where values may be read: from initialization mode on (FMI 2.0 sections 3.2.3 and
    4.2.4, FMI 3.0 section 2.2.6.2). */
 #define STATES_GET (STATE_INITIALIZATION | STATES_RUNNING | STATE_TERMINATED)
@@ -372,10 +376,30 @@ static double n_substeps(double step, double max_step)
     return n < 1.0 ? 1.0 : n;
 }
 
+/* The windage rule of fmu_model.fmi_rules.windage_problem: return nonzero when the
+   sway-yaw mass matrix of `windage` (the values from VR_WINDAGE on) is regular,
+   coupling^2 < sway_mass * yaw_inertia; else log WINDAGE_COUPLING_FORMAT after
+   "`function`: `refusal`" and return 0. The check of ExitInitializationMode and of every
+   restored FMU state past initialization. */
+static int windage_is_valid(const Instance *inst, const char *function, const char *refusal,
+                            const double *windage)
+{
+    const double mass_product = windage[WINDAGE_SWAY_MASS] * windage[WINDAGE_YAW_INERTIA];
+    const double coupling = windage[WINDAGE_SWAY_YAW_COUPLING];
+    if (coupling * coupling < mass_product) {
+        return 1;
+    }
+    LOG_ERROR(inst, "%s: %s" WINDAGE_COUPLING_FORMAT, function, refusal, coupling,
+              sqrt(mass_product));
+    return 0;
+}
+
 /* Return nonzero when the snapshot holds only values SetReal would accept (finite,
-   within each variable's declared min/max), finite times and an FMI state of the
-   instance's kind; else log why, naming `function`, and return 0. The check of every
-   restored FMU state. */
+   within each variable's declared min/max), finite times, an FMI state of the
+   instance's kind and, in a state past initialization (STATES_INITIALIZED), a windage
+   ExitInitializationMode would accept (else the wind's accelerations divide by zero);
+   else log why, naming `function`, and return 0. The check of every restored FMU
+   state. */
 static int snapshot_is_valid(const Instance *inst, const char *function, const Snapshot *s)
 {
     const int kind_states =
@@ -403,6 +427,11 @@ static int snapshot_is_valid(const Instance *inst, const char *function, const S
         LOG_ERROR(inst,
                   "%s: the FMU state is not restored: its times (%g, %g, %g s) must be finite",
                   function, s->time, s->start_time, s->last_successful_time);
+        return 0;
+    }
+    if ((s->state & STATES_INITIALIZED) &&
+        !windage_is_valid(inst, function, "the FMU state is not restored: ",
+                          &s->values[VR_WINDAGE])) {
         return 0;
     }
     return 1;
@@ -547,16 +576,11 @@ static ShipStatus ship_exit_initialization_mode(Instance *inst, const char *func
     const double u0 = inst->s.values[VR_INITIAL_STATE];
     const double v0 = inst->s.values[VR_INITIAL_STATE + 1];
     const double speed = sqrt(u0 * u0 + v0 * v0);
-    const double *windage = &inst->s.values[VR_WINDAGE];
-    const double mass_product =
-        windage[WINDAGE_SWAY_MASS] * windage[WINDAGE_YAW_INERTIA];
-    const double coupling = windage[WINDAGE_SWAY_YAW_COUPLING];
     if (MIN_START_SPEED > 0.0 && !(speed >= MIN_START_SPEED)) {
         LOG_ERROR(inst, "%s: " START_SPEED_FORMAT, function, speed, MIN_START_SPEED);
         return SHIP_ERROR;
     }
-    if (!(coupling * coupling < mass_product)) {
-        LOG_ERROR(inst, "%s: " WINDAGE_COUPLING_FORMAT, function, coupling, sqrt(mass_product));
+    if (!windage_is_valid(inst, function, "", &inst->s.values[VR_WINDAGE])) {
         return SHIP_ERROR;
     }
     reset_state_from_parameters(inst);
