@@ -56,6 +56,17 @@ shape constants:
 * ``crossflow-lift``, ``crossflow-lift-thrust``: ``prime-rudder-lift``'s u_R² sin³α_R in
   sway and yaw on ``prime-crossflow`` (the hull's cross-flow drag, ``fmu_model``), and the
   same with the thrust of fixed open-water slope;
+* ``offset-hullmix``, ``offset-hullmix-thrust``: the default ``prime-rudder-offset`` with
+  each nonlinear hull term a blend of the modulus basis and the MMG cubic one paired by
+  symmetry, (1 − b)·v′|v′| + b·v′³, (1 − b)·r′|r′| + b·r′³, (1 − b)·v′|r′| + b·v′r′²,
+  (1 − b)·|v′|r′ + b·v′²r′, with the cubic share b a shape constant in [0, 1] (grid 0,
+  0.5, 1): the hull's form chosen by the equation-error residual with the rudder's, the
+  coefficient count that of the default (the reference is cubic, the measured runs
+  prefer the modulus basis: ``rudder-cubic`` above and ``benchmarks/hsva.md``); and the
+  same with the fixed thrust;
+* ``offset-norar``, ``offset-norar-thrust``: the default ``prime-rudder-offset`` without
+  N_rar (its HSVA fits have N_rar > 0, a yaw damping that falls with the rate): what a
+  sign constraint N_rar ≤ 0 gives where it binds; and the same with the fixed thrust;
 * ``both-prior002``, ``both-prior010``: ``rudder-both`` with a zero-mean prior on the
   cubic terms (``Term.prior_std``) of 0.02 and 0.1 in the MMG's Y′ and N′ (per ½ρL²d,
   ½ρL³d; KVLCC2 |Y′_vvv| 1.6, |N′_vvr| 0.29): cubic terms that count only where the logs
@@ -94,6 +105,10 @@ from fmu_model.variants import (
 )
 
 SWIRL_RAD = sp.Symbol("swirl", real=True)
+CUBIC_SHARE = sp.Symbol("b", nonnegative=True)
+_CUBIC_SHARE = ShapeConstant(CUBIC_SHARE, 0.0, 1.0, 0.0, (0.0, 0.5, 1.0))
+#: The modulus basis' nonlinear terms and the cubic ones of the same symmetry.
+HULL_PAIRS = {"vav": "vvv", "rar": "rrr", "var": "vrr", "avr": "vvr"}
 _SWIRL = ShapeConstant(SWIRL_RAD, -0.3, 0.3, 0.0, (-0.15, 0.0, 0.15))
 SLIPSTREAM_C = sp.Symbol("c", nonnegative=True)
 SLIPSTREAM_C_GRID = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # c·(n₀L)² / U₀²
@@ -128,6 +143,32 @@ def sway_and_yaw_terms(
     sway = {t.coefficient: t for t in source.sway}
     yaw = {t.coefficient: t for t in source.yaw}
     return tuple(sway[f"Y_{b}"] for b in bases), tuple(yaw[f"N_{b}"] for b in bases)
+
+
+def hull_mixed(base: ModelFamily, name: str) -> ModelFamily:
+    """Return ``base`` with each modulus hull term blended with its cubic twin (``HULL_PAIRS``)."""
+
+    def mixed(terms: tuple[Term, ...], cubic: tuple[Term, ...]) -> tuple[Term, ...]:
+        twin = {t.coefficient[2:]: t.regressor for t in cubic}
+        return tuple(
+            replace(
+                t,
+                regressor=(1 - CUBIC_SHARE) * t.regressor
+                + CUBIC_SHARE * twin[HULL_PAIRS[t.coefficient[2:]]],
+            )
+            if t.coefficient[2:] in HULL_PAIRS
+            else t
+            for t in terms
+        )
+
+    cubic_sway, cubic_yaw = sway_and_yaw_terms(PRIME_CUBIC, *CUBIC_HULL)
+    return replace(
+        base,
+        name=name,
+        sway=mixed(base.sway, cubic_sway),
+        yaw=mixed(base.yaw, cubic_yaw),
+        shape=(*base.shape, _CUBIC_SHARE),
+    )
 
 
 def mmg_inflow_squared() -> sp.Expr:
@@ -192,6 +233,12 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         (Term("N_rr", r**2),),
         PRIME_RUDDER_OFFSET,
     )
+    hullmix = hull_mixed(PRIME_RUDDER_OFFSET, "offset-hullmix")
+    no_rar = replace(
+        PRIME_RUDDER_OFFSET,
+        name="offset-norar",
+        yaw=tuple(t for t in PRIME_RUDDER_OFFSET.yaw if t.coefficient != "N_rar"),
+    )
     crossflow_lift = _with_terms(
         "crossflow-lift", PRIME_CROSSFLOW.surge, (_OFFSET_SWAY3,), (_OFFSET_YAW3,), PRIME_CROSSFLOW
     )
@@ -215,6 +262,10 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         with_fixed_thrust(offset_lift, "offset-lift-thrust", "offset-lift, fixed thrust"),
         offset_xflow,
         with_fixed_thrust(offset_xflow, "offset-xflow-thrust", "offset-xflow, fixed thrust"),
+        no_rar,
+        with_fixed_thrust(no_rar, "offset-norar-thrust", "offset-norar, fixed thrust"),
+        hullmix,
+        with_fixed_thrust(hullmix, "offset-hullmix-thrust", "offset-hullmix, fixed thrust"),
         offset_asym_hull,
         with_fixed_thrust(
             offset_asym_hull, "offset-asym-hull-thrust", "offset-asym-hull, fixed thrust"
