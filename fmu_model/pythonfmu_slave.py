@@ -34,7 +34,8 @@ corrected; nothing here raises:
 * a start below the model's least start speed (the native FMU stays in initialization
   mode): the instance is initialised but never steps;
 * ``fmi2SetFMUstate`` with a state :func:`fmu_model.fmi_rules.fmu_state_problem`
-  rejects or that is not a state of this FMU: the instance keeps its values, but steps
+  rejects, an initialised one whose windage :func:`fmu_model.fmi_rules.windage_problem`
+  rejects, or one that is not a state of this FMU: the instance keeps its values, but steps
   are refused until a valid state is restored (``fmi2DeSerializeFMUstate`` cannot
   refuse here; a corrupt serialised state is refused at ``fmi2SetFMUstate``).
 
@@ -444,6 +445,14 @@ class ShipManoeuvringSlave(Fmi2Slave):
         problem = fmu_state_problem(
             [v for v, _ in checked], [x for _, x in checked], "fmi2SetFMUstate"
         )
+        if problem is None and initialised:  # past initialisation: the windage is fixed
+            windage = dict(zip(WINDAGE_NAMES, (values[k] for k in self._vr_windage), strict=True))
+            problem = windage_problem(
+                "fmi2SetFMUstate: the FMU state is not restored",
+                windage["sway_mass"],
+                windage["yaw_inertia"],
+                windage["sway_yaw_coupling"],
+            )
         if problem is not None:
             return problem
         return values, vector, time, initialised, step_failed

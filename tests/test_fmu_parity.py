@@ -217,7 +217,8 @@ def test_the_python_divergence_rule_is_the_documented_one() -> None:
 # Byte offset of the values in the native serialised state: magic (8), version (4),
 # number of variables (4), GUID (64), FMI state (4), padding (4), three times (3 x 8).
 NATIVE_VALUES_OFFSET = 8 + 4 + 4 + 64 + 4 + 4 + 3 * 8
-# A value that fmi2SetReal refuses, put into a saved state: (variable, value, message).
+# A value that fmi2SetReal refuses, put into a saved state past initialisation:
+# (variable, value, message).
 BAD_STATES = {
     "rudder 1.5 rad": ("rudder_angle", 1.5, "rudder_angle = 1.5 is outside [-0.785398"),
     "rudder 1e300 rad": ("rudder_angle", 1e300, "rudder_angle = 1.0000000000000001e+300 is"),
@@ -226,6 +227,9 @@ BAD_STATES = {
     "propeller 1e9 rpm": ("propeller_rpm", 1e9, "propeller_rpm = 1000000000 is outside"),
     "NaN coefficient": ("a1", math.nan, "a1 must be finite, got nan"),
     "infinite initial heading": ("psi0", math.inf, "psi0 must be finite, got inf"),
+    # fmi2SetReal takes it, ExitInitializationMode would not: a singular sway-yaw mass
+    # matrix of the wind's load (unit inertias here, so the bound is 1 kg m).
+    "singular windage": ("sway_yaw_coupling", 1.0, WINDAGE_COUPLING_FORMAT % (1.0, 1.0)),
 }
 
 
