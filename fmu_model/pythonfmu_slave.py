@@ -61,6 +61,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -298,15 +299,9 @@ class ShipManoeuvringSlave(Fmi2Slave):
         """Return the start speed's and the windage's problems, by key of ``self._problems``."""
         function = "fmi2ExitInitializationMode"
         u0, v0 = (self._values[k] for k in self._vr_initial[:2])
-        windage = dict(zip(WINDAGE_NAMES, self._windage, strict=True))
         found = {
             _START_SPEED: start_speed_problem(function, u0, v0, self._min_start_speed),
-            _WINDAGE: windage_problem(
-                function,
-                windage["sway_mass"],
-                windage["yaw_inertia"],
-                windage["sway_yaw_coupling"],
-            ),
+            _WINDAGE: _windage_problem(function, self._windage),
         }
         return {key: message for key, message in found.items() if message is not None}
 
@@ -446,12 +441,9 @@ class ShipManoeuvringSlave(Fmi2Slave):
             [v for v, _ in checked], [x for _, x in checked], "fmi2SetFMUstate"
         )
         if problem is None and initialised:  # past initialisation: the windage is fixed
-            windage = dict(zip(WINDAGE_NAMES, (values[k] for k in self._vr_windage), strict=True))
-            problem = windage_problem(
+            problem = _windage_problem(
                 "fmi2SetFMUstate: the FMU state is not restored",
-                windage["sway_mass"],
-                windage["yaw_inertia"],
-                windage["sway_yaw_coupling"],
+                [values[k] for k in self._vr_windage],
             )
         if problem is not None:
             return problem
@@ -465,6 +457,14 @@ class ShipManoeuvringSlave(Fmi2Slave):
         except (UnicodeDecodeError, ValueError, RecursionError) as exc:
             return {_UNREADABLE: f"not JSON: {type(exc).__name__}"}
         return parsed if isinstance(parsed, dict) else {_UNREADABLE: "not a JSON object"}
+
+
+def _windage_problem(function: str, windage: Sequence[float]) -> str | None:
+    """Return :func:`~fmu_model.fmi_rules.windage_problem` of values in ``WINDAGE_NAMES`` order."""
+    named = dict(zip(WINDAGE_NAMES, windage, strict=True))
+    return windage_problem(
+        function, named["sway_mass"], named["yaw_inertia"], named["sway_yaw_coupling"]
+    )
 
 
 def _number(value: Any) -> float:
