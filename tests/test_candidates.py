@@ -8,7 +8,6 @@ default's at every b.
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 from types import ModuleType
 
@@ -17,17 +16,14 @@ import sympy as sp
 
 from fmu_model.structure import ModelStructure, Term, r, v
 from fmu_model.variants import PRIME_CUBIC, PRIME_RUDDER_OFFSET, ModelFamily
+from tests.module_files import load_module
 
 CANDIDATES = Path(__file__).resolve().parents[1] / "benchmarks" / "candidates.py"
 
 
 @pytest.fixture(scope="module")
 def candidates() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("benchmark_candidates", CANDIDATES)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_module("benchmark_candidates", CANDIDATES)
 
 
 @pytest.fixture(scope="module")

@@ -12,14 +12,11 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import shutil
-import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 import pytest
@@ -34,6 +31,7 @@ from fmu_model import ModelParameters
 from fmu_model.export_native import build_native_fmu
 from scenarios.fmu_plant import FmuPlant
 from tests.conftest import SEED_COEFFICIENTS
+from tests.module_files import load_module
 
 EXAMPLE_DIR = Path(__file__).resolve().parents[1] / "examples" / "osp_autopilot"
 STEP_S = 0.1
@@ -44,20 +42,10 @@ VR_OUTPUTS = [2, 3, 4, 5, 6, 7]  # u, v, r, x, y, psi
 OSP_NS = {"osp": "http://opensimulationplatform.com/MSMI/OSPSystemStructure"}
 
 
-def _load(name: str, filename: str) -> ModuleType:
-    """Import an example file under a private module name (the folder is no package)."""
-    spec = importlib.util.spec_from_file_location(name, EXAMPLE_DIR / filename)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
 # Not under the name "autopilot": the FMU's slave must come from the FMU's resources.
-law = _load("osp_autopilot_law", "autopilot.py")
-builder = _load("osp_autopilot_build", "build_autopilot.py")
-osp_run = _load("osp_autopilot_run", "run.py")
+law = load_module("osp_autopilot_law", EXAMPLE_DIR / "autopilot.py")
+builder = load_module("osp_autopilot_build", EXAMPLE_DIR / "build_autopilot.py")
+osp_run = load_module("osp_autopilot_run", EXAMPLE_DIR / "run.py")
 
 
 def libcosim_steps(n: int) -> np.ndarray:
