@@ -3,7 +3,7 @@
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
         [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf] [--same-noise]
-        [--calm-speed-log] [--out benchmarks/environment.md]
+        [--calm-speed-log] [--speed-log-axes 1|2] [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
 each true wind speed from ``--wind-from-deg``) and every noise draw d, the KVLCC2 reference
@@ -16,7 +16,9 @@ wind ends the zig-zags a few samples earlier; ``environment.md``). With ``--same
 every log draws each channel's noise from a generator of its own
 (``synthesize_log(noise_per_channel=True)``), so the calm-water and the sea logs of a draw
 carry the same noise sample by sample (other noise than the default's). With
-``--calm-speed-log`` the calm-water logs carry the speed log too, as the logs at sea do. With
+``--calm-speed-log`` the calm-water logs carry the speed log too, as the logs at sea do; with
+``--speed-log-axes 2`` the speed logs have a transverse axis too (a two-axis Doppler log's
+``stw_transverse_mps``). With
 ``--position-noise-m 0.01 --heading-noise-deg 0.001`` what remains is the sea's own effect
 on the identification, without the noise's. Two fits:
 
@@ -101,12 +103,14 @@ def training_logs(
     *,
     same_noise: bool = False,
     speed_log: bool = False,
+    speed_log_axes: int = 1,
 ) -> list[ManeuverLog]:
     """Sail the zig-zags of draw ``draw`` in ``condition``, logged at ``quality``.
 
     ``same_noise``: one noise generator per channel (module docstring). ``speed_log``:
     calm-water logs carry the speed log too (sailed in a sea of no current and no wind,
     which moves the ship exactly as calm water does); at sea they always do.
+    ``speed_log_axes``: the speed log's axes (``synthesize_log``).
     """
     environment = condition.environment()
     if environment is None and speed_log:
@@ -121,6 +125,7 @@ def training_logs(
             position_noise_m=quality.position_noise_m,
             heading_noise_deg=quality.heading_noise_deg,
             noise_per_channel=same_noise,
+            speed_log_axes=speed_log_axes if environment is not None else 1,
         )
         for name in TRAINING
     ]
@@ -200,6 +205,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="the calm-water logs carry a speed log too, as the logs at sea do",
     )
+    parser.add_argument(
+        "--speed-log-axes",
+        type=int,
+        choices=(1, 2),
+        default=1,
+        help="the speed logs' axes: 1 along the ship, 2 across it too (a Doppler log)",
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
     quality = replace(
@@ -228,7 +240,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "with what the same procedure gives from the calm-water logs of the same noise "
         f"draw (logger noise {quality.position_noise_m:g} m, {quality.heading_noise_deg:g}°"
         f"{', one noise generator per channel' if same else ''}"
-        f"{'; the calm-water logs with a speed log too' if args.calm_speed_log else ''}; "
+        f"{'; the calm-water logs with a speed log too' if args.calm_speed_log else ''}"
+        f"{'; two-axis speed logs' if args.speed_log_axes == 2 else ''}; "
         f"model {args.model}, "
         f"method {args.method}). "
         "Columns: largest difference of a turning index [points] and of an overshoot "
@@ -250,6 +263,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 quality,
                 same_noise=same,
                 speed_log=args.calm_speed_log,
+                speed_log_axes=args.speed_log_axes,
             ),
             settings,
         )
@@ -257,7 +271,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                       time.perf_counter() - start)  # fmt: skip
     for condition in conditions:
         for draw in range(args.draws):
-            logs = training_logs(condition, draw, quality, same_noise=same)
+            logs = training_logs(
+                condition, draw, quality, same_noise=same, speed_log_axes=args.speed_log_axes
+            )
             start = time.perf_counter()
             sea = identify(logs, replace(settings, windage=windage))
             seconds = time.perf_counter() - start

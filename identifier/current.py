@@ -42,8 +42,9 @@ starts the alternation, says whether the log is plausible at all, and is reporte
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -248,6 +249,10 @@ class SpeedLogInEkf:
         The noise σ per sample the EKF took for it (:func:`speed_log_noise_mps`) [m/s].
     samples, rejected : int
         Samples measured, and samples the EKF's gate rejected (spikes, drop-outs).
+    transverse_noise_mps : float, optional
+        As ``noise_mps``, of a two-axis log's transverse axis; None without one.
+    transverse_samples, transverse_rejected : int
+        As ``samples`` and ``rejected``, of the transverse axis.
 
     """
 
@@ -256,6 +261,9 @@ class SpeedLogInEkf:
     noise_mps: float
     samples: int
     rejected: int
+    transverse_noise_mps: float | None = None
+    transverse_samples: int = 0
+    transverse_rejected: int = 0
 
     def as_dict(self) -> dict[str, object]:
         """Return the record of params.json's ``environment.speed_log`` (units in keys)."""
@@ -265,6 +273,9 @@ class SpeedLogInEkf:
             "noise_mps": self.noise_mps,
             "scale_error": self.scale_error,
             "scale_error_std": self.scale_error_std,
+            "transverse_samples": self.transverse_samples,
+            "transverse_rejected_samples": self.transverse_rejected,
+            "transverse_noise_mps": self.transverse_noise_mps,
         }
 
 
@@ -308,6 +319,10 @@ class SpeedLogFit:
     noise_mps : float
         Standard deviation of the residual (the log's noise and the smoothed
         velocities'), robust (from the median absolute residual) [m/s].
+    transverse_samples : int
+        Samples of a two-axis log's transverse axis fitted (0: none).
+    transverse_noise_mps : float, optional
+        As ``noise_mps``, of the transverse axis; None without one.
 
     """
 
@@ -317,6 +332,8 @@ class SpeedLogFit:
     scale_error_std: float
     samples: int
     noise_mps: float
+    transverse_samples: int = 0
+    transverse_noise_mps: float | None = None
 
     def implausible(self) -> str | None:
         """Return why this fit is no measurement of a current, or None when it may be.
@@ -345,6 +362,8 @@ class SpeedLogFit:
             "scale_error": self.scale_error,
             "scale_error_std": self.scale_error_std,
             "noise_mps": self.noise_mps,
+            "transverse_samples": self.transverse_samples,
+            "transverse_noise_mps": self.transverse_noise_mps,
             "current_north_mps": float(self.current_ne[0]),
             "current_east_mps": float(self.current_ne[1]),
             "current_covariance_m2ps2": self.covariance.tolist(),
@@ -363,16 +382,20 @@ def speed_log_current(
     c_u = c_N cos ψ + c_E sin ψ the current's forward component
     (:func:`identifier.ekf.body_current`), so that
 
-        stw = (1 + k)(u_g − c_N cos ψ − c_E sin ψ) + ε.
+        stw = (1 + k)(u_g − c_N cos ψ − c_E sin ψ) + ε;
+
+    a two-axis log's transverse axis (``stw_transverse_mps``) as well, with the same k,
+
+        stw_t = (1 + k)(v_g + c_N sin ψ − c_E cos ψ) + ε'.
 
     The heading changes of the manoeuvres show both components of c; the speed changes
     (a zig-zag loses some of it at every swing) tell the scale error k apart from the
     current along the course. Least squares (``scipy.optimize.least_squares``) with the
     priors c ~ N(0, :data:`CURRENT_PRIOR_STD_MPS`²) and k ~ N(0, ``scale_std``²), and a
     Huber loss beyond :data:`SPEED_LOG_HUBER_SIGMAS` σ, so that a speed log's spikes and
-    drop-outs (aerated water, a fouled sensor) weigh as little as they deserve. The noise
-    ε's σ (from the median absolute residual) and lag-one correlation ρ (the smoothed u_g
-    is correlated from sample to sample; from the samples within
+    drop-outs (aerated water, a fouled sensor) weigh as little as they deserve. Each
+    axis's noise σ (from the median absolute residual) and lag-one correlation ρ (the
+    smoothed velocities are correlated from sample to sample; from the samples within
     :data:`SPEED_LOG_HUBER_SIGMAS` σ) come from the residuals of a first fit with k = 0;
     every sample then counts as (1 − ρ)/(1 + ρ) of an independent one (an AR(1) residual's
     effective sample size). The covariance is (JᵀJ)⁻¹ at the solution (the loss's
@@ -385,46 +408,114 @@ def speed_log_current(
     parts = [(log, track) for log, track in pairs if log.stw_mps is not None]
     if not parts:
         return None
-    stw = [np.asarray(log.stw_mps) for log, _ in parts]
-    u_g = [np.asarray(track.u_mps) for _, track in parts]
-    heading = [np.asarray(track.heading_rad) for _, track in parts]
-    a = np.concatenate([np.column_stack([np.cos(h), np.sin(h)]) for h in heading])
-    speed, measured = np.concatenate(u_g), np.concatenate(stw)
-    first = np.linalg.lstsq(a, speed - measured, rcond=None)[0]
-    residual = speed - measured - a @ first
-    sigma = float(median_abs_deviation(residual, scale="normal")) or 1e-6
-    calm = np.abs(residual) <= SPEED_LOG_HUBER_SIGMAS * sigma
-    ends = np.cumsum([s.size for s in stw])[:-1]
-    lagged = lag_pairs = 0.0
-    for e, ok in zip(np.split(residual, ends), np.split(calm, ends), strict=True):
-        both = ok[:-1] & ok[1:]
-        lagged += float(np.dot(e[:-1][both], e[1:][both]))
-        lag_pairs += float(np.count_nonzero(both))
-    rho = min(max(lagged / max(lag_pairs, 1.0) / sigma**2, 0.0), 0.99)
-    noise = sigma * math.sqrt((1.0 + rho) / (1.0 - rho))  # per effective sample
+    axes = [_SpeedLogAxis.along(parts)]
+    if any(log.stw_transverse_mps is not None for log, _ in parts):
+        axes.append(_SpeedLogAxis.across(parts))
+    a = np.concatenate([axis.current_rows for axis in axes])
+    first = np.linalg.lstsq(
+        a, np.concatenate([axis.over_ground - axis.measured for axis in axes]), rcond=None
+    )[0]
+    noise = [axis.noise(first) for axis in axes]  # (σ, σ per effective sample) of each axis
+    threshold = np.concatenate(  # the Huber threshold of each residual, in its own units
+        [np.full(axis.measured.size, SPEED_LOG_HUBER_SIGMAS * sigma / effective)
+         for axis, (sigma, effective) in zip(axes, noise, strict=True)] + [np.full(3, np.inf)]
+    )  # fmt: skip
 
     def weighted_residuals(p: np.ndarray) -> np.ndarray:
-        water = speed - a @ p[:2]
         return np.concatenate(
-            [(measured - (1.0 + p[2]) * water) / noise, p[:2] / CURRENT_PRIOR_STD_MPS,
-             [p[2] / scale_std]]
+            [(axis.measured - (1.0 + p[2]) * (axis.over_ground - axis.current_rows @ p[:2]))
+             / effective for axis, (_, effective) in zip(axes, noise, strict=True)]
+            + [p[:2] / CURRENT_PRIOR_STD_MPS, [p[2] / scale_std]]
         )  # fmt: skip
 
-    solution = least_squares(
-        weighted_residuals,
-        np.append(first, 0.0),
-        loss="huber",
-        f_scale=SPEED_LOG_HUBER_SIGMAS * sigma / noise,
-    )
+    solution = least_squares(weighted_residuals, np.append(first, 0.0), loss=huber_loss(threshold))
     covariance = np.linalg.inv(solution.jac.T @ solution.jac)
     return SpeedLogFit(
         current_ne=solution.x[:2].copy(),
         covariance=covariance[:2, :2].copy(),
         scale_error=float(solution.x[2]),
         scale_error_std=math.sqrt(covariance[2, 2]),
-        samples=int(measured.size),
-        noise_mps=sigma,
+        samples=int(axes[0].measured.size),
+        noise_mps=noise[0][0],
+        transverse_samples=int(axes[1].measured.size) if len(axes) > 1 else 0,
+        transverse_noise_mps=noise[1][0] if len(axes) > 1 else None,
     )
+
+
+@dataclass(frozen=True)
+class _SpeedLogAxis:
+    """One axis of the speed logs for :func:`speed_log_current`: stw = (1 + k)(g − A c) + ε.
+
+    ``measured`` the logged speeds, ``over_ground`` the smoothed body velocity g over the
+    ground along the axis, ``current_rows`` A (the current's body component along the
+    axis per (c_N, c_E)), ``ends`` where each log's samples end (all concatenated).
+    """
+
+    measured: np.ndarray
+    over_ground: np.ndarray
+    current_rows: np.ndarray
+    ends: np.ndarray
+
+    @classmethod
+    def along(cls, parts: Sequence[tuple[ManeuverLog, SmoothedTrack]]) -> _SpeedLogAxis:
+        """Return the longitudinal axis (``stw_mps``, u_g; c_u = c_N cos ψ + c_E sin ψ)."""
+        return cls._of(
+            [(log.stw_mps, track.u_mps, track.heading_rad) for log, track in parts],
+            lambda h: np.column_stack([np.cos(h), np.sin(h)]),
+        )
+
+    @classmethod
+    def across(cls, parts: Sequence[tuple[ManeuverLog, SmoothedTrack]]) -> _SpeedLogAxis:
+        """Return the transverse axis (``stw_transverse_mps``, v_g; c_v = c_E cos ψ − c_N sin ψ)."""
+        return cls._of(
+            [(log.stw_transverse_mps, track.v_mps, track.heading_rad)
+             for log, track in parts if log.stw_transverse_mps is not None],
+            lambda h: np.column_stack([-np.sin(h), np.cos(h)]),
+        )  # fmt: skip
+
+    @classmethod
+    def _of(cls, columns: Sequence[tuple[Any, Any, Any]], rows: Any) -> _SpeedLogAxis:
+        measured = [np.asarray(m, dtype=float) for m, _, _ in columns]
+        return cls(
+            measured=np.concatenate(measured),
+            over_ground=np.concatenate([np.asarray(g, dtype=float) for _, g, _ in columns]),
+            current_rows=np.concatenate([rows(np.asarray(h, dtype=float)) for _, _, h in columns]),
+            ends=np.cumsum([m.size for m in measured])[:-1],
+        )
+
+    def noise(self, current_ne: np.ndarray) -> tuple[float, float]:
+        """Return the residual's σ and its σ per effective sample at k = 0 [m/s]."""
+        residual = self.over_ground - self.measured - self.current_rows @ current_ne
+        sigma = float(median_abs_deviation(residual, scale="normal")) or 1e-6
+        calm = np.abs(residual) <= SPEED_LOG_HUBER_SIGMAS * sigma
+        lagged = lag_pairs = 0.0
+        for e, ok in zip(np.split(residual, self.ends), np.split(calm, self.ends), strict=True):
+            both = ok[:-1] & ok[1:]
+            lagged += float(np.dot(e[:-1][both], e[1:][both]))
+            lag_pairs += float(np.count_nonzero(both))
+        rho = min(max(lagged / max(lag_pairs, 1.0) / sigma**2, 0.0), 0.99)
+        return sigma, sigma * math.sqrt((1.0 + rho) / (1.0 - rho))
+
+
+def huber_loss(threshold: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """Return a Huber loss for ``least_squares`` with a threshold per residual.
+
+    ρ(z) of the squared residual z: z within threshold², 2t√z − t² beyond; with its first
+    and second derivatives, as ``scipy.optimize.least_squares`` takes a callable loss.
+    """
+    square = threshold**2
+
+    def loss(z: np.ndarray) -> np.ndarray:
+        out = np.empty((3, z.size))
+        beyond = z > square
+        root = np.sqrt(np.where(beyond, z, 1.0))
+        t = np.where(beyond, threshold, 0.0)
+        out[0] = np.where(beyond, 2.0 * t * root - square, z)
+        out[1] = np.where(beyond, t / root, 1.0)
+        out[2] = np.where(beyond, -0.5 * t / root**3, 0.0)
+        return out
+
+    return loss
 
 
 def current_model_form(current_ne: np.ndarray, alone: SpeedLogFit) -> np.ndarray:
@@ -449,10 +540,11 @@ def current_model_form(current_ne: np.ndarray, alone: SpeedLogFit) -> np.ndarray
     return np.outer(d, d)
 
 
-def speed_log_noise_mps(logs: Sequence[ManeuverLog]) -> float | None:
+def speed_log_noise_mps(logs: Sequence[ManeuverLog], column: str = "stw_mps") -> float | None:
     """Return the σ per sample [m/s] of the speed logs' noise, as the EKF is to take it.
 
-    From the logs themselves (every log with ``stw_mps``), by their second differences at
+    Of the log's axis ``column`` (``stw_mps``, or a two-axis log's ``stw_transverse_mps``):
+    from the logs themselves (every log with that column), by their second differences at
     the lags L of :data:`SPEED_LOG_NOISE_LAGS`, D_L = z(k + L) − 2z(k) + z(k − L): the
     ship's own speed hardly curves over a few samples (a 35° turn's speed loss is a few
     cm/s per second, its change of slope far less), a log's noise does. For a noise of
@@ -469,9 +561,11 @@ def speed_log_noise_mps(logs: Sequence[ManeuverLog]) -> float | None:
     to a filter that takes it as white. (Checked on AR(1) noise of σ = 0.05 m/s over a
     turn's speed loss, 4,000 samples, eight seeds: ρ = 0 within 8 %, 0.5 within 10 %, 0.8
     and 0.9 within 30 % but for one seed each, 43 % and 2× too wide;
-    ``tests/test_identify_at_sea.py``.) None when no log carries ``stw_mps``.
+    ``tests/test_identify_at_sea.py``.) None when no log carries ``column``.
     """
-    usable = [log.stw_mps for log in logs if log.stw_mps is not None]
+    if column not in ("stw_mps", "stw_transverse_mps"):
+        raise ValueError(f"column must be stw_mps or stw_transverse_mps, got {column!r}")
+    usable = [getattr(log, column) for log in logs if getattr(log, column) is not None]
     if not usable:
         return None
     differences = {

@@ -28,8 +28,10 @@ Cholesky).
 With a current estimated, a speed log (``EkfSegment.speed_log_mps``) is a fourth,
 scalar measurement: stw = (1 + k) u + ε, u through the water, with the log's scale error k
 one more augmented state (:class:`SpeedLogMeasurement`), updated after the track's
-(sequential updates: the two noises are independent). An innovation beyond
-:data:`SPEED_LOG_GATE_NIS` is a spike or a drop-out, not taken.
+(sequential updates: the two noises are independent); a two-axis log's transverse axis
+(``EkfSegment.speed_log_transverse_mps``) a fifth, (1 + k) v + ε', with the same k (one
+log, one calibration: a Doppler log's is the speed of sound in the water). An innovation
+beyond :data:`SPEED_LOG_GATE_NIS` is a spike or a drop-out, not taken.
 
 Several logs are processed in one identification: the motion states restart at each
 log's first (smoothed) sample, θ and its covariance carry over.
@@ -94,6 +96,9 @@ class EkfSegment:
     speed_log_mps : numpy.ndarray, optional
         Logged speed through the water along the ship [m/s], shape (N,) (a measurement
         when :func:`ekf_identify` is given a :class:`SpeedLogMeasurement`); None: none.
+    speed_log_transverse_mps : numpy.ndarray, optional
+        The same log's speed through the water across the ship, positive to starboard
+        [m/s], shape (N,) (a two-axis log; measured with ``speed_log_mps``); None: none.
 
     """
 
@@ -108,6 +113,7 @@ class EkfSegment:
     n_rps: np.ndarray
     known_acceleration: np.ndarray | None = None
     speed_log_mps: np.ndarray | None = None
+    speed_log_transverse_mps: np.ndarray | None = None
 
     def known_acceleration_or_zero(self) -> np.ndarray:
         """Return the known accelerations (N, 3), or one row of zeros (1, 3) for none.
@@ -140,7 +146,23 @@ class EkfSegment:
             if self.known_acceleration is None
             else self.known_acceleration[part],
             speed_log_mps=None if self.speed_log_mps is None else self.speed_log_mps[part],
+            speed_log_transverse_mps=None
+            if self.speed_log_transverse_mps is None
+            else self.speed_log_transverse_mps[part],
         )
+
+    def speed_log_or_none(self) -> np.ndarray:
+        """Return the speed log's axes (N, 2) [m/s], NaN for an axis it has not.
+
+        One row of NaN (1, 2) without a speed log: the EKF pass measures none.
+        """
+        if self.speed_log_mps is None:
+            return np.full((1, 2), np.nan)
+        transverse = self.speed_log_transverse_mps
+        return np.column_stack(
+            [self.speed_log_mps, np.full_like(self.speed_log_mps, np.nan)
+             if transverse is None else transverse]
+        )  # fmt: skip
 
 
 def sample_windows(
@@ -222,7 +244,7 @@ class EkfSettings:
 
 @dataclass(frozen=True)
 class SpeedLogMeasurement:
-    """A speed log as a measurement of the EKF: stw = (1 + k) u + ε.
+    """A speed log as a measurement of the EKF: stw = (1 + k) u + ε (and (1 + k) v + ε').
 
     Parameters
     ----------
@@ -232,11 +254,15 @@ class SpeedLogMeasurement:
         ``identifier.current.speed_log_noise_mps``).
     scale_error_std : float
         Prior standard deviation of the scale error k (mean 0) [-].
+    transverse_noise_std_mps : float, optional
+        Standard deviation of ε' per sample [m/s], of a two-axis log's transverse axis (as
+        ``noise_std_mps``); None: the segments' logs have no transverse axis.
 
     """
 
     noise_std_mps: float
     scale_error_std: float
+    transverse_noise_std_mps: float | None = None
 
 
 @dataclass(frozen=True)
@@ -253,7 +279,8 @@ class EkfResult:
     the same samples, one (M_i, 6) array per segment. ``track_rms`` is, per segment and
     over every sample, the RMS of the filtered minus the logged position [m] and heading
     (wrapped) [rad]. With a speed log: its scale error k and standard deviation [-], and
-    the samples taken and rejected by the gate (:data:`SPEED_LOG_GATE_NIS`).
+    the samples taken and rejected by the gate (:data:`SPEED_LOG_GATE_NIS`), of its
+    longitudinal axis and of its transverse axis.
     """
 
     theta: np.ndarray
@@ -269,6 +296,7 @@ class EkfResult:
     speed_log_scale_error: float | None = None
     speed_log_scale_error_std: float | None = None
     speed_log_samples: tuple[int, int] = (0, 0)  # (taken, rejected)
+    speed_log_transverse_samples: tuple[int, int] = (0, 0)
 
 
 def ekf_identify(
@@ -313,9 +341,9 @@ def ekf_identify(
     current_covariance0 : numpy.ndarray, optional
         Its covariance (2, 2) [m²/s²]; required with ``current0``.
     speed_log : SpeedLogMeasurement, optional
-        Measure the segments' ``speed_log_mps`` (those that have one) with the scale
-        error k as one more state after the current (module docstring); only with
-        ``current0``.
+        Measure the segments' ``speed_log_mps`` (those that have one; and their
+        ``speed_log_transverse_mps``) with the scale error k as one more state after the
+        current (module docstring); only with ``current0``.
 
     Raises
     ------
@@ -357,7 +385,7 @@ def ekf_identify(
         variance_limit = np.concatenate(
             [variance_limit, settings.divergence_factor * np.diag(P_theta)[p:]]
         )
-    speed_log_var = 0.0
+    speed_log_var = np.zeros(2)  # of the two axes
     if speed_log is not None:
         if not estimated_current:
             raise ValueError("a speed log is measured only with a current estimated")
@@ -369,8 +397,9 @@ def ekf_identify(
         )
         q_theta = np.append(q_theta, 0.0)
         variance_limit = np.append(variance_limit, settings.divergence_factor * k_var)
-        speed_log_var = speed_log.noise_std_mps**2
-    speed_log_counts = np.zeros(2, dtype=np.int64)
+        transverse_std = speed_log.transverse_noise_std_mps
+        speed_log_var[:] = speed_log.noise_std_mps**2, (transverse_std or 0.0) ** 2
+    speed_log_counts = np.zeros(4, dtype=np.int64)  # taken, rejected of each axis
     # Model error enters the accelerations; the kinematics are exact.
     q_state = np.concatenate(
         [np.asarray(settings.state_process_std, dtype=float) ** 2, np.zeros(3)]
@@ -405,10 +434,10 @@ def ekf_identify(
         states = np.empty((rows[len(filtered)], 6))
         square_sums = np.zeros(2)
         track = np.ascontiguousarray(seg.track, dtype=float)
-        measured_speed = (  # one NaN: no speed-log measurement in this segment
-            np.full(1, np.nan)
-            if speed_log is None or seg.speed_log_mps is None
-            else np.ascontiguousarray(seg.speed_log_mps, dtype=float)
+        measured_speed = (  # one row of NaN: no speed-log measurement in this segment
+            np.full((1, 2), np.nan)
+            if speed_log is None
+            else np.ascontiguousarray(seg.speed_log_or_none(), dtype=float)
         )
         inputs = (  # t, y, R, δ, n, known loads, speed log: the pass's arguments in order
             np.ascontiguousarray(seg.time_s, dtype=float),
@@ -479,6 +508,7 @@ def ekf_identify(
         if speed_log is None
         else math.sqrt(float(P_theta[scale, scale])),
         speed_log_samples=(int(speed_log_counts[0]), int(speed_log_counts[1])),
+        speed_log_transverse_samples=(int(speed_log_counts[2]), int(speed_log_counts[3])),
     )
 
 
@@ -531,8 +561,10 @@ def _ekf_pass(
     ẏ += c_E), else none; k a speed log's scale error when longer by three; the
     measurement is states offset … offset+2, with the
     variances of row k of ``r_var`` (its only row when it has one), then with k the
-    speed log ``speed_log`` (N; one NaN: none) of variance ``speed_log_var``, gated by
-    :data:`SPEED_LOG_GATE_NIS` (``speed_log_counts`` += taken, rejected); the motion states'
+    speed log ``speed_log`` (N, 2: its longitudinal and transverse axes, NaN where it has
+    none; one row: none) of variances ``speed_log_var`` (2,), gated by
+    :data:`SPEED_LOG_GATE_NIS` (``speed_log_counts`` += taken, rejected of each axis); the
+    motion states'
     process noise over a step of T is ``q_state`` · T · max(T, ``q_interval``), θ's
     ``q_theta`` · T / max(T, ``q_interval``) (a current's ``q_theta`` per step). The
     motion states and θ with its standard deviations after the updates at samples 0,
@@ -683,17 +715,20 @@ def _ekf_pass(
                 value = P[a, b] - (K[a, 0] * PH[b, 0] + K[a, 1] * PH[b, 1] + K[a, 2] * PH[b, 2])
                 P[a, b] = value
                 P[b, a] = value
-        # The speed log, stw = (1 + k) u + ε: H has 1 + k at u and u at k; the scalar
-        # update after the track's (independent noises), unless gated out.
-        stw = speed_log[min(k + 1, last_speed)]
-        if scale > 0 and np.isfinite(stw):
+        # The speed log, stw = (1 + k) u + ε (and a two-axis log's transverse axis,
+        # (1 + k) v + ε'): H has 1 + k at u (v) and u (v) at k; scalar updates after the
+        # track's (independent noises), each unless gated out.
+        for axis in range(2):
+            stw = speed_log[min(k + 1, last_speed), axis]
+            if scale < 0 or not np.isfinite(stw):
+                continue
             gain = 1.0 + x[scale]
             for a in range(m):
-                PH[a, 0] = gain * P[a, 0] + x[0] * P[a, scale]
-            s_log = gain * PH[0, 0] + x[0] * PH[scale, 0] + speed_log_var
+                PH[a, 0] = gain * P[a, axis] + x[axis] * P[a, scale]
+            s_log = gain * PH[axis, 0] + x[axis] * PH[scale, 0] + speed_log_var[axis]
             if not s_log > 0.0:
                 return _NOT_PD, k + 1
-            innovation = stw - gain * x[0]
+            innovation = stw - gain * x[axis]
             if innovation * innovation <= SPEED_LOG_GATE_NIS * s_log:
                 for a in range(m):
                     x[a] += PH[a, 0] / s_log * innovation
@@ -702,9 +737,9 @@ def _ekf_pass(
                         value = P[a, b] - PH[a, 0] * PH[b, 0] / s_log
                         P[a, b] = value
                         P[b, a] = value
-                speed_log_counts[0] += 1
+                speed_log_counts[2 * axis] += 1
             else:
-                speed_log_counts[1] += 1
+                speed_log_counts[2 * axis + 1] += 1
         for a in range(m):
             if not (np.isfinite(x[a]) and np.isfinite(P[a, a])):
                 return _NONFINITE, k + 1

@@ -406,9 +406,14 @@ def _estimate_current(
     elif speed_log is not None:
         noise_mps = speed_log_noise_mps(logs)
         assert noise_mps is not None  # a log carries stw_mps
-        measurement = SpeedLogMeasurement(noise_mps, settings.speed_log_scale_std)
+        measurement = SpeedLogMeasurement(
+            noise_mps,
+            settings.speed_log_scale_std,
+            speed_log_noise_mps(logs, "stw_transverse_mps"),  # a two-axis log's other axis
+        )
         segments = [
-            replace(seg, speed_log_mps=log.stw_mps) for seg, log in zip(segments, logs, strict=True)
+            replace(seg, speed_log_mps=log.stw_mps, speed_log_transverse_mps=log.stw_transverse_mps)
+            for seg, log in zip(segments, logs, strict=True)
         ]
     current = initial_current(logs, tracks) if speed_log is None else speed_log.current_ne
     iterations = 0
@@ -471,6 +476,9 @@ def _estimate_current(
             noise_mps=measurement.noise_std_mps,
             samples=ekf.speed_log_samples[0],
             rejected=ekf.speed_log_samples[1],
+            transverse_noise_mps=measurement.transverse_noise_std_mps,
+            transverse_samples=ekf.speed_log_transverse_samples[0],
+            transverse_rejected=ekf.speed_log_transverse_samples[1],
         )
         if speed_log is not None and settings.current == "constant":
             model_form = current_model_form(ekf.current, speed_log)

@@ -10,13 +10,15 @@ At sea (a reference ship given a :class:`~scenarios.sea.SeaEnvironment`) the log
 carries what the ship's own sensors measure, drawn after the noise above so that the
 required columns are those of the same seed in calm water: ``stw_mps`` from a
 single-axis speed log, the speed through the water along the ship u (exactly calibrated)
-with Gaussian noise of :data:`STW_NOISE_MPS` (folded at 0); and, when there is a wind,
+with Gaussian noise of :data:`STW_NOISE_MPS` (folded at 0); when there is a wind,
 ``wind_speed_mps`` and ``wind_angle_deg`` from an anemometer, the apparent wind at
 midship (``fmu_model.environment.apparent_wind``: true wind, gusts included, minus the
 velocity over ground; no yaw-rate lever arm, no flow distortion by the superstructure)
 with Gaussian noise of :data:`WIND_SPEED_NOISE_MPS` (folded at 0) and
 :data:`WIND_ANGLE_NOISE_DEG`, the angle written wrapped to [0, 360) like an MWV
-sentence's.
+sentence's; and with ``speed_log_axes=2`` (a two-axis Doppler log), drawn last,
+``stw_transverse_mps``, the speed through the water across the ship v at the log's
+position amidships, with the same noise.
 """
 
 from __future__ import annotations
@@ -53,8 +55,12 @@ WIND_SPEED_NOISE_MPS = 0.3
 """Standard deviation of the anemometer's speed noise [m/s]."""
 WIND_ANGLE_NOISE_DEG = 2.0
 """Standard deviation of the anemometer's angle noise [deg]."""
-_NOISE_CHANNELS = 6
-"""Noisy channels of a log: heading, x, y, speed log, wind speed, wind angle."""
+_NOISE_CHANNELS = 7
+"""Noisy channels of a log: heading, x, y, speed log, wind speed, wind angle, the speed
+log's transverse axis."""
+
+SPEED_LOG_AXES = (1, 2)
+"""A speed log's axes: along the ship only, or along and across (``synthesize_log``)."""
 
 MANEUVERS: dict[str, Callable[[], Program]] = {
     "turning-35": lambda: turning_circle(math.radians(35.0)),
@@ -172,6 +178,7 @@ def synthesize_log(
     approach_helm: Helm | None = None,
     truth_dt_s: float | None = None,
     noise_per_channel: bool = False,
+    speed_log_axes: int = 1,
 ) -> ManeuverLog:
     """Simulate ``program`` on ``ship`` and return a noisy trial log.
 
@@ -204,6 +211,9 @@ def synthesize_log(
         samples earlier) carry the same noise. False (the default, every figure measured
         before 2026-12-05): heading, x, y and the sensors' noise drawn one after the other
         from one generator, so the position noise depends on the log's length.
+    speed_log_axes : int
+        At sea, the speed log's axes (:data:`SPEED_LOG_AXES`): 1, along the ship
+        (``stw_mps``), or 2, across it too (``stw_transverse_mps``).
 
     Returns
     -------
@@ -215,6 +225,8 @@ def synthesize_log(
     """
     if rate_hz <= 0.0 or position_noise_m < 0.0 or heading_noise_deg < 0.0:
         raise ValueError("rate_hz must be positive and noise levels non-negative")
+    if speed_log_axes not in SPEED_LOG_AXES:
+        raise ValueError(f"speed_log_axes must be one of {SPEED_LOG_AXES}, got {speed_log_axes}")
     log_dt = 1.0 / rate_hz
     helm = ship.neutral_helm if approach_helm is None else approach_helm
     target = truth_dt_s or 0.1 * math.sqrt(ship.length_m / 320.0)
@@ -256,6 +268,9 @@ def synthesize_log(
             source += (
                 f"; anemometer noise {WIND_SPEED_NOISE_MPS:g} m/s, {WIND_ANGLE_NOISE_DEG:g} deg"
             )
+        if speed_log_axes == 2:
+            sensors["stw_transverse_mps"] = run["v_mps"] + STW_NOISE_MPS * next(noise)
+            source += "; two-axis speed log"
     return ManeuverLog(
         time_s=time_s,
         x_m=x_m,
@@ -272,6 +287,7 @@ def synthesize_log(
         wind_speed_mps=sensors.get("wind_speed_mps"),
         wind_angle_rad=sensors.get("wind_angle_rad"),
         stw_mps=sensors.get("stw_mps"),
+        stw_transverse_mps=sensors.get("stw_transverse_mps"),
     )
 
 
@@ -314,6 +330,7 @@ def synthesize_logs(
     seed: int = 0,
     approach_s: float = 60.0,
     environment: SeaEnvironment | None = None,
+    speed_log_axes: int = 1,
     on_log: Callable[[Path], object] | None = None,
 ) -> list[Path]:
     """Write one synthetic trial log per manoeuvre, ``directory/<manoeuvre>.csv``.
@@ -334,6 +351,8 @@ def synthesize_logs(
         Current and wind the ship sails in (values at the ship's scale); calm water
         when None. Its ``gust_seed`` is replaced by each manoeuvre's noise seed, so the
         gusts too are reproducible from ``seed``.
+    speed_log_axes : int
+        At sea, the speed log's axes (``synthesize_log``).
     on_log : callable, optional
         Called with each path written.
 
@@ -364,6 +383,7 @@ def synthesize_logs(
             heading_noise_deg=heading_noise_deg,
             seed=noise_seed,
             approach_s=approach_s,
+            speed_log_axes=speed_log_axes,
         )
         path = Path(directory) / f"{name}.csv"
         write_log(path, log)

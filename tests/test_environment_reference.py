@@ -401,6 +401,22 @@ def test_synthesized_log_at_sea_carries_the_sensor_columns() -> None:
     assert still.stw_mps is not None and still.wind_speed_mps is None
     for column in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps"):
         np.testing.assert_array_equal(getattr(still, column), getattr(calm, column))
+    # A two-axis log: v through the water as well, the rest of the log unchanged.
+    two = synthesize_log(
+        reference_ship("kvlcc2", "model", SeaEnvironment()),
+        _quick_turn(),
+        approach_s=5.0,
+        seed=4,
+        speed_log_axes=2,
+    )
+    assert two.stw_transverse_mps is not None and still.stw_transverse_mps is None
+    np.testing.assert_array_equal(two.stw_mps, still.stw_mps)
+    # amidships on the straight approach (|v| within 4σ of the noise), then sliding to
+    # port in the starboard turn (a drift of some 10° at 1 m/s: v ≈ −0.2 m/s)
+    assert np.all(np.abs(two.stw_transverse_mps[:5]) < 0.2)
+    assert float(np.median(two.stw_transverse_mps[-8:])) < -0.08
+    with pytest.raises(ValueError, match="speed_log_axes must be one of"):
+        synthesize_log(reference_ship("kvlcc2", "model"), _quick_turn(), speed_log_axes=3)
 
 
 def _noise(program: Program, *, per_channel: bool) -> np.ndarray:
@@ -487,8 +503,16 @@ def test_synthesize_cli_at_sea_writes_the_columns_and_the_source(
     assert main([*common, *sea[:4], "-o", str(tmp_path / "current")]) == 0
     current = read_log(tmp_path / "current" / "zigzag-10.csv")
     assert current.stw_mps is not None and current.wind_speed_mps is None
+    assert current.stw_transverse_mps is None  # a single-axis log by default
     calm = read_log(tmp_path / "calm" / "zigzag-10.csv")
     np.testing.assert_array_equal(current.rudder_rad, calm.rudder_rad)
+    # a two-axis log: the transverse axis drawn last, so the rest of the log is the same
+    assert main([*common, *sea[:4], "--speed-log-axes", "2", "-o", str(tmp_path / "two")]) == 0
+    two = read_log(tmp_path / "two" / "zigzag-10.csv")
+    assert "two-axis speed log" in two.metadata["source"]
+    assert two.stw_transverse_mps is not None and two.stw_mps is not None
+    np.testing.assert_array_equal(two.stw_mps, current.stw_mps)
+    np.testing.assert_array_equal(two.x_m, current.x_m)
 
 
 @pytest.mark.parametrize(
@@ -514,6 +538,9 @@ def test_synthesize_cli_at_sea_writes_the_columns_and_the_source(
         (["--gust-std-mps", "1"], "--gust-std-mps needs --wind-mps"),
         (["--wind-mps", "10", "--wind-from-deg", "0", "--gust-time-s", "30"],
          "--gust-time-s needs --gust-std-mps"),
+        (["--speed-log-axes", "2"], "--speed-log-axes needs --current-mps or --wind-mps"),
+        (["--current-mps", "1", "--current-to-deg", "0", "--speed-log-axes", "3"],
+         "argument --speed-log-axes: invalid choice: 3"),
     ],
 )  # fmt: skip
 def test_synthesize_rejects_bad_environment_options(

@@ -26,6 +26,7 @@ from identifier.current import (
     current_model_form,
     current_tolerance_mps,
     heading_span_rad,
+    huber_loss,
     initial_current,
     speed_log_current,
     speed_log_noise_mps,
@@ -234,16 +235,26 @@ def test_the_approach_shows_the_cross_current(calm_logs: list[ManeuverLog]) -> N
 
 
 def _with_speed_log(
-    log: ManeuverLog, calm: ManeuverLog, scale_error: float = 0.0, seed: int = 3
+    log: ManeuverLog,
+    calm: ManeuverLog,
+    scale_error: float = 0.0,
+    seed: int = 3,
+    two_axis: bool = False,
 ) -> ManeuverLog:
     """``log`` with a speed log: (1 + k) times the calm run's surge speed, 0.05 m/s of noise.
 
     Smoothing is linear, so the calm log's smoothed surge speed is the current log's less
-    the current's forward component: u_w of the model's equation, to rounding.
+    the current's forward component: u_w of the model's equation, to rounding. ``two_axis``:
+    its transverse axis too, (1 + k) v_w with noise of its own.
     """
-    u_w = smooth_track(calm.time_s, calm.x_m, calm.y_m, calm.heading_rad).u_mps
-    noise = np.random.default_rng(seed).normal(0.0, 0.05, log.n_samples)
-    return replace(log, stw_mps=np.abs((1.0 + scale_error) * u_w + noise))
+    calm_track = smooth_track(calm.time_s, calm.x_m, calm.y_m, calm.heading_rad)
+    noise = np.random.default_rng(seed).normal(0.0, 0.05, (2, log.n_samples))
+    transverse = (1.0 + scale_error) * calm_track.v_mps + noise[1] if two_axis else None
+    return replace(
+        log,
+        stw_mps=np.abs((1.0 + scale_error) * calm_track.u_mps + noise[0]),
+        stw_transverse_mps=transverse,
+    )
 
 
 def test_a_speed_log_shows_the_current_and_its_scale_error(calm_logs: list[ManeuverLog]) -> None:
@@ -282,6 +293,90 @@ def test_a_speed_log_shows_the_current_and_its_scale_error(calm_logs: list[Maneu
     exact = speed_log_current(logs, tracks, scale_std=1e-6)
     assert exact is not None and abs(exact.scale_error) < 1e-5
     assert CURRENT_NE[0] - exact.current_ne[0] > 0.05  # a log 1.5 % fast: c_u = u_g − stw
+
+
+def test_a_two_axis_log_shows_the_current_across_the_course_too(
+    calm_logs: list[ManeuverLog],
+) -> None:
+    """stw_t = (1 + k)(v_g − c_v(ψ)): the transverse axis measures the cross component."""
+    zigzags = calm_logs[1:]  # headings near North: the cross component is East
+    one, two = (
+        [_with_speed_log(_with_current(g, CURRENT_NE), g, 0.015, i, axes == 2)
+         for i, g in enumerate(zigzags)]
+        for axes in (1, 2)
+    )  # fmt: skip
+    tracks = [smooth_track(g.time_s, g.x_m, g.y_m, g.heading_rad) for g in two]
+    along, both = speed_log_current(one, tracks), speed_log_current(two, tracks)
+    assert along is not None and both is not None
+    assert (along.transverse_samples, along.transverse_noise_mps) == (0, None)
+    assert both.transverse_samples == both.samples == sum(g.n_samples for g in two)
+    assert both.transverse_noise_mps == pytest.approx(0.05, rel=0.3)
+    std = np.sqrt(np.diag(both.covariance))
+    assert np.all(np.abs(both.current_ne - CURRENT_NE) <= 3.0 * std), (both, std)
+    assert abs(both.scale_error - 0.015) <= 3.0 * both.scale_error_std
+    # The cross (East) component is measured sample by sample, not inferred from the
+    # heading changes: its σ narrows to less than half the single axis'.
+    assert std[1] < 0.5 * math.sqrt(along.covariance[1, 1])
+    assert both.as_dict()["transverse_samples"] == both.samples
+    # A log with the transverse axis and one without: each axis of the samples it has.
+    mixed = speed_log_current([two[0], one[1]], tracks)
+    assert mixed is not None and mixed.transverse_samples == two[0].n_samples
+
+
+def test_the_huber_loss_of_the_speed_log_fit_has_a_threshold_per_residual() -> None:
+    """ρ(z) = z within t², 2t√z − t² beyond; ρ' and ρ'' its derivatives (finite differences)."""
+    threshold = np.array([1.0, 0.5, 2.0, np.inf])
+    z = np.array([0.25, 0.81, 9.0, 1e6])
+    rho = huber_loss(threshold)(z)
+    np.testing.assert_allclose(rho[0], [0.25, 2 * 0.5 * 0.9 - 0.25, 2 * 2.0 * 3.0 - 4.0, 1e6])
+    step = 1e-6 * z
+    slope = (huber_loss(threshold)(z + step)[0] - huber_loss(threshold)(z - step)[0]) / (2 * step)
+    np.testing.assert_allclose(rho[1], slope, rtol=1e-6)
+    curve = (huber_loss(threshold)(z + step)[1] - huber_loss(threshold)(z - step)[1]) / (2 * step)
+    np.testing.assert_allclose(rho[2], curve, rtol=1e-4, atol=1e-9)
+
+
+def test_the_ekf_measures_a_two_axis_log(calm_logs: list[ManeuverLog]) -> None:
+    """Both axes measured, spikes on either gated out; the cross component narrows."""
+    zigzags = calm_logs[1:]
+    one, two = (
+        [_with_speed_log(_with_current(g, CURRENT_NE), g, 0.0, i, axes == 2)
+         for i, g in enumerate(zigzags)]
+        for axes in (1, 2)
+    )  # fmt: skip
+    single, double = identify(one, SEED), identify(two, SEED)
+    assert single.current is not None and double.current is not None
+    in_ekf = double.current.speed_log_ekf
+    assert in_ekf is not None and single.current.speed_log_ekf is not None
+    assert single.current.speed_log_ekf.transverse_noise_mps is None
+    measured = sum(g.n_samples - 1 for g in two)
+    assert (in_ekf.samples, in_ekf.transverse_samples, in_ekf.transverse_rejected) == (
+        measured,
+        measured,
+        0,
+    )
+    # the 0.05 m/s added, and the wobble of the smoothed sway speed it was added to
+    assert in_ekf.transverse_noise_mps is not None
+    assert 0.045 < in_ekf.transverse_noise_mps < 0.1
+    std = np.array(double.current.std_mps)
+    assert np.all(np.abs(double.current.vector - CURRENT_NE) <= np.maximum(3.0 * std, 0.01))
+    assert double.current.covariance[1, 1] < 0.5 * single.current.covariance[1, 1]
+    record = double.params.identification["environment"]["speed_log"]
+    assert record["transverse_samples"] == measured and record["transverse_rejected_samples"] == 0
+    # Spikes on 1 % of the transverse samples: gated out one by one.
+    rng = np.random.default_rng(12)
+    glitched, bad_samples = [], 0
+    for log in two:
+        assert log.stw_transverse_mps is not None
+        bad = rng.choice(np.arange(1, log.n_samples), size=log.n_samples // 100, replace=False)
+        transverse = log.stw_transverse_mps.copy()
+        transverse[bad] += np.where(np.arange(bad.size) % 2 == 0, 3.0, -3.0)
+        glitched.append(replace(log, stw_transverse_mps=transverse))
+        bad_samples += bad.size
+    spiky = identify(glitched, SEED)
+    assert spiky.current is not None and spiky.current.speed_log_ekf is not None
+    assert spiky.current.speed_log_ekf.transverse_rejected == bad_samples > 0
+    assert np.all(np.abs(spiky.current.vector - double.current.vector) <= 0.5 * std)
 
 
 def test_the_ekf_measures_a_speed_log(calm_logs: list[ManeuverLog]) -> None:
@@ -458,6 +553,12 @@ def test_speed_log_noise_from_the_log_itself() -> None:
     short = noise(speed[:10] + ar1(0.0, 0)[:10])
     assert short is not None and 0.02 < short < 0.1
     assert speed_log_noise_mps([replace(_ship_log_with_speed(speed), stw_mps=None)]) is None
+    # A two-axis log's transverse axis, of its own column.
+    across = replace(_ship_log_with_speed(speed), stw_transverse_mps=ar1(0.0, 5))
+    assert speed_log_noise_mps([across], "stw_transverse_mps") == pytest.approx(0.05, rel=0.1)
+    assert speed_log_noise_mps([_ship_log_with_speed(speed)], "stw_transverse_mps") is None
+    with pytest.raises(ValueError, match="column must be stw_mps or stw_transverse_mps"):
+        speed_log_noise_mps([across], "wind_speed_mps")
 
 
 def _ship_log_with_speed(stw_mps: np.ndarray) -> ManeuverLog:
@@ -624,6 +725,17 @@ def test_fit_cli_current_and_windage(
     assert int(shown.group(2)) == 0
     assert float(shown.group(3)) == pytest.approx(0.05, rel=0.2)
     assert abs(float(shown.group(4))) <= 3.0 * float(shown.group(5))
+    for i, log in enumerate(calm_logs):  # a two-axis log: written, read, measured, reported
+        write_log(paths[i], _with_speed_log(_with_current(log, CURRENT_NE), log, 0.0, i, True))
+    assert main(["fit", *paths, "--model", "shi2009", "--method", "ekf", "-o", out]) == 0
+    shown = re.search(
+        r"speed log: [\d,]+ samples measured \(0 rejected\), noise [\d.]+ m/s; transverse "
+        r"axis ([\d,]+) \((\d+) rejected\), noise ([\d.]+) m/s, scale error",
+        capsys.readouterr().out,
+    )
+    assert shown is not None, "the summary says what the transverse axis showed"
+    assert int(shown.group(1).replace(",", "")) == sum(g.n_samples - 1 for g in calm_logs)
+    assert int(shown.group(2)) == 0 and 0.045 < float(shown.group(3)) < 0.1
     with pytest.raises(SystemExit):
         main(["fit", *paths, "--speed-log-scale-std-pct", "0", "-o", out])
     assert "--speed-log-scale-std-pct: expected a number from 0.0001 to 50 %" in (

@@ -108,11 +108,13 @@ def _example_log(n: int = 15, **metadata: str) -> ManeuverLog:
 
 
 def _with_optional_columns(n_rows: int = N_ROWS) -> list[str]:
-    """_valid_lines() with wind_speed_mps, wind_angle_deg and stw_mps appended."""
+    """_valid_lines() with the optional columns appended (wind, the two axes of a log)."""
     lines = _valid_lines(n_rows)
     lines[HEADER_LINE - 1] += "," + ",".join(OPTIONAL_COLUMNS)
     for row in range(n_rows):
-        lines[_row_line(row) - 1] += f",{10.0 + row},{350.0 + 2.0 * row},{7.5 - 0.25 * row}"
+        lines[_row_line(row) - 1] += (
+            f",{10.0 + row},{350.0 + 2.0 * row},{7.5 - 0.25 * row},{-0.5 + 0.125 * row}"
+        )
     return lines
 
 
@@ -213,6 +215,7 @@ def test_quoted_header_and_cells_are_read() -> None:
 def test_optional_columns_are_read_when_present_and_none_when_absent() -> None:
     plain = parse_log(_text(_valid_lines()))
     assert (plain.wind_speed_mps, plain.wind_angle_rad, plain.stw_mps) == (None, None, None)
+    assert plain.stw_transverse_mps is None
 
     log = parse_log(_text(_with_optional_columns()))
     rows = np.arange(N_ROWS)
@@ -225,7 +228,10 @@ def test_optional_columns_are_read_when_present_and_none_when_absent() -> None:
     # 350, 352, ... 372 deg: read as it is, not wrapped nor unwrapped
     np.testing.assert_allclose(log.wind_angle_rad, np.deg2rad(350.0 + 2.0 * rows), rtol=1e-15)
     np.testing.assert_array_equal(log.stw_mps, 7.5 - 0.25 * rows)
-    for array in (log.wind_speed_mps, log.wind_angle_rad, log.stw_mps):
+    assert log.stw_transverse_mps is not None
+    np.testing.assert_array_equal(log.stw_transverse_mps, -0.5 + 0.125 * rows)
+    assert parse_log(format_log(log)).stw_transverse_mps is not None  # written back
+    for array in (log.wind_speed_mps, log.wind_angle_rad, log.stw_mps, log.stw_transverse_mps):
         assert array.dtype == np.float64
         assert not array.flags.writeable
 
@@ -475,6 +481,22 @@ BAD_LOGS: list[tuple[str, Callable[[], str], int | None, str | None, str]] = [
         _row_line(4),
         "stw_mps",
         r"column 'stw_mps': expected a speed through the water from 0 to 50 m/s, got '51'$",
+    ),
+    (
+        "transverse speed through the water beyond the bound",
+        lambda: _with_optional_cell(4, "stw_transverse_mps", "-50.5"),
+        _row_line(4),
+        "stw_transverse_mps",
+        r"column 'stw_transverse_mps': expected a transverse speed through the water within "
+        r"±50 m/s, got '-50\.5'$",
+    ),
+    (
+        "transverse speed through the water without the longitudinal",
+        lambda: _with_line(HEADER_LINE, HEADER + ",stw_transverse_mps"),
+        HEADER_LINE,
+        "stw_transverse_mps",
+        r"column 'stw_transverse_mps': expected 'stw_mps' beside it \(the two axes of one speed "
+        r"log\), got no stw_mps column$",
     ),
     (
         "no header",

@@ -135,6 +135,8 @@ def test_true_wind_alone_gives_no_wind_columns(tmp_path: Path) -> None:
         "VWVHW,,T,,M,8.0,X,,K",
         "VDVBW,1e308,0.1,A,8.0,0.1,A",
         "VDVBW,8.0,0.1,X,8.0,0.1,A",
+        "VDVBW,8.0,-98.0,A,8.0,0.1,A",  # transverse beyond 50 m/s
+        "VDVBW,8.0,0.1x,A,8.0,0.1,A",
     ],
 )
 def test_a_malformed_field_skips_its_sentence_only(tmp_path: Path, body: str) -> None:
@@ -198,6 +200,37 @@ def test_vbw_longitudinal_water_speed_with_status_a(tmp_path: Path) -> None:
     assert log.stw_mps is not None
     knots = [6.0 + 0.1 * k for k in range(SECONDS)]
     np.testing.assert_allclose(log.stw_mps[8:] / KNOT, at_fixes(knots)[8 : log.n_samples])
+
+
+def test_vbw_transverse_water_speed_is_positive_to_starboard(tmp_path: Path) -> None:
+    def extra(k: int) -> list[str]:
+        if k == 6:
+            return [sentence("VDVBW,7.0,,A,7.0,0.1,A")]  # a single-axis sample
+        return [sentence(f"VDVBW,7.0,{-0.5 + 0.05 * k:.2f},A,7.0,0.1,A")]  # "-": to port
+
+    result = convert_nmea(recording(tmp_path, extra))
+    log = result.logs[0]
+    assert log.stw_mps is not None and log.stw_transverse_mps is not None
+    knots = [-0.5 + 0.05 * k for k in range(SECONDS)]
+    np.testing.assert_allclose(
+        log.stw_transverse_mps[8:] / KNOT, at_fixes(knots)[8 : log.n_samples], atol=1e-12
+    )
+    assert log.stw_transverse_mps[1] < 0.0  # to port, as the sentence says
+
+
+def test_the_transverse_speed_comes_from_the_water_speed_source_only(tmp_path: Path) -> None:
+    def extra(k: int) -> list[str]:
+        lines = [sentence("VWVHW,,T,,M,8.0,N,,K")]
+        if k % 4 == 0:
+            lines.append(sentence("VDVBW,9.0,0.4,A,8.0,0.1,A"))
+        return lines
+
+    result = convert_nmea(recording(tmp_path, extra))
+    assert result.logs[0].stw_transverse_mps is None
+    assert (
+        "transverse speed through the water of another source than the speed through the "
+        "water's (ignored): 5"
+    ) in result.notes
 
 
 def test_the_water_speed_source_with_most_samples_is_used(tmp_path: Path) -> None:

@@ -35,8 +35,9 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
   ``|heading_deg|`` ≤ :data:`MAX_HEADING_DEG`, ``|rudder_deg|`` ≤
   :data:`MAX_RUDDER_DEG`, and ``rpm`` from 0 to :data:`MAX_RPM` (astern, a negative
   rpm, cannot be identified by these models); when present, ``wind_speed_mps`` from 0
-  to :data:`MAX_WIND_SPEED_MPS`, ``|wind_angle_deg|`` ≤ :data:`MAX_WIND_ANGLE_DEG` and
-  ``stw_mps`` from 0 to :data:`MAX_STW_MPS`.
+  to :data:`MAX_WIND_SPEED_MPS`, ``|wind_angle_deg|`` ≤ :data:`MAX_WIND_ANGLE_DEG`,
+  ``stw_mps`` from 0 to :data:`MAX_STW_MPS` and ``|stw_transverse_mps|`` ≤
+  :data:`MAX_STW_MPS`; ``stw_transverse_mps`` only beside ``stw_mps``.
 - ``time_s`` increases strictly (irregular sampling is fine), without a step longer
   than the rest of the log together (two runs in one file: split it there); at least
   :data:`MIN_SAMPLES` rows.
@@ -57,6 +58,9 @@ from MWV and VHW/VBW sentences):
   beam, 180 = from astern, 270 or -90 = on the port beam) [deg]. Wrapped (0..360) or
   not; it is read as it is (converted to radians, not unwrapped).
 - ``stw_mps``: speed through the water along the ship (forward) from a speed log [m/s].
+- ``stw_transverse_mps``: speed through the water across the ship, positive to
+  starboard, from a two-axis (Doppler or electromagnetic) log [m/s], as NMEA VBW's
+  transverse water speed; only with ``stw_mps``, the same log's other axis.
 
 Every violation raises :class:`~trials.errors.LogFormatError` with the file,
 the 1-based line number (None for whole-file problems), the column where one
@@ -118,7 +122,7 @@ a log is informative enough; the identification judges that.
 LOG_COLUMNS: Final = ("time_s", "x_m", "y_m", "heading_deg", "rudder_deg", "rpm")
 """The required columns of a trial log, in the order :func:`format_log` writes them."""
 
-OPTIONAL_COLUMNS: Final = ("wind_speed_mps", "wind_angle_deg", "stw_mps")
+OPTIONAL_COLUMNS: Final = ("wind_speed_mps", "wind_angle_deg", "stw_mps", "stw_transverse_mps")
 """The optional columns of a trial log, in the order :func:`format_log` writes them
 (after :data:`LOG_COLUMNS`, each only when the log has it)."""
 
@@ -142,7 +146,8 @@ is 33 m/s); the least is 0."""
 MAX_WIND_ANGLE_DEG: Final = 36000.0
 """Largest ``|wind_angle_deg|``, as for the heading: 100 turns."""
 MAX_STW_MPS: Final = 50.0
-"""Largest ``stw_mps`` [m/s] (97 kn: no displacement ship is faster); the least is 0."""
+"""Largest ``stw_mps`` [m/s] (97 kn: no displacement ship is faster); the least is 0.
+Also the bound of ``|stw_transverse_mps|``."""
 
 _SEPARATOR: Final = ","
 _OTHER_SEPARATORS: Final = ((";", "';'"), ("\t", "a tab"), ("|", "'|'"))
@@ -181,9 +186,14 @@ _BOUNDS: Final = {
         f"a wind angle within ±{MAX_WIND_ANGLE_DEG:g} deg (100 turns)",
     ),
     "stw_mps": (0.0, MAX_STW_MPS, f"a speed through the water from 0 to {MAX_STW_MPS:g} m/s"),
+    "stw_transverse_mps": (
+        -MAX_STW_MPS,
+        MAX_STW_MPS,
+        f"a transverse speed through the water within ±{MAX_STW_MPS:g} m/s",
+    ),
 }
 # ManeuverLog's optional arrays, in the order of OPTIONAL_COLUMNS.
-_OPTIONAL_FIELDS: Final = ("wind_speed_mps", "wind_angle_rad", "stw_mps")
+_OPTIONAL_FIELDS: Final = ("wind_speed_mps", "wind_angle_rad", "stw_mps", "stw_transverse_mps")
 _ASTERN_HINT: Final = (
     " (astern: the models have no astern-propeller terms, so astern running cannot be "
     "identified; cut it out of the log)"
@@ -235,14 +245,19 @@ class ManeuverLog:
     stw_mps : numpy.ndarray or None
         Speed through the water along the ship from a speed log [m/s] (column
         ``stw_mps``); None when absent.
+    stw_transverse_mps : numpy.ndarray or None
+        Speed through the water across the ship, positive to starboard, from the same
+        log's transverse axis [m/s] (column ``stw_transverse_mps``); None when absent, and
+        only with ``stw_mps``.
 
     Raises
     ------
     ValueError
         If an array is not one-dimensional, not real-valued, not finite, the arrays
         (the optional ones too, when given) differ in length, time does not increase
-        strictly, or the metadata cannot be written back (internal invariant: a log
-        read from a file always satisfies it).
+        strictly, ``stw_transverse_mps`` comes without ``stw_mps``, or the metadata
+        cannot be written back (internal invariant: a log read from a file always
+        satisfies it).
 
     """
 
@@ -257,8 +272,11 @@ class ManeuverLog:
     wind_speed_mps: _FloatArray | None = None
     wind_angle_rad: _FloatArray | None = None
     stw_mps: _FloatArray | None = None
+    stw_transverse_mps: _FloatArray | None = None
 
     def __post_init__(self) -> None:
+        if self.stw_transverse_mps is not None and self.stw_mps is None:
+            raise ValueError("ManeuverLog stw_transverse_mps needs stw_mps (a two-axis log)")
         names: tuple[str, ...] = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
         names += tuple(name for name in _OPTIONAL_FIELDS if getattr(self, name) is not None)
         for name in names:
@@ -397,6 +415,7 @@ def format_log(log: ManeuverLog) -> str:
         ("wind_speed_mps", log.wind_speed_mps),
         ("wind_angle_deg", angle),
         ("stw_mps", log.stw_mps),
+        ("stw_transverse_mps", log.stw_transverse_mps),
     )
     columns.update((name, values) for name, values in optional if values is not None)
     for column, values in columns.items():
@@ -644,6 +663,14 @@ class _Parser:
                     column=column,
                     expected="unique column names",
                 )
+        if "stw_transverse_mps" in names and "stw_mps" not in names:
+            raise self.error(
+                "expected 'stw_mps' beside it (the two axes of one speed log), got no "
+                "stw_mps column",
+                number,
+                column="stw_transverse_mps",
+                expected="stw_mps beside stw_transverse_mps",
+            )
         self.header_line = number
         self.n_fields = len(names)
         self.columns = LOG_COLUMNS + tuple(c for c in OPTIONAL_COLUMNS if c in names)
@@ -783,4 +810,5 @@ class _Parser:
             wind_speed_mps=arrays.get("wind_speed_mps"),
             wind_angle_rad=None if wind_angle_deg is None else np.deg2rad(wind_angle_deg),
             stw_mps=arrays.get("stw_mps"),
+            stw_transverse_mps=arrays.get("stw_transverse_mps"),
         )

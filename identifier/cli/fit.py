@@ -169,18 +169,24 @@ def _summary(result: IdentificationResult) -> str:
         alone, log = cur.speed_log, cur.speed_log_ekf
         if alone is not None and log is not None:
             alone_n, alone_e = np.sqrt(np.diag(alone.covariance))
+            measured = (
+                f"{log.samples:,} samples measured ({log.rejected:,} rejected), "
+                f"noise {log.noise_mps:.3f} m/s"
+            )
+            if log.transverse_noise_mps is not None:
+                measured += (
+                    f"; transverse axis {log.transverse_samples:,} ({log.transverse_rejected:,} "
+                    f"rejected), noise {log.transverse_noise_mps:.3f} m/s"
+                )
+            model_form = np.any(cur.model_form)
             lines.append(
-                f"speed log: {log.samples:,} samples measured ({log.rejected:,} rejected), "
-                f"noise {log.noise_mps:.3f} m/s, scale error {100.0 * log.scale_error:+.2f} "
+                f"speed log: {measured}, scale error {100.0 * log.scale_error:+.2f} "
                 f"± {100.0 * log.scale_error_std:.2f} %; alone it shows North "
                 f"{alone.current_ne[0]:+.3f} ± {alone_n:.3f}, East "
                 f"{alone.current_ne[1]:+.3f} ± {alone_e:.3f} m/s"
-                + (
-                    "; the current's ± include the two estimates' distance (model form)"
-                    if np.any(cur.model_form)
-                    else ""
-                )
-            )
+                + ("; the current's ± include the two estimates' distance (model form)"
+                   if model_form else "")
+            )  # fmt: skip
     ls = result.equation_error
     rates = f"regression on {ls.rows:,} rows at {ls.sample_interval_s:g} s (about L/U/40"
     shape = p.identification.get("shape")

@@ -48,7 +48,8 @@ What happens to a recording
 6. Pieces with fewer than ``min_samples`` samples are dropped with a note; the rest
    become logs, numbered in time order.
 7. The optional streams (wind, speed through the water) do not split the recording:
-   a log gets their columns (``wind_speed_mps``, ``wind_angle_deg``, ``stw_mps``),
+   a log gets their columns (``wind_speed_mps``, ``wind_angle_deg``, ``stw_mps``,
+   ``stw_transverse_mps``),
    resampled like the others, when the stream covers it without a gap longer than
    ``max_gap_s``; otherwise it has none (noted).
 

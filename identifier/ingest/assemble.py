@@ -31,6 +31,7 @@ from identifier.ingest.recording import (
     RPM,
     RUDDER,
     STW,
+    STW_TRANSVERSE,
     WIND_ANGLE,
     WIND_SPEED,
     ConversionResult,
@@ -50,6 +51,7 @@ _OPTIONAL_FIELDS: Final = {
     WIND_SPEED: ("wind_speed_mps", 0.0, MAX_WIND_SPEED_MPS),
     WIND_ANGLE: ("wind_angle_rad", -math.inf, math.inf),
     STW: ("stw_mps", 0.0, MAX_STW_MPS),
+    STW_TRANSVERSE: ("stw_transverse_mps", -MAX_STW_MPS, MAX_STW_MPS),
 }
 
 
@@ -310,6 +312,7 @@ def assemble(recording: Recording, options: Options) -> ConversionResult:
                 wind_speed_mps=columns.get("wind_speed_mps"),
                 wind_angle_rad=columns.get("wind_angle_rad"),
                 stw_mps=columns.get("stw_mps"),
+                stw_transverse_mps=columns.get("stw_transverse_mps"),
             )
         )
     if any(extrapolated.values()):

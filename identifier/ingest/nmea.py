@@ -20,13 +20,14 @@ RPM   source ``S`` (shaft), shaft number, speed [rpm], status      status ``A``
 MWV   wind angle [deg], reference ``R``, wind speed, unit, status  status ``A``,
                                                                    reference ``R``
 VHW   speed through the water [kn], ``N`` (else [km/h], ``K``)     always
-VBW   longitudinal water speed [kn], its status                    status ``A``
+VBW   longitudinal and transverse water speeds [kn], their status  status ``A``
 ===== ============================================================ ===============
 
 .. [#] and a mode indicator (NMEA 2.3) other than ``N``.
 
 MWV, VHW and VBW are optional: a log gets the columns ``wind_speed_mps``,
-``wind_angle_deg`` (MWV) and ``stw_mps`` (VHW or VBW) when the recording has such
+``wind_angle_deg`` (MWV), ``stw_mps`` (VHW or VBW) and ``stw_transverse_mps`` (VBW) when
+the recording has such
 sentences and they cover the log (see :mod:`identifier.ingest.assemble`).
 
 - **Wind.** Only the relative (apparent) wind goes into the log, as the anemometer
@@ -40,9 +41,12 @@ sentences and they cover the log (see :mod:`identifier.ingest.assemble`).
 - **Speed through the water.** VHW's speed in knots, or in km/h when the knots field
   is empty (its headings are not used: HDT/THS give the heading); VBW's longitudinal
   water speed in knots with status ``A`` (astern, a negative one, is ignored and
-  noted; the transverse speed and the ground speeds are not used). At most 50 m/s.
+  noted; the ground speeds are not used), and its transverse water speed (NMEA: "−"
+  to port, so positive to starboard as the log's ``stw_transverse_mps``; empty in a
+  single-axis log's VBW) when the longitudinal one is taken. At most 50 m/s either.
   When both sentence types (or several talkers) are present, the one with the most
-  valid samples is used, as for the other streams.
+  valid samples is used, as for the other streams; the transverse speed only from that
+  same VBW source (a VHW log chosen: none, noted).
 
 - **Checksums.** A sentence whose checksum does not match is skipped and counted in
   :attr:`~identifier.ingest.ConversionResult.checksum_failures`. A sentence without
@@ -110,6 +114,7 @@ from identifier.ingest.recording import (
     RUDDER,
     SECONDS_PER_MINUTE,
     STW,
+    STW_TRANSVERSE,
     WIND_ANGLE,
     WIND_SPEED,
     FloatArray,
@@ -136,7 +141,7 @@ _KMH_MPS: Final = 1.0 / 3.6
 _MPH_MPS: Final = 0.44704  # statute mile (1609.344 m) per hour
 _WIND_UNITS: Final = {"N": _KNOT_MPS, "M": 1.0, "K": _KMH_MPS, "S": _MPH_MPS}
 """MWV wind speed units → m/s."""
-_OPTIONAL: Final = (WIND_SPEED, WIND_ANGLE, STW)
+_OPTIONAL: Final = (WIND_SPEED, WIND_ANGLE, STW, STW_TRANSVERSE)
 
 
 class _MalformedError(Exception):
@@ -267,6 +272,7 @@ class _NmeaReader:
             WIND_SPEED: [],
             WIND_ANGLE: [],
             STW: [],
+            STW_TRANSVERSE: [],  # after STW: taken from STW's chosen source only
         }
 
     def feed(self, number: int, raw: bytes) -> None:
@@ -472,7 +478,11 @@ class _NmeaReader:
         self.samples[STW].append(_Sample(number, f"{talker}VHW", speed))
 
     def vbw(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
-        """Read ``$--VBW,x.x,x.x,A,x.x,x.x,A`` (water speeds [kn], status; ground speeds)."""
+        """Read ``$--VBW,x.x,x.x,A,x.x,x.x,A`` (water speeds [kn], status; ground speeds).
+
+        The transverse water speed, when the field is there, only with a longitudinal one
+        taken (the two are one log's axes).
+        """
         status = get("data_validity_water_spd", 2)
         if status not in ("A", "V"):
             raise _MalformedError
@@ -484,7 +494,12 @@ class _NmeaReader:
         if speed < 0.0:
             self.tally["VBW water speeds astern, negative (ignored)"] += 1
             return
-        self.samples[STW].append(_Sample(number, f"{talker}VBW", speed))
+        transverse = get("trans_water_spd", 1)
+        source = f"{talker}VBW"
+        if transverse:
+            value = _decimal(transverse, -limit, limit) * _KNOT_MPS
+            self.samples[STW_TRANSVERSE].append(_Sample(number, source, value))
+        self.samples[STW].append(_Sample(number, source, speed))
 
 
 def read_nmea(
@@ -576,10 +591,22 @@ def read_nmea(
     clock = np.array(anchor_times, dtype=np.float64)
     streams: dict[str, tuple[FloatArray, FloatArray]] = {}
     optional: dict[str, tuple[FloatArray, FloatArray]] = {}
+    used: dict[str, str] = {}  # stream -> the source chosen
     for name, samples in reader.samples.items():
         if name in _OPTIONAL and not samples:
             continue
+        if name == STW_TRANSVERSE:  # the transverse axis of the log chosen for STW
+            kept_samples = [s for s in samples if s.source == used.get(STW)]
+            if len(kept_samples) < len(samples):
+                notes.append(
+                    f"{name} of another source than the {STW}'s (ignored): "
+                    f"{len(samples) - len(kept_samples)}"
+                )
+            if not kept_samples:
+                continue
+            samples = kept_samples
         chosen = _choose_samples(name, samples, shaft, path, notes)
+        used[name] = chosen[0].source if chosen else ""
         line = np.array([s.line for s in chosen], dtype=np.float64)
         inside = (line > lines[0]) & (line < lines[-1])
         if np.count_nonzero(~inside):
@@ -614,6 +641,7 @@ def read_nmea(
             WIND_SPEED: "MWV sentences with reference R and status A",
             WIND_ANGLE: "MWV sentences with reference R and status A",
             STW: "VHW sentences, or VBW sentences with status A",
+            STW_TRANSVERSE: "VBW sentences with status A and a transverse water speed",
         },
         epoch=epoch,
         skipped_lines=reader.skipped,

@@ -30,6 +30,7 @@ __all__ = [
     "RUDDER",
     "SECONDS_PER_MINUTE",
     "STW",
+    "STW_TRANSVERSE",
     "WIND_ANGLE",
     "WIND_SPEED",
     "ConversionResult",
@@ -67,6 +68,7 @@ FIXES: Final = "position fixes"
 WIND_SPEED: Final = "wind speed"
 WIND_ANGLE: Final = "wind angle"
 STW: Final = "speed through the water"
+STW_TRANSVERSE: Final = "transverse speed through the water"
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,8 +209,9 @@ class Recording:
     optional : dict of str to (numpy.ndarray, numpy.ndarray)
         Streams a log may lack, each only when the input has samples of it:
         :data:`WIND_SPEED` (apparent, [m/s]), :data:`WIND_ANGLE` (apparent, from the
-        bow, positive from starboard, [rad] in [0, 2π)) and :data:`STW` ([m/s]):
-        sample times [s] and values.
+        bow, positive from starboard, [rad] in [0, 2π)), :data:`STW` ([m/s]) and
+        :data:`STW_TRANSVERSE` (positive to starboard, [m/s]; only from the source of
+        :data:`STW`): sample times [s] and values.
     epoch : datetime.datetime or None
         UTC instant of time 0 of ``fix_t`` and the streams; None when unknown.
     skipped_lines, checksum_failures : int

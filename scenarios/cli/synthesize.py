@@ -3,21 +3,28 @@
 At sea with ``--current-mps C --current-to-deg D`` (optionally changing linearly,
 ``--current-change-mps-per-h``, ``--current-veer-deg-per-h``) and/or ``--wind-mps W
 --wind-from-deg D`` (optionally gusty, ``--gust-std-mps S [--gust-time-s T]``); every
-value at the ship's scale. The logs then carry ``stw_mps`` and, with a wind,
-``wind_speed_mps`` and ``wind_angle_deg`` (``scenarios.synthesize``); their ``# source:``
-line names the environment. Without these options the logs are the calm-water ones.
+value at the ship's scale. The logs then carry ``stw_mps`` (and ``stw_transverse_mps``
+with ``--speed-log-axes 2``) and, with a wind, ``wind_speed_mps`` and ``wind_angle_deg``
+(``scenarios.synthesize``); their ``# source:`` line names the environment. Without these
+options the logs are the calm-water ones.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-from typing import Any
+from typing import Any, Final
 
 from fmu_model import argtypes
 from scenarios.cli.common import make_bars
 from scenarios.sea import SeaEnvironment
-from scenarios.synthesize import MANEUVERS, REFERENCE_VESSELS, synthesize_logs, write_windage
+from scenarios.synthesize import (
+    MANEUVERS,
+    REFERENCE_VESSELS,
+    SPEED_LOG_AXES,
+    synthesize_logs,
+    write_windage,
+)
 
 __all__ = ["add_synthesize_command", "check_synthesize_usage", "run_synthesize_command"]
 
@@ -85,6 +92,14 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
         help="gusts: standard deviation of a first-order Gauss-Markov wind speed [m/s]",
     )
     sea.add_argument(
+        "--speed-log-axes",
+        type=int,
+        choices=SPEED_LOG_AXES,
+        metavar="N",
+        help="the speed log's axes: 1 along the ship (stw_mps; the default), 2 across it "
+        "too (stw_transverse_mps, a Doppler log's)",
+    )
+    sea.add_argument(
         "--gust-time-s",
         type=argtypes.within(0.1, 3600.0, "s"),
         metavar="T",
@@ -101,6 +116,7 @@ _NEEDS = (
     ("gust_std_mps", "wind_mps"),
     ("gust_time_s", "gust_std_mps"),
 )
+_SEA: Final = ("current_mps", "wind_mps")  # options that put the ship at sea
 
 
 def add_current_and_wind_options(group: Any) -> None:
@@ -148,6 +164,8 @@ def check_synthesize_usage(parser: argparse.ArgumentParser, args: argparse.Names
     for name, needed in _NEEDS:
         if getattr(args, name) is not None and getattr(args, needed) is None:
             parser.error(f"{_option(name)} needs {_option(needed)}")
+    if args.speed_log_axes is not None and all(getattr(args, n) is None for n in _SEA):
+        parser.error("--speed-log-axes needs --current-mps or --wind-mps (a log at sea)")
 
 
 def _environment(args: argparse.Namespace) -> SeaEnvironment | None:
@@ -181,6 +199,7 @@ def run_synthesize_command(args: argparse.Namespace) -> int:
             seed=args.seed,
             approach_s=args.approach_s,
             environment=_environment(args),
+            speed_log_axes=args.speed_log_axes or 1,
             on_log=lambda _path: bar.update(1),
         )
     finally:
