@@ -384,9 +384,10 @@ def speed_log_current(
 
         stw = (1 + k)(u_g − c_N cos ψ − c_E sin ψ) + ε;
 
-    a two-axis log's transverse axis (``stw_transverse_mps``) as well, with the same k,
+    a two-axis log's transverse axis (``stw_transverse_mps``) as well, at the log's
+    position x_L forward of midship (``ManeuverLog.speed_log_x_m``), with the same k,
 
-        stw_t = (1 + k)(v_g + c_N sin ψ − c_E cos ψ) + ε'.
+        stw_t = (1 + k)(v_g + x_L r + c_N sin ψ − c_E cos ψ) + ε'.
 
     The heading changes of the manoeuvres show both components of c; the speed changes
     (a zig-zag loses some of it at every swing) tell the scale error k apart from the
@@ -400,7 +401,7 @@ def speed_log_current(
     every sample then counts as (1 − ρ)/(1 + ρ) of an independent one (an AR(1) residual's
     effective sample size). The covariance is (JᵀJ)⁻¹ at the solution (the loss's
     Gauss-Newton J), its (c_N, c_E) block the current's. None when no log carries
-    ``stw_mps``.
+    ``stw_mps``; ValueError when one carries ``stw_transverse_mps`` without its position.
     """
     if scale_std <= 0.0:
         raise ValueError("scale_std must be positive")
@@ -466,12 +467,17 @@ class _SpeedLogAxis:
 
     @classmethod
     def across(cls, parts: Sequence[tuple[ManeuverLog, SmoothedTrack]]) -> _SpeedLogAxis:
-        """Return the transverse axis (``stw_transverse_mps``, v_g; c_v = c_E cos ψ − c_N sin ψ)."""
-        return cls._of(
-            [(log.stw_transverse_mps, track.v_mps, track.heading_rad)
-             for log, track in parts if log.stw_transverse_mps is not None],
-            lambda h: np.column_stack([-np.sin(h), np.cos(h)]),
-        )  # fmt: skip
+        """Return the transverse axis (``stw_transverse_mps``, v_g + x_L r; c_v(ψ))."""
+        columns = []
+        for log, track in parts:
+            if log.stw_transverse_mps is None:
+                continue
+            x_m = log.speed_log_x_m
+            if x_m is None:
+                raise ValueError(f"{log.path or 'a log'}: stw_transverse_mps without speed_log_x_m")
+            over_ground = np.asarray(track.v_mps) + x_m * np.asarray(track.r_radps)
+            columns.append((log.stw_transverse_mps, over_ground, track.heading_rad))
+        return cls._of(columns, lambda h: np.column_stack([-np.sin(h), np.cos(h)]))
 
     @classmethod
     def _of(cls, columns: Sequence[tuple[Any, Any, Any]], rows: Any) -> _SpeedLogAxis:

@@ -29,8 +29,9 @@ With a current estimated, a speed log (``EkfSegment.speed_log_mps``) is a fourth
 scalar measurement: stw = (1 + k) u + ε, u through the water, with the log's scale error k
 one more augmented state (:class:`SpeedLogMeasurement`), updated after the track's
 (sequential updates: the two noises are independent); a two-axis log's transverse axis
-(``EkfSegment.speed_log_transverse_mps``) a fifth, (1 + k) v + ε', with the same k (one
-log, one calibration: a Doppler log's is the speed of sound in the water). An innovation
+(``EkfSegment.speed_log_transverse_mps``) a fifth, (1 + k)(v + x_L r) + ε' at the log's
+position x_L forward of midship, with the same k (one log, one calibration: a Doppler
+log's is the speed of sound in the water). An innovation
 beyond :data:`SPEED_LOG_GATE_NIS` is a spike or a drop-out, not taken.
 
 Several logs are processed in one identification: the motion states restart at each
@@ -99,6 +100,8 @@ class EkfSegment:
     speed_log_transverse_mps : numpy.ndarray, optional
         The same log's speed through the water across the ship, positive to starboard
         [m/s], shape (N,) (a two-axis log; measured with ``speed_log_mps``); None: none.
+    speed_log_x_m : float
+        The log's position forward of midship [m], where it measures v + x_L r.
 
     """
 
@@ -114,6 +117,7 @@ class EkfSegment:
     known_acceleration: np.ndarray | None = None
     speed_log_mps: np.ndarray | None = None
     speed_log_transverse_mps: np.ndarray | None = None
+    speed_log_x_m: float = 0.0
 
     def known_acceleration_or_zero(self) -> np.ndarray:
         """Return the known accelerations (N, 3), or one row of zeros (1, 3) for none.
@@ -149,6 +153,7 @@ class EkfSegment:
             speed_log_transverse_mps=None
             if self.speed_log_transverse_mps is None
             else self.speed_log_transverse_mps[part],
+            speed_log_x_m=self.speed_log_x_m,
         )
 
     def speed_log_or_none(self) -> np.ndarray:
@@ -467,7 +472,7 @@ def ekf_identify(
                 ekf_pass, seg.name, eq_index, constants, settings.max_substep_s,
                 settings.process_noise_interval_s, offset,
                 *(v if v.shape[0] == 1 else v[part] for v in inputs), speed_log_var,
-                x, P, q_state, q_theta, variance_limit, stride, track[part],
+                seg.speed_log_x_m, x, P, q_state, q_theta, variance_limit, stride, track[part],
                 *(h[rows_part] for h in histories), square_sums, speed_log_counts,
             )  # fmt: skip
             if status != _OK:
@@ -550,7 +555,8 @@ _STATUS_MESSAGES = {
 # kernels bound (_EKF_PASS, fmu_model.kernels).
 def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, constants, max_substep, q_interval,
-    offset, t, y, r_var, rudder, n_rps, known, speed_log, speed_log_var, x, P, q_state,
+    offset, t, y, r_var, rudder, n_rps, known, speed_log, speed_log_var, speed_log_x, x, P,
+    q_state,
     q_theta, variance_limit, stride, track, states, theta_hist, std_hist, square_sums,
     speed_log_counts,
 ):  # fmt: skip
@@ -562,7 +568,8 @@ def _ekf_pass(
     measurement is states offset … offset+2, with the
     variances of row k of ``r_var`` (its only row when it has one), then with k the
     speed log ``speed_log`` (N, 2: its longitudinal and transverse axes, NaN where it has
-    none; one row: none) of variances ``speed_log_var`` (2,), gated by
+    none; one row: none) of variances ``speed_log_var`` (2,), the transverse one at
+    ``speed_log_x`` [m] forward of midship, gated by
     :data:`SPEED_LOG_GATE_NIS` (``speed_log_counts`` += taken, rejected of each axis); the
     motion states'
     process noise over a step of T is ``q_state`` · T · max(T, ``q_interval``), θ's
@@ -715,20 +722,25 @@ def _ekf_pass(
                 value = P[a, b] - (K[a, 0] * PH[b, 0] + K[a, 1] * PH[b, 1] + K[a, 2] * PH[b, 2])
                 P[a, b] = value
                 P[b, a] = value
-        # The speed log, stw = (1 + k) u + ε (and a two-axis log's transverse axis,
-        # (1 + k) v + ε'): H has 1 + k at u (v) and u (v) at k; scalar updates after the
-        # track's (independent noises), each unless gated out.
+        # The speed log, stw = (1 + k) u + ε (and a two-axis log's transverse axis at x_L,
+        # (1 + k)(v + x_L r) + ε'): H has 1 + k at u (v; and (1 + k) x_L at r) and the
+        # speed measured at k; scalar updates after the track's (independent noises), each
+        # unless gated out.
         for axis in range(2):
             stw = speed_log[min(k + 1, last_speed), axis]
             if scale < 0 or not np.isfinite(stw):
                 continue
             gain = 1.0 + x[scale]
+            lever = speed_log_x if axis == 1 else 0.0
+            speed = x[axis] + lever * x[2]
             for a in range(m):
-                PH[a, 0] = gain * P[a, axis] + x[axis] * P[a, scale]
-            s_log = gain * PH[axis, 0] + x[axis] * PH[scale, 0] + speed_log_var[axis]
+                PH[a, 0] = gain * (P[a, axis] + lever * P[a, 2]) + speed * P[a, scale]
+            s_log = (
+                gain * (PH[axis, 0] + lever * PH[2, 0]) + speed * PH[scale, 0] + speed_log_var[axis]
+            )
             if not s_log > 0.0:
                 return _NOT_PD, k + 1
-            innovation = stw - gain * x[axis]
+            innovation = stw - gain * speed
             if innovation * innovation <= SPEED_LOG_GATE_NIS * s_log:
                 for a in range(m):
                     x[a] += PH[a, 0] / s_log * innovation

@@ -412,7 +412,12 @@ def _estimate_current(
             speed_log_noise_mps(logs, "stw_transverse_mps"),  # a two-axis log's other axis
         )
         segments = [
-            replace(seg, speed_log_mps=log.stw_mps, speed_log_transverse_mps=log.stw_transverse_mps)
+            replace(
+                seg,
+                speed_log_mps=log.stw_mps,
+                speed_log_transverse_mps=log.stw_transverse_mps,
+                speed_log_x_m=log.speed_log_x_m or 0.0,  # with a transverse axis: given
+            )
             for seg, log in zip(segments, logs, strict=True)
         ]
     current = initial_current(logs, tracks) if speed_log is None else speed_log.current_ne
@@ -872,6 +877,13 @@ def _smooth(
         )
         _check_track(track, name)
         log = _deglitched(log, track, name, notes, warnings)
+        if log.stw_transverse_mps is not None and log.speed_log_x_m is None:
+            warnings.append(
+                f"{name}: the speed log's transverse axis (stw_transverse_mps) was not used: "
+                "its position is not given (metadata speed_log_x_m, metres forward of "
+                "midship: there the sway speed is v + x·r)"
+            )
+            log = replace(log, stw_transverse_mps=None)
         cleaned.append(log)
         if track.position_noise_m > MAX_POSITION_NOISE_M:
             warnings.append(

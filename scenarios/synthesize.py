@@ -17,8 +17,9 @@ velocity over ground; no yaw-rate lever arm, no flow distortion by the superstru
 with Gaussian noise of :data:`WIND_SPEED_NOISE_MPS` (folded at 0) and
 :data:`WIND_ANGLE_NOISE_DEG`, the angle written wrapped to [0, 360) like an MWV
 sentence's; and with ``speed_log_axes=2`` (a two-axis Doppler log), drawn last,
-``stw_transverse_mps``, the speed through the water across the ship v at the log's
-position amidships, with the same noise.
+``stw_transverse_mps``, the speed through the water across the ship at the log's
+position x_L forward of midship, v + x_L r, with the same noise (x_L in the metadata
+``speed_log_x_m``).
 """
 
 from __future__ import annotations
@@ -179,6 +180,7 @@ def synthesize_log(
     truth_dt_s: float | None = None,
     noise_per_channel: bool = False,
     speed_log_axes: int = 1,
+    speed_log_x_m: float = 0.0,
 ) -> ManeuverLog:
     """Simulate ``program`` on ``ship`` and return a noisy trial log.
 
@@ -214,6 +216,9 @@ def synthesize_log(
     speed_log_axes : int
         At sea, the speed log's axes (:data:`SPEED_LOG_AXES`): 1, along the ship
         (``stw_mps``), or 2, across it too (``stw_transverse_mps``).
+    speed_log_x_m : float
+        With two axes, the log's position forward of midship [m] (the transverse axis
+        measures v + x_L r there).
 
     Returns
     -------
@@ -269,7 +274,8 @@ def synthesize_log(
                 f"; anemometer noise {WIND_SPEED_NOISE_MPS:g} m/s, {WIND_ANGLE_NOISE_DEG:g} deg"
             )
         if speed_log_axes == 2:
-            sensors["stw_transverse_mps"] = run["v_mps"] + STW_NOISE_MPS * next(noise)
+            at_log = run["v_mps"] + speed_log_x_m * run["r_radps"]
+            sensors["stw_transverse_mps"] = at_log + STW_NOISE_MPS * next(noise)
             source += "; two-axis speed log"
     return ManeuverLog(
         time_s=time_s,
@@ -283,6 +289,7 @@ def synthesize_log(
             "length_m": repr(ship.length_m),
             "source": source,
             "execute_time_s": repr(approach_s),
+            **({"speed_log_x_m": repr(speed_log_x_m)} if "stw_transverse_mps" in sensors else {}),
         },
         wind_speed_mps=sensors.get("wind_speed_mps"),
         wind_angle_rad=sensors.get("wind_angle_rad"),
@@ -331,6 +338,7 @@ def synthesize_logs(
     approach_s: float = 60.0,
     environment: SeaEnvironment | None = None,
     speed_log_axes: int = 1,
+    speed_log_x_m: float = 0.0,
     on_log: Callable[[Path], object] | None = None,
 ) -> list[Path]:
     """Write one synthetic trial log per manoeuvre, ``directory/<manoeuvre>.csv``.
@@ -351,8 +359,8 @@ def synthesize_logs(
         Current and wind the ship sails in (values at the ship's scale); calm water
         when None. Its ``gust_seed`` is replaced by each manoeuvre's noise seed, so the
         gusts too are reproducible from ``seed``.
-    speed_log_axes : int
-        At sea, the speed log's axes (``synthesize_log``).
+    speed_log_axes, speed_log_x_m
+        At sea, the speed log's axes and, with two, its position [m] (``synthesize_log``).
     on_log : callable, optional
         Called with each path written.
 
@@ -384,6 +392,7 @@ def synthesize_logs(
             seed=noise_seed,
             approach_s=approach_s,
             speed_log_axes=speed_log_axes,
+            speed_log_x_m=speed_log_x_m,
         )
         path = Path(directory) / f"{name}.csv"
         write_log(path, log)

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.integrate import cumulative_trapezoid
 
 from fmu_model.environment import Windage, wind_accelerations
 from scenarios import synthesize
@@ -415,6 +416,19 @@ def test_synthesized_log_at_sea_carries_the_sensor_columns() -> None:
     # port in the starboard turn (a drift of some 10° at 1 m/s: v ≈ −0.2 m/s)
     assert np.all(np.abs(two.stw_transverse_mps[:5]) < 0.2)
     assert float(np.median(two.stw_transverse_mps[-8:])) < -0.08
+    assert two.metadata["speed_log_x_m"] == "0.0" and "speed_log_x_m" not in still.metadata
+    # At 2 m forward of midship the log measures v + x r: the difference of the two logs
+    # (same noise) is 2 m times the yaw rate, whose integral is the (noiseless) heading.
+    exact = {"approach_s": 5.0, "seed": 4, "speed_log_axes": 2, "heading_noise_deg": 0.0}
+    ship = reference_ship("kvlcc2", "model", SeaEnvironment())
+    amidships = synthesize_log(ship, _quick_turn(), **exact)
+    forward = synthesize_log(ship, _quick_turn(), speed_log_x_m=2.0, **exact)
+    assert forward.speed_log_x_m == 2.0
+    assert forward.stw_transverse_mps is not None and amidships.stw_transverse_mps is not None
+    rate = (forward.stw_transverse_mps - amidships.stw_transverse_mps) / 2.0
+    turned = cumulative_trapezoid(rate, forward.time_s, initial=0.0)
+    np.testing.assert_allclose(turned, forward.heading_rad - forward.heading_rad[0], atol=2e-3)
+    assert abs(float(turned[-1])) > 0.2  # a turn, well above atol
     with pytest.raises(ValueError, match="speed_log_axes must be one of"):
         synthesize_log(reference_ship("kvlcc2", "model"), _quick_turn(), speed_log_axes=3)
 
@@ -539,6 +553,10 @@ def test_synthesize_cli_at_sea_writes_the_columns_and_the_source(
         (["--wind-mps", "10", "--wind-from-deg", "0", "--gust-time-s", "30"],
          "--gust-time-s needs --gust-std-mps"),
         (["--speed-log-axes", "2"], "--speed-log-axes needs --current-mps or --wind-mps"),
+        (["--current-mps", "1", "--current-to-deg", "0", "--speed-log-x-m", "100"],
+         "--speed-log-x-m needs --speed-log-axes 2"),
+        (["--current-mps", "1", "--current-to-deg", "0", "--speed-log-axes", "2",
+          "--speed-log-x-m", "600"], "argument --speed-log-x-m"),
         (["--current-mps", "1", "--current-to-deg", "0", "--speed-log-axes", "3"],
          "argument --speed-log-axes: invalid choice: 3"),
     ],

@@ -240,20 +240,26 @@ def _with_speed_log(
     scale_error: float = 0.0,
     seed: int = 3,
     two_axis: bool = False,
+    log_x_m: float = 0.0,
 ) -> ManeuverLog:
     """``log`` with a speed log: (1 + k) times the calm run's surge speed, 0.05 m/s of noise.
 
     Smoothing is linear, so the calm log's smoothed surge speed is the current log's less
     the current's forward component: u_w of the model's equation, to rounding. ``two_axis``:
-    its transverse axis too, (1 + k) v_w with noise of its own.
+    its transverse axis too, (1 + k)(v_w + x_L r) at ``log_x_m`` forward of midship (its
+    metadata ``speed_log_x_m``), with noise of its own.
     """
     calm_track = smooth_track(calm.time_s, calm.x_m, calm.y_m, calm.heading_rad)
     noise = np.random.default_rng(seed).normal(0.0, 0.05, (2, log.n_samples))
-    transverse = (1.0 + scale_error) * calm_track.v_mps + noise[1] if two_axis else None
+    stw = np.abs((1.0 + scale_error) * calm_track.u_mps + noise[0])
+    if not two_axis:
+        return replace(log, stw_mps=stw)
+    at_log = calm_track.v_mps + log_x_m * calm_track.r_radps
     return replace(
         log,
-        stw_mps=np.abs((1.0 + scale_error) * calm_track.u_mps + noise[0]),
-        stw_transverse_mps=transverse,
+        stw_mps=stw,
+        stw_transverse_mps=(1.0 + scale_error) * at_log + noise[1],
+        metadata={**log.metadata, "speed_log_x_m": repr(log_x_m)},
     )
 
 
@@ -321,6 +327,47 @@ def test_a_two_axis_log_shows_the_current_across_the_course_too(
     # A log with the transverse axis and one without: each axis of the samples it has.
     mixed = speed_log_current([two[0], one[1]], tracks)
     assert mixed is not None and mixed.transverse_samples == two[0].n_samples
+
+
+def test_a_two_axis_log_forward_measures_the_yaw_rate_there(calm_logs: list[ManeuverLog]) -> None:
+    """At 0.4 L forward a zig-zag's yaw rate adds ±0.1 m/s: modelled, not a current."""
+    zigzags = calm_logs[1:]
+    length_m = zigzags[0].length_m
+    assert length_m is not None
+    bow = 0.4 * length_m
+    logs = [
+        _with_speed_log(_with_current(g, CURRENT_NE), g, 0.0, i, True, bow)
+        for i, g in enumerate(zigzags)
+    ]
+    tracks = [smooth_track(g.time_s, g.x_m, g.y_m, g.heading_rad) for g in logs]
+    assert max(bow * float(np.max(np.abs(t.r_radps))) for t in tracks) > 0.1
+    fit = speed_log_current(logs, tracks)
+    assert fit is not None
+    std = np.sqrt(np.diag(fit.covariance))
+    assert np.all(np.abs(fit.current_ne - CURRENT_NE) <= 3.0 * std), (fit, std)
+    # Taken as amidships, the yaw rate's share is the log's noise: twice as noisy or more.
+    amidships = [replace(g, metadata={**g.metadata, "speed_log_x_m": "0.0"}) for g in logs]
+    wrong = speed_log_current(amidships, tracks)
+    assert wrong is not None and wrong.transverse_noise_mps is not None
+    assert fit.transverse_noise_mps is not None
+    assert wrong.transverse_noise_mps > 1.5 * fit.transverse_noise_mps
+    result = identify(logs, SEED)
+    assert result.current is not None and result.current.speed_log_ekf is not None
+    assert result.current.speed_log_ekf.transverse_rejected == 0
+    std = np.array(result.current.std_mps)
+    assert np.all(np.abs(result.current.vector - CURRENT_NE) <= np.maximum(3.0 * std, 0.01))
+    # Without its position the transverse axis is not used, and the fit says so.
+    unplaced = [
+        replace(g, metadata={k: v for k, v in g.metadata.items() if k != "speed_log_x_m"})
+        for g in logs
+    ]
+    with pytest.raises(ValueError, match="stw_transverse_mps without speed_log_x_m"):
+        speed_log_current(unplaced, tracks)
+    blind = identify(unplaced, SEED)
+    assert blind.current is not None and blind.current.speed_log_ekf is not None
+    assert blind.current.speed_log_ekf.transverse_samples == 0
+    assert sum("transverse axis (stw_transverse_mps) was not used" in w
+               for w in blind.warnings) == len(logs)  # fmt: skip
 
 
 def test_the_huber_loss_of_the_speed_log_fit_has_a_threshold_per_residual() -> None:

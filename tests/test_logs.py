@@ -514,6 +514,14 @@ BAD_LOGS: list[tuple[str, Callable[[], str], int | None, str | None, str]] = [
         r"metadata 'length_m': expected a positive finite number of metres, got 'abc'$",
     ),
     (
+        "speed_log_x_m not a number",
+        lambda: _with_line(2, "# speed_log_x_m: bow"),
+        2,
+        None,
+        r"metadata 'speed_log_x_m': expected the speed log's position forward of midship "
+        r"within ±500 m, got 'bow'$",
+    ),
+    (
         "length_m with a unit",
         lambda: _with_line(2, "# length_m: 320 m"),
         2,
@@ -832,6 +840,13 @@ def test_length_m_property() -> None:
     with pytest.raises(LogFormatError, match=r"^metadata 'length_m': expected a positive") as info:
         _ = bad.length_m
     assert info.value.line is None
+
+
+def test_speed_log_x_m_property() -> None:
+    assert _example_log(vessel="x").speed_log_x_m is None
+    assert _example_log(speed_log_x_m="-12.5").speed_log_x_m == -12.5
+    with pytest.raises(LogFormatError, match=r"^metadata 'speed_log_x_m': expected the speed"):
+        _ = _example_log(speed_log_x_m="501").speed_log_x_m
 
 
 # --------------------------------------------------------------------------- errors

@@ -60,7 +60,10 @@ from MWV and VHW/VBW sentences):
 - ``stw_mps``: speed through the water along the ship (forward) from a speed log [m/s].
 - ``stw_transverse_mps``: speed through the water across the ship, positive to
   starboard, from a two-axis (Doppler or electromagnetic) log [m/s], as NMEA VBW's
-  transverse water speed; only with ``stw_mps``, the same log's other axis.
+  transverse water speed; only with ``stw_mps``, the same log's other axis. Measured
+  where the log's transducer is: give its position in the metadata ``speed_log_x_m``
+  (metres forward of midship, the models' origin; within ±:data:`MAX_SPEED_LOG_X_M`), as
+  a turn's yaw rate adds x·r to the sway speed there.
 
 Every violation raises :class:`~trials.errors.LogFormatError` with the file,
 the 1-based line number (None for whole-file problems), the column where one
@@ -94,6 +97,7 @@ __all__ = [
     "MAX_POSITION_M",
     "MAX_RPM",
     "MAX_RUDDER_DEG",
+    "MAX_SPEED_LOG_X_M",
     "MAX_STW_MPS",
     "MAX_TIME_S",
     "MAX_WIND_ANGLE_DEG",
@@ -145,6 +149,8 @@ MAX_WIND_SPEED_MPS: Final = 100.0
 is 33 m/s); the least is 0."""
 MAX_WIND_ANGLE_DEG: Final = 36000.0
 """Largest ``|wind_angle_deg|``, as for the heading: 100 turns."""
+MAX_SPEED_LOG_X_M: Final = MAX_LENGTH_M / 2.0
+"""Largest ``|speed_log_x_m|`` [m]: half the longest ship a log may be of."""
 MAX_STW_MPS: Final = 50.0
 """Largest ``stw_mps`` [m/s] (97 kn: no displacement ship is faster); the least is 0.
 Also the bound of ``|stw_transverse_mps|``."""
@@ -314,6 +320,25 @@ class ManeuverLog:
         if text is None:
             return None
         return _parse_length_m(text, path=self.path, line=None)
+
+    @property
+    def speed_log_x_m(self) -> float | None:
+        """Speed log's position forward of midship from the ``speed_log_x_m`` metadata [m].
+
+        Where a two-axis log measures the transverse speed (``stw_transverse_mps``): there
+        the sway speed is v + x·r. None when absent.
+
+        Raises
+        ------
+        LogFormatError
+            If ``speed_log_x_m`` is present but not a number within
+            ±:data:`MAX_SPEED_LOG_X_M`.
+
+        """
+        text = self.metadata.get("speed_log_x_m")
+        if text is None:
+            return None
+        return _parse_speed_log_x_m(text, path=self.path, line=None)
 
 
 def read_log(path: str | os.PathLike[str]) -> ManeuverLog:
@@ -541,6 +566,20 @@ def _parse_length_m(text: str, path: str | None, line: int | None) -> float:
     return value
 
 
+def _parse_speed_log_x_m(text: str, path: str | None, line: int | None) -> float:
+    """Return the ``speed_log_x_m`` metadata value [m], or raise LogFormatError."""
+    value = float(text) if NUMBER.fullmatch(text) else math.nan
+    if not (math.isfinite(value) and abs(value) <= MAX_SPEED_LOG_X_M):
+        what = f"the speed log's position forward of midship within ±{MAX_SPEED_LOG_X_M:g} m"
+        raise LogFormatError(
+            f"metadata 'speed_log_x_m': expected {what}, got {show(text)}",
+            path=path,
+            line=line,
+            expected=what,
+        )
+    return value
+
+
 class _Parser:
     """Line-by-line state machine behind :func:`parse_log` (one instance per text)."""
 
@@ -616,6 +655,8 @@ class _Parser:
             )
         if key == "length_m":
             _parse_length_m(value, path=self.path, line=number)
+        if key == "speed_log_x_m":
+            _parse_speed_log_x_m(value, path=self.path, line=number)
         problem = text_problem(value) if key == "vessel" else None
         if problem is not None:  # the name of the FMU: XML and a C string
             raise self.error(f"metadata 'vessel': {problem}", number, expected="printable text")

@@ -25,6 +25,7 @@ from scenarios.synthesize import (
     synthesize_logs,
     write_windage,
 )
+from trials.logs import MAX_SPEED_LOG_X_M
 
 __all__ = ["add_synthesize_command", "check_synthesize_usage", "run_synthesize_command"]
 
@@ -100,6 +101,12 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
         "too (stw_transverse_mps, a Doppler log's)",
     )
     sea.add_argument(
+        "--speed-log-x-m",
+        type=argtypes.within(-MAX_SPEED_LOG_X_M, MAX_SPEED_LOG_X_M, "m"),
+        metavar="X",
+        help="a two-axis log's position forward of midship [m] (default 0, amidships)",
+    )
+    sea.add_argument(
         "--gust-time-s",
         type=argtypes.within(0.1, 3600.0, "s"),
         metavar="T",
@@ -166,6 +173,8 @@ def check_synthesize_usage(parser: argparse.ArgumentParser, args: argparse.Names
             parser.error(f"{_option(name)} needs {_option(needed)}")
     if args.speed_log_axes is not None and all(getattr(args, n) is None for n in _SEA):
         parser.error("--speed-log-axes needs --current-mps or --wind-mps (a log at sea)")
+    if args.speed_log_x_m is not None and args.speed_log_axes != 2:
+        parser.error("--speed-log-x-m needs --speed-log-axes 2 (a transverse axis)")
 
 
 def _environment(args: argparse.Namespace) -> SeaEnvironment | None:
@@ -200,6 +209,7 @@ def run_synthesize_command(args: argparse.Namespace) -> int:
             approach_s=args.approach_s,
             environment=_environment(args),
             speed_log_axes=args.speed_log_axes or 1,
+            speed_log_x_m=args.speed_log_x_m or 0.0,
             on_log=lambda _path: bar.update(1),
         )
     finally:
