@@ -23,7 +23,7 @@ from identifier.ingest import (
     output_paths,
 )
 from trials.errors import LogFormatError
-from trials.logs import MIN_SAMPLES, write_log
+from trials.logs import MAX_SPEED_LOG_X_M, MIN_SAMPLES, write_log
 
 __all__ = ["add_parser", "run"]
 
@@ -76,6 +76,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--length-m",
         type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
         help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g}",
+    )
+    convert.add_argument(
+        "--speed-log-x-m",
+        type=argtypes.within(-MAX_SPEED_LOG_X_M, MAX_SPEED_LOG_X_M, "m"),
+        metavar="X",
+        help="a two-axis speed log's position forward of midship [m] (NMEA VBW's transverse "
+        "water speed is measured there), written as '# speed_log_x_m:'",
     )
     convert.add_argument(
         "--rudder-positive",
@@ -148,6 +155,7 @@ def run(args: argparse.Namespace) -> int:
                 min_samples=args.min_samples,
                 vessel=args.vessel,
                 length_m=args.length_m,
+                speed_log_x_m=args.speed_log_x_m,
                 shaft=args.shaft,
                 require_checksum=not args.allow_missing_checksum,
             )

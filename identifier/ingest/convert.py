@@ -52,6 +52,7 @@ def convert_file(
     length_m: float | None = None,
     shaft: int | None = None,
     require_checksum: bool = True,
+    speed_log_x_m: float | None = None,
 ) -> ConversionResult:
     """Convert an NMEA 0183 or latitude/longitude CSV file (detected from its content).
 
@@ -66,7 +67,7 @@ def convert_file(
     heading_unit : {"deg", "rad"} or None
         CSV only, as for :func:`convert_latlon_csv`; noted and ignored for NMEA,
         whose headings are degrees.
-    shaft, require_checksum
+    shaft, require_checksum, speed_log_x_m
         NMEA only, as for :func:`convert_nmea`.
 
     Returns
@@ -86,7 +87,9 @@ def convert_file(
     name = os.fspath(path)
     raw = read_bytes(name, "recording")
     kind = detect_format(raw, name) if input_format == "auto" else input_format
-    options = Options.make(rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m)
+    options = Options.make(
+        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, speed_log_x_m
+    )
     if kind == "nmea":
         recording = read_nmea(name, raw, options.rudder_sign, shaft, require_checksum)
         if heading_unit is not None:
@@ -111,6 +114,7 @@ def convert_nmea(
     length_m: float | None = None,
     shaft: int | None = None,
     require_checksum: bool = True,
+    speed_log_x_m: float | None = None,
 ) -> ConversionResult:
     """Convert an NMEA 0183 recording into trial logs (rules: :mod:`identifier.ingest.nmea`).
 
@@ -139,11 +143,14 @@ def convert_nmea(
         sentences name several shafts).
     require_checksum : bool
         Skip sentences without a ``*hh`` checksum (default True).
+    speed_log_x_m : float or None
+        A two-axis speed log's position forward of midship [m] (where VBW's transverse
+        water speed is measured), written as ``# speed_log_x_m:`` when given.
 
     Returns
     -------
     ConversionResult
-        Logs (metadata ``vessel``, ``length_m``, ``source``, ``origin_lat_deg``,
+        Logs (metadata ``vessel``, ``length_m``, ``speed_log_x_m``, ``source``, ``origin_lat_deg``,
         ``origin_lon_deg``, ``time_origin_utc``, ``projection``), the counts of
         skipped lines and checksum failures, the gaps and notes.
 
@@ -158,7 +165,9 @@ def convert_nmea(
 
     """
     name = os.fspath(path)
-    options = Options.make(rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m)
+    options = Options.make(
+        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, speed_log_x_m
+    )
     recording = read_nmea(
         name, read_bytes(name, "recording"), options.rudder_sign, shaft, require_checksum
     )

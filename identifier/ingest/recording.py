@@ -18,7 +18,7 @@ import numpy.typing as npt
 
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from fmu_model.params import text_problem
-from trials.logs import ManeuverLog
+from trials.logs import MAX_SPEED_LOG_X_M, ManeuverLog
 
 __all__ = [
     "DEFAULT_MAX_GAP_S",
@@ -123,7 +123,7 @@ class Options:
 
     Made by :meth:`make`; the fields are the arguments of
     :func:`~identifier.ingest.convert_nmea` of the same names (``rate_hz`` [Hz],
-    ``max_gap_s`` [s], ``length_m`` [m]).
+    ``max_gap_s`` [s], ``length_m`` [m], ``speed_log_x_m`` [m]).
     """
 
     rudder_positive: RudderPositive
@@ -132,6 +132,7 @@ class Options:
     min_samples: int
     vessel: str | None
     length_m: float | None
+    speed_log_x_m: float | None = None
 
     @property
     def rudder_sign(self) -> float:
@@ -147,6 +148,7 @@ class Options:
         min_samples: int,
         vessel: str | None,
         length_m: float | None,
+        speed_log_x_m: float | None = None,
     ) -> Options:
         """Check the settings; raise ValueError naming the bad one."""
         if rudder_positive not in ("starboard", "port"):
@@ -173,6 +175,11 @@ class Options:
                 f"length_m must be a ship length from {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} m, "
                 f"got {length_m!r}"
             )
+        if speed_log_x_m is not None and not abs(speed_log_x_m) <= MAX_SPEED_LOG_X_M:
+            raise ValueError(
+                f"speed_log_x_m must be a position within ±{MAX_SPEED_LOG_X_M:g} m, "
+                f"got {speed_log_x_m!r}"
+            )
         return cls(
             rudder_positive,
             None if rate_hz is None else float(rate_hz),
@@ -180,6 +187,7 @@ class Options:
             min_samples,
             vessel,
             None if length_m is None else float(length_m),
+            None if speed_log_x_m is None else float(speed_log_x_m),
         )
 
 
