@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -411,15 +412,9 @@ def test_the_ekf_measures_a_two_axis_log(calm_logs: list[ManeuverLog]) -> None:
     record = double.params.identification["environment"]["speed_log"]
     assert record["transverse_samples"] == measured and record["transverse_rejected_samples"] == 0
     # Spikes on 1 % of the transverse samples: gated out one by one.
-    rng = np.random.default_rng(12)
-    glitched, bad_samples = [], 0
-    for log in two:
-        assert log.stw_transverse_mps is not None
-        bad = rng.choice(np.arange(1, log.n_samples), size=log.n_samples // 100, replace=False)
-        transverse = log.stw_transverse_mps.copy()
-        transverse[bad] += np.where(np.arange(bad.size) % 2 == 0, 3.0, -3.0)
-        glitched.append(replace(log, stw_transverse_mps=transverse))
-        bad_samples += bad.size
+    glitched, bad_samples = _spiked(
+        two, "stw_transverse_mps", lambda z, odd: z + np.where(odd, -3.0, 3.0), 12
+    )
     spiky = identify(glitched, SEED)
     assert spiky.current is not None and spiky.current.speed_log_ekf is not None
     assert spiky.current.speed_log_ekf.transverse_rejected == bad_samples > 0
@@ -458,15 +453,7 @@ def test_the_ekf_measures_a_speed_log(calm_logs: list[ManeuverLog]) -> None:
     assert track_only.params.identification["environment"]["speed_log"] is None
     # Spikes and drop-outs (0 or twice the speed) on 1 % of the samples: gated out one by
     # one, and the current stays where the clean log put it.
-    rng = np.random.default_rng(11)
-    glitched, bad_samples = [], 0
-    for log in logs:
-        assert log.stw_mps is not None
-        bad = rng.choice(np.arange(1, log.n_samples), size=log.n_samples // 100, replace=False)
-        stw = log.stw_mps.copy()
-        stw[bad] = np.where(np.arange(bad.size) % 2 == 0, 0.0, 2.0 * stw[bad])
-        glitched.append(replace(log, stw_mps=stw))
-        bad_samples += bad.size
+    glitched, bad_samples = _spiked(logs, "stw_mps", lambda z, odd: np.where(odd, 2.0 * z, 0.0), 11)
     spiky = identify(glitched, SEED)
     assert spiky.current is not None and spiky.current.speed_log_ekf is not None
     assert spiky.current.speed_log_ekf.rejected == bad_samples > 0
@@ -606,6 +593,27 @@ def test_speed_log_noise_from_the_log_itself() -> None:
     assert speed_log_noise_mps([_ship_log_with_speed(speed)], "stw_transverse_mps") is None
     with pytest.raises(ValueError, match="column must be stw_mps or stw_transverse_mps"):
         speed_log_noise_mps([across], "wind_speed_mps")
+
+
+def _spiked(
+    logs: list[ManeuverLog],
+    column: str,
+    spoil: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    seed: int,
+) -> tuple[list[ManeuverLog], int]:
+    """``logs`` with 1 % of the samples of ``column`` (never the first) spoilt; their count.
+
+    ``spoil(values, odd)`` gives the bad samples' values, ``odd`` alternating False, True.
+    """
+    rng = np.random.default_rng(seed)
+    spoilt, count = [], 0
+    for log in logs:
+        values = np.array(getattr(log, column))
+        bad = rng.choice(np.arange(1, log.n_samples), size=log.n_samples // 100, replace=False)
+        values[bad] = spoil(values[bad], np.arange(bad.size) % 2 == 1)
+        spoilt.append(replace(log, **{column: values}))
+        count += bad.size
+    return spoilt, count
 
 
 def _ship_log_with_speed(stw_mps: np.ndarray) -> ManeuverLog:

@@ -148,10 +148,10 @@ def _process_noise_after(
     status, _ = ekf_pass(
         np.asarray(structure.equation_index, dtype=np.int64), kernel_constants(structure, 100.0),
         0.1, interval_s, 3, t, track, np.full((1, 3), 1e12), 0.0 * t, 0.0 * t + 2.0,
-        np.zeros((1, 3)), np.full(1, np.nan), 0.0, x, P,
+        np.zeros((1, 3)), np.full((1, 2), np.nan), np.zeros(2), 0.0, x, P,
         np.array([q_motion] * 3 + [0.0] * 3), np.full(p, q_theta), np.full(p, np.inf), 1,
         track, np.zeros((n, 6)), np.zeros((n, p)), np.zeros((n, p)), np.zeros(2),
-        np.zeros(2, dtype=np.int64),
+        np.zeros(4, dtype=np.int64),
     )  # fmt: skip
     assert status == ekf_module._OK
     return np.concatenate([np.diag(P)[:3], np.diag(P)[6:]])
