@@ -3,7 +3,8 @@
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
         [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf] [--same-noise]
-        [--calm-speed-log] [--speed-log-axes 1|2] [--out benchmarks/environment.md]
+        [--calm-speed-log] [--speed-log-axes 1|2 [--speed-log-x-m X]]
+        [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
 each true wind speed from ``--wind-from-deg``) and every noise draw d, the KVLCC2 reference
@@ -18,7 +19,7 @@ every log draws each channel's noise from a generator of its own
 carry the same noise sample by sample (other noise than the default's). With
 ``--calm-speed-log`` the calm-water logs carry the speed log too, as the logs at sea do; with
 ``--speed-log-axes 2`` the speed logs have a transverse axis too (a two-axis Doppler log's
-``stw_transverse_mps``). With
+``stw_transverse_mps``), at ``--speed-log-x-m`` forward of midship (default 0). With
 ``--position-noise-m 0.01 --heading-noise-deg 0.001`` what remains is the sea's own effect
 on the identification, without the noise's. Two fits:
 
@@ -104,13 +105,15 @@ def training_logs(
     same_noise: bool = False,
     speed_log: bool = False,
     speed_log_axes: int = 1,
+    speed_log_x_m: float = 0.0,
 ) -> list[ManeuverLog]:
     """Sail the zig-zags of draw ``draw`` in ``condition``, logged at ``quality``.
 
     ``same_noise``: one noise generator per channel (module docstring). ``speed_log``:
     calm-water logs carry the speed log too (sailed in a sea of no current and no wind,
     which moves the ship exactly as calm water does); at sea they always do.
-    ``speed_log_axes``: the speed log's axes (``synthesize_log``).
+    ``speed_log_axes``, ``speed_log_x_m``: the speed log's axes and, with two, its
+    position (``synthesize_log``).
     """
     environment = condition.environment()
     if environment is None and speed_log:
@@ -126,6 +129,7 @@ def training_logs(
             heading_noise_deg=quality.heading_noise_deg,
             noise_per_channel=same_noise,
             speed_log_axes=speed_log_axes if environment is not None else 1,
+            speed_log_x_m=speed_log_x_m,
         )
         for name in TRAINING
     ]
@@ -212,6 +216,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=1,
         help="the speed logs' axes: 1 along the ship, 2 across it too (a Doppler log)",
     )
+    parser.add_argument(
+        "--speed-log-x-m",
+        type=float,
+        default=0.0,
+        help="a two-axis log's position forward of midship [m] (default 0)",
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
     quality = replace(
@@ -241,7 +251,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"draw (logger noise {quality.position_noise_m:g} m, {quality.heading_noise_deg:g}°"
         f"{', one noise generator per channel' if same else ''}"
         f"{'; the calm-water logs with a speed log too' if args.calm_speed_log else ''}"
-        f"{'; two-axis speed logs' if args.speed_log_axes == 2 else ''}; "
+        f"{'; two-axis speed logs' if args.speed_log_axes == 2 else ''}"
+        f"{f' at {args.speed_log_x_m:g} m forward' if args.speed_log_x_m else ''}; "
         f"model {args.model}, "
         f"method {args.method}). "
         "Columns: largest difference of a turning index [points] and of an overshoot "
@@ -264,6 +275,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 same_noise=same,
                 speed_log=args.calm_speed_log,
                 speed_log_axes=args.speed_log_axes,
+                speed_log_x_m=args.speed_log_x_m,
             ),
             settings,
         )
@@ -272,7 +284,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     for condition in conditions:
         for draw in range(args.draws):
             logs = training_logs(
-                condition, draw, quality, same_noise=same, speed_log_axes=args.speed_log_axes
+                condition,
+                draw,
+                quality,
+                same_noise=same,
+                speed_log_axes=args.speed_log_axes,
+                speed_log_x_m=args.speed_log_x_m,
             )
             start = time.perf_counter()
             sea = identify(logs, replace(settings, windage=windage))

@@ -35,7 +35,7 @@ from identifier.smoothing import SmoothedTrack
 from identifier.wind import known_acceleration
 from trials.conditions import KINDS, maneuver_indices, maneuver_kind, zigzag_angles
 from trials.errors import IdentificationError
-from trials.logs import ManeuverLog
+from trials.logs import ManeuverLog, at_midship
 from trials.trajectory import empty_trajectory
 
 # --------------------------------------------------------------------------------------
@@ -237,6 +237,7 @@ def predict_log(
         ``k, k+1, …`` (shape (N − k, 6), SI units; NaN from a divergence on).
 
     """
+    log = at_midship(log)  # a GNSS antenna's track: the midship point's, as the model's
     track = track or smooth_log(log)
     k, state = execute_state(params, log, track)
     known = known_acceleration(log, params.windage)
@@ -281,6 +282,7 @@ def held_out_errors(
         Errors of the prediction.
 
     """
+    log = at_midship(log)
     track = track or smooth_log(log)
     name = name or log.path or "log"
     k, states = predict_log(params, log, track)

@@ -385,7 +385,7 @@ def speed_log_current(
         stw = (1 + k)(u_g − c_N cos ψ − c_E sin ψ) + ε;
 
     a two-axis log's transverse axis (``stw_transverse_mps``) as well, at the log's
-    position x_L forward of midship (``ManeuverLog.speed_log_x_m``), with the same k,
+    position x_L forward of midship (metadata ``speed_log_x_m``), with the same k,
 
         stw_t = (1 + k)(v_g + x_L r + c_N sin ψ − c_E cos ψ) + ε'.
 
@@ -472,7 +472,7 @@ class _SpeedLogAxis:
         for log, track in parts:
             if log.stw_transverse_mps is None:
                 continue
-            x_m = log.speed_log_x_m
+            x_m = log.on_board_m("speed_log_x_m")
             if x_m is None:
                 raise ValueError(f"{log.path or 'a log'}: stw_transverse_mps without speed_log_x_m")
             over_ground = np.asarray(track.v_mps) + x_m * np.asarray(track.r_radps)

@@ -90,7 +90,7 @@ from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
 from trials.conditions import EXECUTE_RUDDER_RAD, approach_helm_rad, execute_index
 from trials.errors import IdentificationError
-from trials.logs import ManeuverLog
+from trials.logs import ManeuverLog, at_midship
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
 MAX_SAMPLE_INTERVAL_S = 5.0
@@ -416,7 +416,7 @@ def _estimate_current(
                 seg,
                 speed_log_mps=log.stw_mps,
                 speed_log_transverse_mps=log.stw_transverse_mps,
-                speed_log_x_m=log.speed_log_x_m or 0.0,  # with a transverse axis: given
+                speed_log_x_m=log.on_board_m("speed_log_x_m") or 0.0,  # given with the axis
             )
             for seg, log in zip(segments, logs, strict=True)
         ]
@@ -863,8 +863,15 @@ def _smooth(
     tracks: list[SmoothedTrack] = []
     segments: list[EkfSegment] = []
     cleaned = []
-    for i, log in enumerate(logs):
-        name = _log_name(log, i)
+    for i, given in enumerate(logs):
+        name = _log_name(given, i)
+        log = at_midship(given)  # the GNSS antenna's track reduced to the model's origin
+        if log is not given:
+            notes.append(
+                f"{name}: positions reduced from the GNSS antenna at "
+                f"({given.on_board_m('gnss_x_m') or 0.0:g} m forward, "
+                f"{given.on_board_m('gnss_y_m') or 0.0:g} m to starboard) to midship"
+            )
         _check_sampling(log, name)
         stage(f"smoothing {Path(name).name}")
         track = smooth_track(
@@ -877,7 +884,7 @@ def _smooth(
         )
         _check_track(track, name)
         log = _deglitched(log, track, name, notes, warnings)
-        if log.stw_transverse_mps is not None and log.speed_log_x_m is None:
+        if log.stw_transverse_mps is not None and log.on_board_m("speed_log_x_m") is None:
             warnings.append(
                 f"{name}: the speed log's transverse axis (stw_transverse_mps) was not used: "
                 "its position is not given (metadata speed_log_x_m, metres forward of "

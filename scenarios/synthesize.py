@@ -181,6 +181,8 @@ def synthesize_log(
     noise_per_channel: bool = False,
     speed_log_axes: int = 1,
     speed_log_x_m: float = 0.0,
+    gnss_x_m: float = 0.0,
+    gnss_y_m: float = 0.0,
 ) -> ManeuverLog:
     """Simulate ``program`` on ``ship`` and return a noisy trial log.
 
@@ -219,6 +221,9 @@ def synthesize_log(
     speed_log_x_m : float
         With two axes, the log's position forward of midship [m] (the transverse axis
         measures v + x_L r there).
+    gnss_x_m, gnss_y_m : float
+        The GNSS antenna's position forward of midship and to starboard [m]: the logged
+        positions are its (the metadata ``gnss_x_m``, ``gnss_y_m`` say so when not 0).
 
     Returns
     -------
@@ -248,8 +253,9 @@ def synthesize_log(
     noise = _noise_streams(seed, size, noise_per_channel)
     time_s = run["time_s"] - run["time_s"][0]
     heading = run["psi_rad"] + math.radians(heading_noise_deg) * next(noise)
-    x_m = run["x_m"] + position_noise_m * next(noise)
-    y_m = run["y_m"] + position_noise_m * next(noise)
+    cos_psi, sin_psi = np.cos(run["psi_rad"]), np.sin(run["psi_rad"])  # the antenna's place
+    x_m = run["x_m"] + gnss_x_m * cos_psi - gnss_y_m * sin_psi + position_noise_m * next(noise)
+    y_m = run["y_m"] + gnss_x_m * sin_psi + gnss_y_m * cos_psi + position_noise_m * next(noise)
     source = (
         f"synthetic {program.name}: {ship.source}; {rate_hz:g} Hz, position noise "
         f"{position_noise_m:g} m, heading noise {heading_noise_deg:g} deg, seed {seed}"
@@ -290,6 +296,11 @@ def synthesize_log(
             "source": source,
             "execute_time_s": repr(approach_s),
             **({"speed_log_x_m": repr(speed_log_x_m)} if "stw_transverse_mps" in sensors else {}),
+            **(
+                {"gnss_x_m": repr(gnss_x_m), "gnss_y_m": repr(gnss_y_m)}
+                if gnss_x_m or gnss_y_m
+                else {}
+            ),
         },
         wind_speed_mps=sensors.get("wind_speed_mps"),
         wind_angle_rad=sensors.get("wind_angle_rad"),
@@ -339,6 +350,8 @@ def synthesize_logs(
     environment: SeaEnvironment | None = None,
     speed_log_axes: int = 1,
     speed_log_x_m: float = 0.0,
+    gnss_x_m: float = 0.0,
+    gnss_y_m: float = 0.0,
     on_log: Callable[[Path], object] | None = None,
 ) -> list[Path]:
     """Write one synthetic trial log per manoeuvre, ``directory/<manoeuvre>.csv``.
@@ -361,6 +374,8 @@ def synthesize_logs(
         gusts too are reproducible from ``seed``.
     speed_log_axes, speed_log_x_m
         At sea, the speed log's axes and, with two, its position [m] (``synthesize_log``).
+    gnss_x_m, gnss_y_m
+        The GNSS antenna's position [m] (``synthesize_log``).
     on_log : callable, optional
         Called with each path written.
 
@@ -393,6 +408,8 @@ def synthesize_logs(
             approach_s=approach_s,
             speed_log_axes=speed_log_axes,
             speed_log_x_m=speed_log_x_m,
+            gnss_x_m=gnss_x_m,
+            gnss_y_m=gnss_y_m,
         )
         path = Path(directory) / f"{name}.csv"
         write_log(path, log)

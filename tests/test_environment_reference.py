@@ -423,7 +423,7 @@ def test_synthesized_log_at_sea_carries_the_sensor_columns() -> None:
     ship = reference_ship("kvlcc2", "model", SeaEnvironment())
     amidships = synthesize_log(ship, _quick_turn(), **exact)
     forward = synthesize_log(ship, _quick_turn(), speed_log_x_m=2.0, **exact)
-    assert forward.speed_log_x_m == 2.0
+    assert forward.on_board_m("speed_log_x_m") == 2.0
     assert forward.stw_transverse_mps is not None and amidships.stw_transverse_mps is not None
     rate = (forward.stw_transverse_mps - amidships.stw_transverse_mps) / 2.0
     turned = cumulative_trapezoid(rate, forward.time_s, initial=0.0)

@@ -842,11 +842,12 @@ def test_length_m_property() -> None:
     assert info.value.line is None
 
 
-def test_speed_log_x_m_property() -> None:
-    assert _example_log(vessel="x").speed_log_x_m is None
-    assert _example_log(speed_log_x_m="-12.5").speed_log_x_m == -12.5
+def test_positions_on_board_from_the_metadata() -> None:
+    assert _example_log(vessel="x").on_board_m("speed_log_x_m") is None
+    assert _example_log(speed_log_x_m="-12.5").on_board_m("speed_log_x_m") == -12.5
+    assert _example_log(gnss_y_m="1e1").on_board_m("gnss_y_m") == 10.0
     with pytest.raises(LogFormatError, match=r"^metadata 'speed_log_x_m': expected the speed"):
-        _ = _example_log(speed_log_x_m="501").speed_log_x_m
+        _example_log(speed_log_x_m="501").on_board_m("speed_log_x_m")
 
 
 # --------------------------------------------------------------------------- errors

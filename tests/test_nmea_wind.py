@@ -313,13 +313,15 @@ def test_cli_convert_a_two_axis_log_with_its_position(tmp_path: Path) -> None:
     out = tmp_path / "log.csv"
     assert main(["convert", str(path), "-o", str(out), "--speed-log-x-m", "-12.5", "--quiet"]) == 0
     back = read_log(out)
-    assert back.speed_log_x_m == -12.5 and back.metadata["speed_log_x_m"] == "-12.5"
+    assert back.on_board_m("speed_log_x_m") == -12.5 and back.metadata["speed_log_x_m"] == "-12.5"
     converted = convert_nmea(path).logs[0]
     assert back.stw_transverse_mps is not None and converted.stw_transverse_mps is not None
     np.testing.assert_allclose(back.stw_transverse_mps, converted.stw_transverse_mps, rtol=1e-12)
-    assert converted.speed_log_x_m is None  # not given: fit will not use the transverse axis
-    with pytest.raises(ValueError, match=r"speed_log_x_m must be a position within ±500 m"):
-        convert_nmea(path, speed_log_x_m=600.0)
+    assert converted.on_board_m("speed_log_x_m") is None  # not given: fit will not use it
+    with pytest.raises(ValueError, match=r"on_board: expected positions within ±500 m"):
+        convert_nmea(path, on_board={"speed_log_x_m": 600.0})
+    with pytest.raises(ValueError, match=r"got 'mast_x_m': 1\.0"):
+        convert_nmea(path, on_board={"mast_x_m": 1.0})
 
 
 def test_cli_convert_an_nmea_file_whose_every_fix_is_huge_is_one_line(

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from trials.errors import IdentificationError
-from trials.logs import ManeuverLog
+from trials.logs import ManeuverLog, at_midship
 from trials.maneuvers import Leg, Program, Until, turning_circle
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
 from trials.run import Plant, run_batch
@@ -452,8 +452,10 @@ def log_trajectory(log: ManeuverLog) -> np.ndarray:
     """Return the log as a trajectory, velocities by central differences of the raw track.
 
     For the manoeuvre's indices (which use heading, position and the speed at
-    execute), not for identification: nothing is smoothed.
+    execute), not for identification: nothing is smoothed. Positions of the midship
+    point (:func:`~trials.logs.at_midship`), as the indices are defined.
     """
+    log = at_midship(log)
     traj = empty_trajectory(log.n_samples)
     x_dot = np.gradient(log.x_m, log.time_s)
     y_dot = np.gradient(log.y_m, log.time_s)

@@ -62,8 +62,14 @@ from MWV and VHW/VBW sentences):
   starboard, from a two-axis (Doppler or electromagnetic) log [m/s], as NMEA VBW's
   transverse water speed; only with ``stw_mps``, the same log's other axis. Measured
   where the log's transducer is: give its position in the metadata ``speed_log_x_m``
-  (metres forward of midship, the models' origin; within ±:data:`MAX_SPEED_LOG_X_M`), as
+  (metres forward of midship, the models' origin; within ±:data:`MAX_ON_BOARD_M`), as
   a turn's yaw rate adds x·r to the sway speed there.
+
+Positions on board (metadata, metres from midship, the models' origin; within
+±:data:`MAX_ON_BOARD_M`): ``speed_log_x_m`` above, and ``gnss_x_m`` (forward), ``gnss_y_m``
+(to starboard), the GNSS antenna's: ``x_m``, ``y_m`` are then the antenna's positions,
+which :func:`at_midship` reduces to the midship point's (a bridge antenna 0.4 L aft of a
+tanker's midship moves 0.8 m/s sideways more than midship in a hard turn).
 
 Every violation raises :class:`~trials.errors.LogFormatError` with the file,
 the 1-based line number (None for whole-file problems), the column where one
@@ -77,7 +83,7 @@ import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Final
 
@@ -94,17 +100,19 @@ from trials.text_input import NUMBER, decode_utf8, read_bytes, show, split_field
 __all__ = [
     "LOG_COLUMNS",
     "MAX_HEADING_DEG",
+    "MAX_ON_BOARD_M",
     "MAX_POSITION_M",
     "MAX_RPM",
     "MAX_RUDDER_DEG",
-    "MAX_SPEED_LOG_X_M",
     "MAX_STW_MPS",
     "MAX_TIME_S",
     "MAX_WIND_ANGLE_DEG",
     "MAX_WIND_SPEED_MPS",
     "MIN_SAMPLES",
+    "ON_BOARD_KEYS",
     "OPTIONAL_COLUMNS",
     "ManeuverLog",
+    "at_midship",
     "format_log",
     "parse_log",
     "read_log",
@@ -149,8 +157,17 @@ MAX_WIND_SPEED_MPS: Final = 100.0
 is 33 m/s); the least is 0."""
 MAX_WIND_ANGLE_DEG: Final = 36000.0
 """Largest ``|wind_angle_deg|``, as for the heading: 100 turns."""
-MAX_SPEED_LOG_X_M: Final = MAX_LENGTH_M / 2.0
-"""Largest ``|speed_log_x_m|`` [m]: half the longest ship a log may be of."""
+MAX_ON_BOARD_M: Final = MAX_LENGTH_M / 2.0
+"""Largest position on board from midship (:data:`ON_BOARD_KEYS`) [m]: half the longest
+ship a log may be of."""
+ON_BOARD_KEYS: Final = MappingProxyType(
+    {
+        "speed_log_x_m": "the speed log's position forward of midship",
+        "gnss_x_m": "the GNSS antenna's position forward of midship",
+        "gnss_y_m": "the GNSS antenna's position to starboard of the centre line",
+    }
+)
+"""Metadata keys of positions on board [m] from midship (forward, starboard)."""
 MAX_STW_MPS: Final = 50.0
 """Largest ``stw_mps`` [m/s] (97 kn: no displacement ship is faster); the least is 0.
 Also the bound of ``|stw_transverse_mps|``."""
@@ -321,24 +338,24 @@ class ManeuverLog:
             return None
         return _parse_length_m(text, path=self.path, line=None)
 
-    @property
-    def speed_log_x_m(self) -> float | None:
-        """Speed log's position forward of midship from the ``speed_log_x_m`` metadata [m].
+    def on_board_m(self, key: str) -> float | None:
+        """Return a position on board from the metadata [m] (:data:`ON_BOARD_KEYS`).
 
-        Where a two-axis log measures the transverse speed (``stw_transverse_mps``): there
-        the sway speed is v + x·r. None when absent.
+        ``speed_log_x_m``: where a two-axis log measures the transverse speed
+        (``stw_transverse_mps``; there the sway speed is v + x·r); ``gnss_x_m``,
+        ``gnss_y_m``: where the positions ``x_m``, ``y_m`` are measured (:func:`at_midship`).
+        None when absent.
 
         Raises
         ------
         LogFormatError
-            If ``speed_log_x_m`` is present but not a number within
-            ±:data:`MAX_SPEED_LOG_X_M`.
+            If the key is present but not a number within ±:data:`MAX_ON_BOARD_M`.
 
         """
-        text = self.metadata.get("speed_log_x_m")
-        if text is None:
-            return None
-        return _parse_speed_log_x_m(text, path=self.path, line=None)
+        if key not in ON_BOARD_KEYS:
+            raise ValueError(f"key must be one of {sorted(ON_BOARD_KEYS)}, got {key!r}")
+        text = self.metadata.get(key)
+        return None if text is None else _parse_on_board(key, text, self.path, None)
 
 
 def read_log(path: str | os.PathLike[str]) -> ManeuverLog:
@@ -396,6 +413,32 @@ def parse_log(text: str, path: str | os.PathLike[str] | None = None) -> Maneuver
     for number, line in enumerate(text.split("\n"), start=1):
         parser.feed(number, line.removesuffix("\r"))
     return parser.finish()
+
+
+def at_midship(log: ManeuverLog) -> ManeuverLog:
+    """Return ``log`` with its positions at midship, where the models' are.
+
+    A log whose metadata places the GNSS antenna at (``gnss_x_m`` forward, ``gnss_y_m`` to
+    starboard) of midship holds the antenna's track; midship is
+
+        x = x_A − (a_x cos ψ − a_y sin ψ),   y = y_A − (a_x sin ψ + a_y cos ψ)
+
+    (x North, y East, ψ the logged heading: the antenna's offset turned from the ship's
+    axes to North-East). A compass spike moves that sample's position with it (an offset
+    of 130 m and a 5° spike: 11 m), which the smoother's gate then rejects as well. The
+    keys leave the metadata, so that the result, written back, is read as the midship
+    track it is. Without the keys (or with zeros) the log itself.
+    """
+    a_x, a_y = (log.on_board_m(key) or 0.0 for key in ("gnss_x_m", "gnss_y_m"))
+    if a_x == 0.0 and a_y == 0.0:
+        return log
+    cos_psi, sin_psi = np.cos(log.heading_rad), np.sin(log.heading_rad)
+    return replace(
+        log,
+        x_m=log.x_m - (a_x * cos_psi - a_y * sin_psi),
+        y_m=log.y_m - (a_x * sin_psi + a_y * cos_psi),
+        metadata={k: v for k, v in log.metadata.items() if k not in ("gnss_x_m", "gnss_y_m")},
+    )
 
 
 def format_log(log: ManeuverLog) -> str:
@@ -566,13 +609,13 @@ def _parse_length_m(text: str, path: str | None, line: int | None) -> float:
     return value
 
 
-def _parse_speed_log_x_m(text: str, path: str | None, line: int | None) -> float:
-    """Return the ``speed_log_x_m`` metadata value [m], or raise LogFormatError."""
+def _parse_on_board(key: str, text: str, path: str | None, line: int | None) -> float:
+    """Return a position-on-board metadata value [m] (:data:`ON_BOARD_KEYS`), or raise."""
     value = float(text) if NUMBER.fullmatch(text) else math.nan
-    if not (math.isfinite(value) and abs(value) <= MAX_SPEED_LOG_X_M):
-        what = f"the speed log's position forward of midship within ±{MAX_SPEED_LOG_X_M:g} m"
+    if not (math.isfinite(value) and abs(value) <= MAX_ON_BOARD_M):
+        what = f"{ON_BOARD_KEYS[key]} within ±{MAX_ON_BOARD_M:g} m"
         raise LogFormatError(
-            f"metadata 'speed_log_x_m': expected {what}, got {show(text)}",
+            f"metadata {key!r}: expected {what}, got {show(text)}",
             path=path,
             line=line,
             expected=what,
@@ -655,8 +698,8 @@ class _Parser:
             )
         if key == "length_m":
             _parse_length_m(value, path=self.path, line=number)
-        if key == "speed_log_x_m":
-            _parse_speed_log_x_m(value, path=self.path, line=number)
+        if key in ON_BOARD_KEYS:
+            _parse_on_board(key, value, path=self.path, line=number)
         problem = text_problem(value) if key == "vessel" else None
         if problem is not None:  # the name of the FMU: XML and a C string
             raise self.error(f"metadata 'vessel': {problem}", number, expected="printable text")

@@ -23,7 +23,7 @@ from identifier.ingest import (
     output_paths,
 )
 from trials.errors import LogFormatError
-from trials.logs import MAX_SPEED_LOG_X_M, MIN_SAMPLES, write_log
+from trials.logs import MAX_ON_BOARD_M, MIN_SAMPLES, ON_BOARD_KEYS, write_log
 
 __all__ = ["add_parser", "run"]
 
@@ -77,9 +77,23 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
         help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g}",
     )
+    on_board = argtypes.within(-MAX_ON_BOARD_M, MAX_ON_BOARD_M, "m")
+    convert.add_argument(
+        "--gnss-x-m",
+        type=on_board,
+        metavar="X",
+        help="the GNSS antenna's position forward of midship [m] (the fixes are its), "
+        "written as '# gnss_x_m:'; fit reduces the positions to midship",
+    )
+    convert.add_argument(
+        "--gnss-y-m",
+        type=on_board,
+        metavar="Y",
+        help="the GNSS antenna's position to starboard of the centre line [m], '# gnss_y_m:'",
+    )
     convert.add_argument(
         "--speed-log-x-m",
-        type=argtypes.within(-MAX_SPEED_LOG_X_M, MAX_SPEED_LOG_X_M, "m"),
+        type=on_board,
         metavar="X",
         help="a two-axis speed log's position forward of midship [m] (NMEA VBW's transverse "
         "water speed is measured there), written as '# speed_log_x_m:'",
@@ -155,7 +169,9 @@ def run(args: argparse.Namespace) -> int:
                 min_samples=args.min_samples,
                 vessel=args.vessel,
                 length_m=args.length_m,
-                speed_log_x_m=args.speed_log_x_m,
+                on_board={
+                    key: value for key in ON_BOARD_KEYS if (value := getattr(args, key)) is not None
+                },
                 shaft=args.shaft,
                 require_checksum=not args.allow_missing_checksum,
             )

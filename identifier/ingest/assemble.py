@@ -377,8 +377,7 @@ def _metadata(
         metadata["vessel"] = options.vessel
     if options.length_m is not None:
         metadata["length_m"] = repr(options.length_m)
-    if options.speed_log_x_m is not None:
-        metadata["speed_log_x_m"] = repr(options.speed_log_x_m)
+    metadata.update((key, repr(value)) for key, value in options.on_board.items())
     metadata["source"] = source
     metadata["origin_lat_deg"] = repr(plane.origin_lat_deg)
     metadata["origin_lon_deg"] = repr(plane.origin_lon_deg)

@@ -10,6 +10,7 @@ logs are written to.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Final, Literal
 
@@ -52,7 +53,7 @@ def convert_file(
     length_m: float | None = None,
     shaft: int | None = None,
     require_checksum: bool = True,
-    speed_log_x_m: float | None = None,
+    on_board: Mapping[str, float] | None = None,
 ) -> ConversionResult:
     """Convert an NMEA 0183 or latitude/longitude CSV file (detected from its content).
 
@@ -67,8 +68,10 @@ def convert_file(
     heading_unit : {"deg", "rad"} or None
         CSV only, as for :func:`convert_latlon_csv`; noted and ignored for NMEA,
         whose headings are degrees.
-    shaft, require_checksum, speed_log_x_m
+    shaft, require_checksum
         NMEA only, as for :func:`convert_nmea`.
+    on_board
+        As for :func:`convert_nmea`.
 
     Returns
     -------
@@ -88,7 +91,7 @@ def convert_file(
     raw = read_bytes(name, "recording")
     kind = detect_format(raw, name) if input_format == "auto" else input_format
     options = Options.make(
-        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, speed_log_x_m
+        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board
     )
     if kind == "nmea":
         recording = read_nmea(name, raw, options.rudder_sign, shaft, require_checksum)
@@ -114,7 +117,7 @@ def convert_nmea(
     length_m: float | None = None,
     shaft: int | None = None,
     require_checksum: bool = True,
-    speed_log_x_m: float | None = None,
+    on_board: Mapping[str, float] | None = None,
 ) -> ConversionResult:
     """Convert an NMEA 0183 recording into trial logs (rules: :mod:`identifier.ingest.nmea`).
 
@@ -143,14 +146,16 @@ def convert_nmea(
         sentences name several shafts).
     require_checksum : bool
         Skip sentences without a ``*hh`` checksum (default True).
-    speed_log_x_m : float or None
-        A two-axis speed log's position forward of midship [m] (where VBW's transverse
-        water speed is measured), written as ``# speed_log_x_m:`` when given.
+    on_board : mapping of str to float, optional
+        Positions on board [m] by their metadata key (``trials.logs.ON_BOARD_KEYS``: the
+        GNSS antenna's, ``gnss_x_m`` and ``gnss_y_m``, where the fixes are; a two-axis
+        speed log's, ``speed_log_x_m``, where VBW's transverse water speed is), written
+        as ``# key:`` lines.
 
     Returns
     -------
     ConversionResult
-        Logs (metadata ``vessel``, ``length_m``, ``speed_log_x_m``, ``source``, ``origin_lat_deg``,
+        Logs (metadata ``vessel``, ``length_m``, ``on_board``'s, ``source``, ``origin_lat_deg``,
         ``origin_lon_deg``, ``time_origin_utc``, ``projection``), the counts of
         skipped lines and checksum failures, the gaps and notes.
 
@@ -166,7 +171,7 @@ def convert_nmea(
     """
     name = os.fspath(path)
     options = Options.make(
-        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, speed_log_x_m
+        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board
     )
     recording = read_nmea(
         name, read_bytes(name, "recording"), options.rudder_sign, shaft, require_checksum
@@ -184,6 +189,7 @@ def convert_latlon_csv(
     min_samples: int = MIN_SAMPLES,
     vessel: str | None = None,
     length_m: float | None = None,
+    on_board: Mapping[str, float] | None = None,
 ) -> ConversionResult:
     """Convert a CSV file with latitude/longitude columns into trial logs.
 
@@ -198,7 +204,7 @@ def convert_latlon_csv(
         Unit of a ``heading`` column. None (default): degrees, and the unit of
         ``heading_deg`` / ``heading_rad`` from the name. A unit that contradicts the
         column name is an error.
-    rate_hz, max_gap_s, min_samples, vessel, length_m
+    rate_hz, max_gap_s, min_samples, vessel, length_m, on_board
         As for :func:`convert_nmea`.
 
     Returns
@@ -218,7 +224,9 @@ def convert_latlon_csv(
 
     """
     name = os.fspath(path)
-    options = Options.make(rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m)
+    options = Options.make(
+        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board
+    )
     recording = read_latlon_csv(
         name, read_bytes(name, "recording"), options.rudder_sign, heading_unit
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Final, Literal
 
@@ -18,7 +19,7 @@ import numpy.typing as npt
 
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from fmu_model.params import text_problem
-from trials.logs import MAX_SPEED_LOG_X_M, ManeuverLog
+from trials.logs import MAX_ON_BOARD_M, ON_BOARD_KEYS, ManeuverLog
 
 __all__ = [
     "DEFAULT_MAX_GAP_S",
@@ -123,7 +124,8 @@ class Options:
 
     Made by :meth:`make`; the fields are the arguments of
     :func:`~identifier.ingest.convert_nmea` of the same names (``rate_hz`` [Hz],
-    ``max_gap_s`` [s], ``length_m`` [m], ``speed_log_x_m`` [m]).
+    ``max_gap_s`` [s], ``length_m`` [m], ``on_board`` [m]: positions on board by their
+    metadata key, ``trials.logs.ON_BOARD_KEYS``).
     """
 
     rudder_positive: RudderPositive
@@ -132,7 +134,7 @@ class Options:
     min_samples: int
     vessel: str | None
     length_m: float | None
-    speed_log_x_m: float | None = None
+    on_board: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def rudder_sign(self) -> float:
@@ -148,7 +150,7 @@ class Options:
         min_samples: int,
         vessel: str | None,
         length_m: float | None,
-        speed_log_x_m: float | None = None,
+        on_board: Mapping[str, float] | None = None,
     ) -> Options:
         """Check the settings; raise ValueError naming the bad one."""
         if rudder_positive not in ("starboard", "port"):
@@ -175,11 +177,12 @@ class Options:
                 f"length_m must be a ship length from {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} m, "
                 f"got {length_m!r}"
             )
-        if speed_log_x_m is not None and not abs(speed_log_x_m) <= MAX_SPEED_LOG_X_M:
-            raise ValueError(
-                f"speed_log_x_m must be a position within ±{MAX_SPEED_LOG_X_M:g} m, "
-                f"got {speed_log_x_m!r}"
-            )
+        for key, value in (on_board or {}).items():
+            if key not in ON_BOARD_KEYS or not abs(value) <= MAX_ON_BOARD_M:
+                raise ValueError(
+                    f"on_board: expected positions within ±{MAX_ON_BOARD_M:g} m of "
+                    f"{', '.join(ON_BOARD_KEYS)}, got {key!r}: {value!r}"
+                )
         return cls(
             rudder_positive,
             None if rate_hz is None else float(rate_hz),
@@ -187,7 +190,7 @@ class Options:
             min_samples,
             vessel,
             None if length_m is None else float(length_m),
-            None if speed_log_x_m is None else float(speed_log_x_m),
+            {key: float(value) for key, value in (on_board or {}).items()},
         )
 
 

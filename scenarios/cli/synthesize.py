@@ -25,7 +25,7 @@ from scenarios.synthesize import (
     synthesize_logs,
     write_windage,
 )
-from trials.logs import MAX_SPEED_LOG_X_M
+from trials.logs import MAX_ON_BOARD_M
 
 __all__ = ["add_synthesize_command", "check_synthesize_usage", "run_synthesize_command"]
 
@@ -67,6 +67,22 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
         "--seed", type=argtypes.count(0), default=0, help="run seed; each manoeuvre derives its own"
     )
     p.add_argument("--approach-s", type=argtypes.non_negative, default=60.0, help="approach [s]")
+    on_board = argtypes.within(-MAX_ON_BOARD_M, MAX_ON_BOARD_M, "m")
+    p.add_argument(
+        "--gnss-x-m",
+        type=on_board,
+        default=0.0,
+        metavar="X",
+        help="the GNSS antenna's position forward of midship [m] (the logged positions are "
+        "its; default 0)",
+    )
+    p.add_argument(
+        "--gnss-y-m",
+        type=on_board,
+        default=0.0,
+        metavar="Y",
+        help="the GNSS antenna's position to starboard of the centre line [m] (default 0)",
+    )
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     sea = p.add_argument_group(
         "at sea",
@@ -102,7 +118,7 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
     )
     sea.add_argument(
         "--speed-log-x-m",
-        type=argtypes.within(-MAX_SPEED_LOG_X_M, MAX_SPEED_LOG_X_M, "m"),
+        type=argtypes.within(-MAX_ON_BOARD_M, MAX_ON_BOARD_M, "m"),
         metavar="X",
         help="a two-axis log's position forward of midship [m] (default 0, amidships)",
     )
@@ -210,6 +226,8 @@ def run_synthesize_command(args: argparse.Namespace) -> int:
             environment=_environment(args),
             speed_log_axes=args.speed_log_axes or 1,
             speed_log_x_m=args.speed_log_x_m or 0.0,
+            gnss_x_m=args.gnss_x_m,
+            gnss_y_m=args.gnss_y_m,
             on_log=lambda _path: bar.update(1),
         )
     finally:
