@@ -21,6 +21,7 @@ from matplotlib.figure import Figure
 
 from fmu_model.atomic import write_atomic
 from identifier.identify import IdentificationResult
+from trials.logs import at_midship
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -32,10 +33,14 @@ def _save(fig: Figure, path: Path) -> Path:
 
 
 def track_figure(result: IdentificationResult) -> Figure:
-    """Plot the raw and smoothed track (North up) and heading of every log."""
+    """Plot the raw and smoothed track (North up) and heading of every log.
+
+    The raw track at midship, as the smoothed one (``trials.logs.at_midship``).
+    """
     n = len(result.logs)
     fig, axes = plt.subplots(2, n, figsize=(4.5 * n, 8), squeeze=False)
-    for i, (log, track) in enumerate(zip(result.logs, result.tracks, strict=True)):
+    for i, (given, track) in enumerate(zip(result.logs, result.tracks, strict=True)):
+        log = at_midship(given)
         ax = axes[0, i]
         ax.plot(log.y_m, log.x_m, ".", ms=2, color="0.6", label="logged")
         ax.plot(track.y_m, track.x_m, "-", lw=1.2, color="C0", label="smoothed")
