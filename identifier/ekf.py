@@ -31,8 +31,8 @@ one more augmented state (:class:`SpeedLogMeasurement`), updated after the track
 (sequential updates: the two noises are independent); a two-axis log's transverse axis
 (``EkfSegment.speed_log_transverse_mps``) a fifth, (1 + k)(v + x_L r) + ε' at the log's
 position x_L forward of midship, with the same k (one log, one calibration: a Doppler
-log's is the speed of sound in the water). An innovation
-beyond :data:`SPEED_LOG_GATE_NIS` is a spike or a drop-out, not taken.
+log's is the speed of sound in the water). An innovation beyond
+:data:`SPEED_LOG_GATE_NIS` is a spike or a drop-out, not taken.
 
 Several logs are processed in one identification: the motion states restart at each
 log's first (smoothed) sample, θ and its covariance carry over.
@@ -556,9 +556,8 @@ _STATUS_MESSAGES = {
 def _ekf_pass(
     phi_fn, grad_fn, kin_fn, kin_grad_fn, eq_index, constants, max_substep, q_interval,
     offset, t, y, r_var, rudder, n_rps, known, speed_log, speed_log_var, speed_log_x, x, P,
-    q_state,
-    q_theta, variance_limit, stride, track, states, theta_hist, std_hist, square_sums,
-    speed_log_counts,
+    q_state, q_theta, variance_limit, stride, track, states, theta_hist, std_hist,
+    square_sums, speed_log_counts,
 ):  # fmt: skip
     """One segment of the EKF, eq. (4)-(5), in place on x and P; returns (status, sample).
 
@@ -569,10 +568,9 @@ def _ekf_pass(
     variances of row k of ``r_var`` (its only row when it has one), then with k the
     speed log ``speed_log`` (N, 2: its longitudinal and transverse axes, NaN where it has
     none; one row: none) of variances ``speed_log_var`` (2,), the transverse one at
-    ``speed_log_x`` [m] forward of midship, gated by
-    :data:`SPEED_LOG_GATE_NIS` (``speed_log_counts`` += taken, rejected of each axis); the
-    motion states'
-    process noise over a step of T is ``q_state`` · T · max(T, ``q_interval``), θ's
+    ``speed_log_x`` [m] forward of midship, gated by :data:`SPEED_LOG_GATE_NIS`
+    (``speed_log_counts`` += taken, rejected of each axis); the motion states' process
+    noise over a step of T is ``q_state`` · T · max(T, ``q_interval``), θ's
     ``q_theta`` · T / max(T, ``q_interval``) (a current's ``q_theta`` per step). The
     motion states and θ with its standard deviations after the updates at samples 0,
     stride, … go to ``states``, ``theta_hist`` and ``std_hist``; ``known`` (N, 3) are

@@ -346,6 +346,7 @@ def logged_condition(log: ManeuverLog, *, max_time_s: float = 3600.0) -> LoggedC
         rudder transitions are not resolved.
 
     """
+    log = at_midship(log)  # the approach speed of the midship point, as the model's
     kind = maneuver_kind(log)
     k = execute_index(log)
     if kind is None or k >= log.n_samples - 1:
