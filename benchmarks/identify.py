@@ -50,6 +50,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -148,7 +149,8 @@ def segments(logs: Sequence[ManeuverLog]) -> list[EkfSegment]:
                 initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
                 rudder_rad=log.rudder_rad,
                 n_rps=log.n_rps,
-                speed_log_mps=track.u_mps,  # measured only by the speed-log row
+                speed_log_mps=track.u_mps,  # measured only by the speed-log rows
+                speed_log_transverse_mps=track.v_mps,  # only by the two-axis row
             )
         )
     return result
@@ -161,13 +163,15 @@ def ekf_rate(
     max_substep_s: float,
     *,
     current: bool = False,
-    speed_log: bool = False,
+    speed_log_axes: int = 0,
 ) -> tuple[float, float]:
     """(first-call seconds, updates per second of a later call) of ``ekf_identify``.
 
-    ``current``: a current estimated (from 0, σ 1 m/s); ``speed_log``: and the segments'
-    speed logs measured (noise 0.05 m/s, scale error σ 1 %).
+    ``current``: a current estimated (from 0, σ 1 m/s); ``speed_log_axes``: and that many
+    axes of the segments' speed logs measured (noise 0.05 m/s, scale error σ 1 %).
     """
+    if speed_log_axes < 2:
+        segs = [replace(seg, speed_log_transverse_mps=None) for seg in segs]
     ls = equation_error_fit(get_model(MODEL), segs, length_m)
     settings = EkfSettings(
         state_process_std=(
@@ -191,7 +195,9 @@ def ekf_rate(
             settings,
             current0=np.zeros(2) if current else None,
             current_covariance0=np.eye(2) if current else None,
-            speed_log=SpeedLogMeasurement(0.05, 0.01) if speed_log else None,
+            speed_log=SpeedLogMeasurement(0.05, 0.01, 0.05 if speed_log_axes == 2 else None)
+            if speed_log_axes
+            else None,
         )
         return time.perf_counter() - start
 
@@ -350,14 +356,15 @@ def throughput(rate_hz: float) -> float | None:
     segs = segments(logs)
     compile_s = None
     rates = {}
-    for label, measurements, substep, current, speed_log in (
-        ("EKF velocities, 1 step/sample", "velocities", math.inf, False, False),
-        ("EKF track, substeps <= 0.1 s", "track", 0.1, False, False),
-        ("  + a current", "track", 0.1, True, False),
-        ("  + a current and a speed log", "track", 0.1, True, True),
+    for label, measurements, substep, current, axes in (
+        ("EKF velocities, 1 step/sample", "velocities", math.inf, False, 0),
+        ("EKF track, substeps <= 0.1 s", "track", 0.1, False, 0),
+        ("  + a current", "track", 0.1, True, 0),
+        ("  + a current and a speed log", "track", 0.1, True, 1),
+        ("  + ... a two-axis speed log", "track", 0.1, True, 2),
     ):
         first, rate = ekf_rate(
-            segs, length_m, measurements, substep, current=current, speed_log=speed_log
+            segs, length_m, measurements, substep, current=current, speed_log_axes=axes
         )
         rates[label] = rate
         if compile_s is None:
@@ -369,6 +376,8 @@ def throughput(rate_hz: float) -> float | None:
         )
     ratio = rates["  + a current"] / rates["  + a current and a speed log"]
     print(f"  time with the speed log / without (a current in both): {ratio:.2f}")
+    ratio = rates["  + a current and a speed log"] / rates["  + ... a two-axis speed log"]
+    print(f"  time with two axes of the speed log / one: {ratio:.2f}")
     return compile_s
 
 

@@ -403,6 +403,10 @@ def ekf_identify(
         q_theta = np.append(q_theta, 0.0)
         variance_limit = np.append(variance_limit, settings.divergence_factor * k_var)
         transverse_std = speed_log.transverse_noise_std_mps
+        if transverse_std is None and any(
+            seg.speed_log_transverse_mps is not None for seg in segments
+        ):
+            raise ValueError("a transverse speed-log axis needs transverse_noise_std_mps")
         speed_log_var[:] = speed_log.noise_std_mps**2, (transverse_std or 0.0) ** 2
     speed_log_counts = np.zeros(4, dtype=np.int64)  # taken, rejected of each axis
     # Model error enters the accelerations; the kinematics are exact.

@@ -17,7 +17,13 @@ from fmu_model.kernels import kernel_constants, kernel_module
 from identifier import ekf as ekf_module
 from identifier import equation_error, smoothing
 from identifier import identify as identify_module
-from identifier.ekf import EkfSegment, EkfSettings, ekf_identify, sample_windows
+from identifier.ekf import (
+    EkfSegment,
+    EkfSettings,
+    SpeedLogMeasurement,
+    ekf_identify,
+    sample_windows,
+)
 from identifier.equation_error import (
     NormalEquations,
     decimation,
@@ -257,6 +263,41 @@ def test_a_failing_ekf_names_the_same_sample_in_chunks(monkeypatch: pytest.Monke
             ekf_identify(structure, [broken], ls.theta, ls.covariance * 100.0, 100.0)
         samples.append(info.value.sample)
     assert samples == [100, 100]
+
+
+def test_a_two_axis_speed_log_in_chunks_is_the_one_pass(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Both axes of a speed log cut with the chunks: θ, current and counts as in one pass."""
+    segment = _segment(_seed_log())
+    two_axis = dataclasses.replace(
+        segment,
+        speed_log_mps=segment.velocities[:, 0].copy(),
+        speed_log_transverse_mps=segment.velocities[:, 1] + 0.5 * segment.velocities[:, 2],
+        speed_log_x_m=0.5,
+    )
+    structure = get_model("shi2009")
+    ls = equation_error_fit(structure, [segment], 100.0)
+    runs = {}
+    for chunk in (10**9, 37):
+        monkeypatch.setattr(ekf_module, "EKF_CHUNK_SAMPLES", chunk)
+        runs[chunk] = ekf_identify(
+            structure, [two_axis], ls.theta, ls.covariance * 100.0, 100.0,
+            current0=np.zeros(2), current_covariance0=np.eye(2),
+            speed_log=SpeedLogMeasurement(0.05, 0.01, 0.05),
+        )  # fmt: skip
+    whole, chunked = runs[10**9], runs[37]
+    np.testing.assert_array_equal(chunked.theta, whole.theta)
+    assert chunked.current is not None and whole.current is not None
+    np.testing.assert_array_equal(chunked.current, whole.current)
+    n = two_axis.time_s.size - 1
+    assert whole.speed_log_samples[0] + whole.speed_log_samples[1] == n
+    assert chunked.speed_log_transverse_samples == whole.speed_log_transverse_samples
+    assert sum(whole.speed_log_transverse_samples) == n
+    with pytest.raises(ValueError, match="a transverse speed-log axis needs"):
+        ekf_identify(
+            structure, [two_axis], ls.theta, ls.covariance * 100.0, 100.0,
+            current0=np.zeros(2), current_covariance0=np.eye(2),
+            speed_log=SpeedLogMeasurement(0.05, 0.01),
+        )  # fmt: skip
 
 
 def test_same_coefficients_as_the_in_memory_path_within_a_tenth_sigma(
