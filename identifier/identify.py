@@ -867,10 +867,11 @@ def _smooth(
         name = _log_name(given, i)
         log = at_midship(given)  # the GNSS antenna's track reduced to the model's origin
         if log is not given:
+            along, across = (given.on_board_m(key) or 0.0 for key in ("gnss_x_m", "gnss_y_m"))
             notes.append(
-                f"{name}: positions reduced from the GNSS antenna at "
-                f"({given.on_board_m('gnss_x_m') or 0.0:g} m forward, "
-                f"{given.on_board_m('gnss_y_m') or 0.0:g} m to starboard) to midship"
+                f"{name}: positions reduced to midship from the GNSS antenna's, "
+                f"{abs(along):g} m {'aft' if along < 0.0 else 'forward'} and "
+                f"{abs(across):g} m to {'port' if across < 0.0 else 'starboard'}"
             )
         _check_sampling(log, name)
         stage(f"smoothing {Path(name).name}")

@@ -116,7 +116,7 @@ def test_identification_from_the_bridge_equals_the_midship_one() -> None:
         for g in bridge
     ]
     fits = [identify(logs, settings) for logs in (midship, bridge, ignored)]
-    assert any("positions reduced from the GNSS antenna at (-128 m forward" in n
+    assert any("positions reduced to midship from the GNSS antenna's, 128 m aft and 0 m" in n
                for n in fits[1].notes)  # fmt: skip
     # The 35° turn they predict: the reduced fit's within 1 % of the midship fit's (the
     # heading noise moves the reduced positions by 0.1° × 128 m = 0.2 m); taken as
