@@ -781,6 +781,9 @@ def identify(
         helm_note = _neutral_helm_note(data.logs, settings.model)
         if helm_note is not None:
             data = replace(data, notes=(*data.notes, helm_note))
+        if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):
+            unused = "the speed log (stw_mps) is measured with a current only: not used here"
+            data = replace(data, notes=(*data.notes, f"{unused} (--current none)"))
         result = _fit(data, settings, length, vessel, progress, stage)
         fixed_slope = fixed_thrust_model(settings.model)
         if fixed_slope is None or thrust_warning(result.params) is None:

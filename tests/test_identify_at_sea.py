@@ -371,6 +371,17 @@ def test_a_two_axis_log_forward_measures_the_yaw_rate_there(calm_logs: list[Mane
                for w in blind.warnings) == len(logs)  # fmt: skip
 
 
+def test_still_water_says_the_speed_log_is_not_used(
+    calm_logs: list[ManeuverLog], in_current_ignored: IdentificationResult
+) -> None:
+    zigzags = calm_logs[1:]
+    logs = [_with_speed_log(g, g, 0.0, i) for i, g in enumerate(zigzags)]
+    still = identify(logs, replace(SEED, current="none"))
+    unused = "the speed log (stw_mps) is measured with a current only: not used here"
+    assert f"{unused} (--current none)" in still.notes
+    assert not any(unused in note for note in in_current_ignored.notes)  # no log, no note
+
+
 def test_the_huber_loss_of_the_speed_log_fit_has_a_threshold_per_residual() -> None:
     """ρ(z) = z within t², 2t√z − t² beyond; ρ' and ρ'' its derivatives (finite differences)."""
     threshold = np.array([1.0, 0.5, 2.0, np.inf])
