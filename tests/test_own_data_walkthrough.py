@@ -58,3 +58,49 @@ def test_nmea_recording_to_a_validated_fmu(tmp_path: Path) -> None:
         "turning-35-port",
         "zigzag-20-20-stbd",
     }
+
+
+def test_a_sea_trial_recording_with_a_bridge_antenna_and_a_doppler_log(tmp_path: Path) -> None:
+    """NMEA at sea: fixes 128 m aft (the bridge), VBW from a two-axis log 128 m forward.
+
+    Converted with both places, fitted: the current found, both log axes measured, the
+    track reduced to midship; converted without the log's place, its transverse axis
+    is left out and the fit says so.
+    """
+    for maneuver in ("zigzag-10", "zigzag-20"):
+        _run(
+            str(ROOT / "examples/own_data/record_nmea.py"), "--maneuver", maneuver,
+            "--current-mps", "0.5", "--current-to-deg", "45", "--gnss-x-m", "-128",
+            "--speed-log-x-m", "128", "-o", f"recordings/{maneuver}.nmea",
+            cwd=tmp_path,
+        )  # fmt: skip
+    recordings = ["recordings/zigzag-10.nmea", "recordings/zigzag-20.nmea"]
+    _run(
+        "-m", "identifier", "convert", *recordings, "--vessel", "my-tanker",
+        "--length-m", "320", "--gnss-x-m", "-128", "--speed-log-x-m", "128", "-o", "logs/",
+        "--quiet",
+        cwd=tmp_path,
+    )  # fmt: skip
+    logs = ["logs/zigzag-10_1.csv", "logs/zigzag-20_1.csv"]
+    fit = _run(
+        "-m", "identifier", "fit", *logs, "--method", "ekf", "-o", "build/params.json",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert "positions reduced to midship from the GNSS antenna's, 128 m aft" in fit.stderr
+    environment = json.loads((tmp_path / "build/params.json").read_text())["identification"][
+        "environment"
+    ]
+    assert abs(environment["current_speed_mps"] - 0.5) < 0.02
+    assert abs(environment["current_to_deg"] - 45.0) < 3.0
+    assert environment["speed_log"]["transverse_samples"] > 2000
+    _run(
+        "-m", "identifier", "convert", *recordings, "--vessel", "my-tanker",
+        "--length-m", "320", "--gnss-x-m", "-128", "-o", "unplaced/", "--quiet",
+        cwd=tmp_path,
+    )  # fmt: skip
+    blind = _run(
+        "-m", "identifier", "fit", "unplaced/zigzag-10_1.csv", "unplaced/zigzag-20_1.csv",
+        "--method", "ekf", "-o", "build/blind.json",
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert blind.stderr.count("transverse axis (stw_transverse_mps) was not used") == 2

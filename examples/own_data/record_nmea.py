@@ -4,9 +4,14 @@ Stands in for "your own trial data" in the README walkthrough: the KVLCC2 refere
 ship plays a manoeuvre (``scenarios.synthesize``), and its noisy track is written as
 GGA + RMC position fixes on WGS84 (through the inverse of the azimuthal equidistant
 plane that ``identifier convert`` uses), HDT heading, RSA rudder angle and RPM shaft
-speed, once per second, with checksums.
+speed, once per second, with checksums. At sea (``--current-mps C --current-to-deg D``)
+also VBW from a two-axis Doppler log at ``--speed-log-x-m`` forward of midship (water
+speeds only); with ``--gnss-x-m`` the fixes are those of an antenna that far forward
+(negative: aft, as a bridge's).
 
     python examples/own_data/record_nmea.py --maneuver zigzag-10 -o recordings/zz10.nmea
+    python examples/own_data/record_nmea.py --maneuver zigzag-10 --current-mps 0.5 \
+        --current-to-deg 45 --gnss-x-m -128 --speed-log-x-m 128 -o recordings/sea.nmea
 """
 
 from __future__ import annotations
@@ -20,10 +25,12 @@ from functools import reduce
 import pyproj
 
 from fmu_model.atomic import write_atomic
+from scenarios.sea import SeaEnvironment
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 
 ORIGIN_LAT_DEG, ORIGIN_LON_DEG = 63.4305, 10.3951  # Trondheimsfjorden
 START = dt.datetime(2024, 5, 17, 10, 0, 0, tzinfo=dt.UTC)
+KNOT_MPS = 1852.0 / 3600.0
 
 
 def _sentence(body: str) -> str:
@@ -39,9 +46,27 @@ def _angle(value_deg: float, degree_digits: int, hemispheres: str) -> tuple[str,
     return f"{degrees:0{degree_digits}d}{minutes:010.7f}", hemisphere
 
 
-def nmea_lines(maneuver: str, seed: int) -> list[str]:
-    """Return the NMEA sentences of one synthetic KVLCC2 manoeuvre."""
-    log = synthesize_log(reference_ship("kvlcc2", "full"), MANEUVERS[maneuver](), seed=seed)
+def nmea_lines(
+    maneuver: str,
+    seed: int,
+    *,
+    sea: SeaEnvironment | None = None,
+    gnss_x_m: float = 0.0,
+    speed_log_x_m: float = 0.0,
+) -> list[str]:
+    """Return the NMEA sentences of one synthetic KVLCC2 manoeuvre.
+
+    In ``sea`` with a two-axis speed log at ``speed_log_x_m`` forward of midship (VBW);
+    the fixes at ``gnss_x_m`` forward of midship.
+    """
+    log = synthesize_log(
+        reference_ship("kvlcc2", "full", sea),
+        MANEUVERS[maneuver](),
+        seed=seed,
+        speed_log_axes=2 if sea is not None else 1,
+        speed_log_x_m=speed_log_x_m,
+        gnss_x_m=gnss_x_m,
+    )
     plane = pyproj.Proj(
         f"+proj=aeqd +lat_0={ORIGIN_LAT_DEG} +lon_0={ORIGIN_LON_DEG} +datum=WGS84 +units=m"
     )
@@ -65,6 +90,9 @@ def nmea_lines(maneuver: str, seed: int) -> list[str]:
         lines.append(_sentence(f"HEHDT,{heading:.2f},T"))
         lines.append(_sentence(f"IIRSA,{math.degrees(float(log.rudder_rad[k])):.2f},A,,V"))
         lines.append(_sentence(f"IIRPM,S,0,{float(log.n_rps[k]) * 60.0:.1f},,A"))
+        if log.stw_mps is not None and log.stw_transverse_mps is not None:
+            along, across = (float(z[k]) / KNOT_MPS for z in (log.stw_mps, log.stw_transverse_mps))
+            lines.append(_sentence(f"VDVBW,{along:.3f},{across:.3f},A,,,V"))
     return lines
 
 
@@ -73,9 +101,21 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--maneuver", choices=sorted(MANEUVERS), default="zigzag-10")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--current-mps", type=float, help="a current (at sea: VBW too) [m/s]")
+    parser.add_argument("--current-to-deg", type=float, default=0.0, help="it sets towards")
+    parser.add_argument("--gnss-x-m", type=float, default=0.0, help="antenna forward [m]")
+    parser.add_argument("--speed-log-x-m", type=float, default=0.0, help="log forward [m]")
     parser.add_argument("-o", "--output", required=True)
     args = parser.parse_args(argv)
-    write_atomic(args.output, "\r\n".join(nmea_lines(args.maneuver, args.seed)) + "\r\n")
+    sea = None
+    if args.current_mps is not None:
+        sea = SeaEnvironment(
+            current_speed_mps=args.current_mps, current_to_rad=math.radians(args.current_to_deg)
+        )
+    lines = nmea_lines(
+        args.maneuver, args.seed, sea=sea, gnss_x_m=args.gnss_x_m, speed_log_x_m=args.speed_log_x_m
+    )
+    write_atomic(args.output, "\r\n".join(lines) + "\r\n")
     print(f"wrote {args.output}")
     return 0
 
