@@ -346,12 +346,12 @@ def test_a_two_axis_log_forward_measures_the_yaw_rate_there(calm_logs: list[Mane
     assert fit is not None
     std = np.sqrt(np.diag(fit.covariance))
     assert np.all(np.abs(fit.current_ne - CURRENT_NE) <= 3.0 * std), (fit, std)
-    # Taken as amidships, the yaw rate's share is the log's noise: twice as noisy or more.
+    # Taken as amidships, the yaw rate's share becomes the log's noise: ten times as much.
     amidships = [replace(g, metadata={**g.metadata, "speed_log_x_m": "0.0"}) for g in logs]
     wrong = speed_log_current(amidships, tracks)
     assert wrong is not None and wrong.transverse_noise_mps is not None
     assert fit.transverse_noise_mps is not None
-    assert wrong.transverse_noise_mps > 1.5 * fit.transverse_noise_mps
+    assert wrong.transverse_noise_mps > 5.0 * fit.transverse_noise_mps
     result = identify(logs, SEED)
     assert result.current is not None and result.current.speed_log_ekf is not None
     assert result.current.speed_log_ekf.transverse_rejected == 0
