@@ -1,7 +1,7 @@
 """Positions logged by a GNSS antenna away from midship, reduced to the midship point.
 
 A tanker's antenna is on the bridge, some 0.4 L aft of midship: in a hard turn that point
-moves sideways 0.8 m/s more than midship, and the IMO indices (and the models) are of the
+moves sideways 1.5 m/s more than midship, and the IMO indices (and the models) are of the
 midship point. The logs say where the antenna is (metadata ``gnss_x_m``, ``gnss_y_m``).
 """
 

@@ -331,7 +331,7 @@ def test_a_two_axis_log_shows_the_current_across_the_course_too(
 
 
 def test_a_two_axis_log_forward_measures_the_yaw_rate_there(calm_logs: list[ManeuverLog]) -> None:
-    """At 0.4 L forward a zig-zag's yaw rate adds ±0.1 m/s: modelled, not a current."""
+    """At 0.4 L forward a zig-zag's yaw rate adds up to 1 m/s: modelled, not a current."""
     zigzags = calm_logs[1:]
     length_m = zigzags[0].length_m
     assert length_m is not None
@@ -341,7 +341,7 @@ def test_a_two_axis_log_forward_measures_the_yaw_rate_there(calm_logs: list[Mane
         for i, g in enumerate(zigzags)
     ]
     tracks = [smooth_track(g.time_s, g.x_m, g.y_m, g.heading_rad) for g in logs]
-    assert max(bow * float(np.max(np.abs(t.r_radps))) for t in tracks) > 0.1
+    assert max(bow * float(np.max(np.abs(t.r_radps))) for t in tracks) > 0.5
     fit = speed_log_current(logs, tracks)
     assert fit is not None
     std = np.sqrt(np.diag(fit.covariance))

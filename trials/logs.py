@@ -69,7 +69,7 @@ Positions on board (metadata, metres from midship, the models' origin; within
 ±:data:`MAX_ON_BOARD_M`): ``speed_log_x_m`` above, and ``gnss_x_m`` (forward), ``gnss_y_m``
 (to starboard), the GNSS antenna's: ``x_m``, ``y_m`` are then the antenna's positions,
 which :func:`at_midship` reduces to the midship point's (a bridge antenna 0.4 L aft of a
-tanker's midship moves 0.8 m/s sideways more than midship in a hard turn).
+tanker's midship moves 1.5 m/s sideways more than midship in a hard turn).
 
 Every violation raises :class:`~trials.errors.LogFormatError` with the file,
 the 1-based line number (None for whole-file problems), the column where one
