@@ -45,7 +45,7 @@ from identifier import cli as identifier_cli
 from scenarios import cli as scenarios_cli
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
-from trials.logs import format_log
+from trials.logs import ON_BOARD_KEYS, format_log
 
 # Most CPU time a command may take on one example [s]: more is a hang (a loop), reported
 # as a failure rather than stalling the suite. CPU, not wall-clock, time: a machine busy
@@ -315,6 +315,20 @@ def test_fit_any_number_in_the_log(
     _fit(_edited_log(log_lines, *edit), [], capfd)
 
 
+@_examples(12)
+@given(key=st.sampled_from(sorted(ON_BOARD_KEYS)), data=st.data())
+def test_fit_any_number_as_a_position_on_board(
+    key: str,
+    data: st.DataObject,
+    log_lines: list[str],
+    warm: None,
+    capfd: pytest.CaptureFixture[str],
+) -> None:
+    """The GNSS antenna's (or a speed log's) place in the metadata: any number."""
+    word = data.draw(numbers(-200.0, 200.0), label="value")
+    _fit("\n".join([f"# {key}: {word}", *log_lines]) + "\n", [], capfd)
+
+
 @_examples(30)
 @given(option=st.sampled_from(sorted(FIT_OPTIONS)), data=st.data())
 def test_fit_any_number_in_its_options(
@@ -338,7 +352,13 @@ LATLON_RANGES = {
     "rudder_deg": (-35.0, 35.0),
     "rpm": (0.0, 200.0),
 }
-CONVERT_OPTIONS = {"--rate-hz": (0.1, 20.0), "--length-m": (0.5, 500.0)}
+CONVERT_OPTIONS = {
+    "--rate-hz": (0.1, 20.0),
+    "--length-m": (0.5, 500.0),
+    "--gnss-x-m": (-200.0, 200.0),
+    "--gnss-y-m": (-30.0, 30.0),
+    "--speed-log-x-m": (-200.0, 200.0),
+}
 N_FIXES = 30
 
 
