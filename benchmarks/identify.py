@@ -16,8 +16,9 @@ turning circle 35°, zig-zag 10/10 and 20/20, about 3,200 samples at 1 Hz and 32
   ≥ 20,000 updates/s; then the default with a current estimated (two more states) and
   with a speed log measured as well (its scale error one more state, a scalar update
   after the track's; the smoothed surge speed stands in for the log), and the ratio of
-  the two. The numba compilation (first call, with a new kernel cache) is excluded and
-  reported separately;
+  the two; then with a two-axis log (the smoothed sway speed for its transverse axis,
+  a second scalar update), and its ratio to one axis. The numba compilation (first
+  call, with a new kernel cache) is excluded and reported separately;
 * ``identifier.identify.identify`` of the three logs with the default model
   (``fmu_model.DEFAULT_MODEL``, shape search included) at 1 and at 10 Hz, end to end in a fresh
   process (numba compilation included), and the 10 Hz / 1 Hz ratio;
