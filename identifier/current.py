@@ -480,7 +480,12 @@ class _SpeedLogAxis:
         return cls._of(columns, lambda h: np.column_stack([-np.sin(h), np.cos(h)]))
 
     @classmethod
-    def _of(cls, columns: Sequence[tuple[Any, Any, Any]], rows: Any) -> _SpeedLogAxis:
+    def _of(
+        cls,
+        columns: Sequence[tuple[Any, Any, Any]],
+        rows: Callable[[np.ndarray], np.ndarray],
+    ) -> _SpeedLogAxis:
+        """Concatenate (measured, over ground, heading) per log; ``rows`` gives A of ψ."""
         measured = [np.asarray(m, dtype=float) for m, _, _ in columns]
         return cls(
             measured=np.concatenate(measured),

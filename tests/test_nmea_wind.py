@@ -218,21 +218,6 @@ def test_vbw_transverse_water_speed_is_positive_to_starboard(tmp_path: Path) -> 
     assert log.stw_transverse_mps[1] < 0.0  # to port, as the sentence says
 
 
-def test_the_transverse_speed_comes_from_the_water_speed_source_only(tmp_path: Path) -> None:
-    def extra(k: int) -> list[str]:
-        lines = [sentence("VWVHW,,T,,M,8.0,N,,K")]
-        if k % 4 == 0:
-            lines.append(sentence("VDVBW,9.0,0.4,A,8.0,0.1,A"))
-        return lines
-
-    result = convert_nmea(recording(tmp_path, extra))
-    assert result.logs[0].stw_transverse_mps is None
-    assert (
-        "transverse speed through the water of another source than the speed through the "
-        "water's (ignored): 5"
-    ) in result.notes
-
-
 def test_the_water_speed_source_with_most_samples_is_used(tmp_path: Path) -> None:
     def extra(k: int) -> list[str]:
         lines = [sentence("VWVHW,,T,,M,8.0,N,,K")]
@@ -247,6 +232,12 @@ def test_the_water_speed_source_with_most_samples_is_used(tmp_path: Path) -> Non
     assert f"speed through the water from VWVHW ({SECONDS}) used; ignored VDVBW (5)" in (
         result.notes
     )
+    # VBW's transverse axis belongs to VBW's log, not to the VHW log chosen: none.
+    assert log.stw_transverse_mps is None
+    assert (
+        "transverse speed through the water of another source than the speed through the "
+        "water's (ignored): 5"
+    ) in result.notes
 
 
 # --------------------------------------------------------------------------- coverage, CLI
