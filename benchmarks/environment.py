@@ -3,7 +3,7 @@
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
         [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf] [--same-noise]
-        [--calm-speed-log] [--speed-log-axes 1|2 [--speed-log-x-m X]]
+        [--calm-speed-log] [--speed-log-axes 1|2 [--speed-log-x-m X]] [--gnss-jump-pct P]
         [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
@@ -21,7 +21,10 @@ carry the same noise sample by sample (other noise than the default's). With
 ``--speed-log-axes 2`` the speed logs have a transverse axis too (a two-axis Doppler log's
 ``stw_transverse_mps``), at ``--speed-log-x-m`` forward of midship (default 0). With
 ``--position-noise-m 0.01 --heading-noise-deg 0.001`` what remains is the sea's own effect
-on the identification, without the noise's. Two fits:
+on the identification, without the noise's. With ``--gnss-jump-pct P`` P % of the fixes of
+the sea logs jump 50–1000 m (``scenarios.synthesize.with_gnss_jumps``), the calm logs'
+not; with ``--current-mps 0 --wind-mps 0`` the condition is calm water itself, so the
+rows compare the glitched logs with the clean ones (issue 14's glitch bar). Two fits:
 
 * ``default``: ``identify`` with the default settings (the current estimated, constant; the
   model family ``--model``, by default the default one; the procedure ``--method``, by
@@ -59,7 +62,14 @@ from fmu_model import DEFAULT_MODEL, model_names
 from identifier.identify import FitSettings, IdentificationResult, identify
 from scenarios.kvlcc2 import kvlcc2_windage
 from scenarios.sea import SeaEnvironment
-from scenarios.synthesize import MANEUVERS, TruthShip, reference_ship, synthesize_log
+from scenarios.synthesize import (
+    MANEUVERS,
+    TruthShip,
+    maneuver_seed,
+    reference_ship,
+    synthesize_log,
+    with_gnss_jumps,
+)
 from trials.logs import ManeuverLog
 from trials.run import ModelPlant
 
@@ -106,6 +116,7 @@ def training_logs(
     speed_log: bool = False,
     speed_log_axes: int = 1,
     speed_log_x_m: float = 0.0,
+    gnss_jump_fraction: float = 0.0,
 ) -> list[ManeuverLog]:
     """Sail the zig-zags of draw ``draw`` in ``condition``, logged at ``quality``.
 
@@ -113,17 +124,20 @@ def training_logs(
     calm-water logs carry the speed log too (sailed in a sea of no current and no wind,
     which moves the ship exactly as calm water does); at sea they always do.
     ``speed_log_axes``, ``speed_log_x_m``: the speed log's axes and, with two, its
-    position (``synthesize_log``).
+    position (``synthesize_log``). ``gnss_jump_fraction``: that share of the fixes jumps
+    (``scenarios.synthesize.with_gnss_jumps``, seeded by the log's noise seed).
     """
     environment = condition.environment()
     if environment is None and speed_log:
         environment = SeaEnvironment()
     ship = reference_ship("kvlcc2", "full", environment)
-    return [
-        synthesize_log(
+    logs = []
+    for name in TRAINING:
+        seed = 10 * draw + SEEDS[name]
+        log = synthesize_log(
             ship,
             MANEUVERS[name](),
-            seed=10 * draw + SEEDS[name],
+            seed=seed,
             rate_hz=quality.rate_hz,
             position_noise_m=quality.position_noise_m,
             heading_noise_deg=quality.heading_noise_deg,
@@ -131,8 +145,11 @@ def training_logs(
             speed_log_axes=speed_log_axes if environment is not None else 1,
             speed_log_x_m=speed_log_x_m,
         )
-        for name in TRAINING
-    ]
+        if gnss_jump_fraction > 0.0:
+            jumps_seed = maneuver_seed(seed, "gnss-jumps")
+            log = with_gnss_jumps(log, gnss_jump_fraction, jumps_seed)[0]
+        logs.append(log)
+    return logs
 
 
 def worst_differences(predicted: Indices, calm: Indices, truth: Indices) -> tuple[float, float]:
@@ -222,6 +239,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=0.0,
         help="a two-axis log's position forward of midship [m] (default 0)",
     )
+    parser.add_argument(
+        "--gnss-jump-pct",
+        type=float,
+        default=0.0,
+        help="that share of the sea logs' fixes jumps 50-1000 m [%%]; with no current and "
+        "no wind the calm logs themselves, glitched (issue 14's glitch bar)",
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
     quality = replace(
@@ -235,7 +259,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for c in currents
         for d in (directions if c else [0.0])
         for w in winds
-        if c or w
+        if c or w or args.gnss_jump_pct
     ]
     settings = FitSettings(model=args.model, method=args.method)
     same = args.same_noise
@@ -252,7 +276,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{', one noise generator per channel' if same else ''}"
         f"{'; the calm-water logs with a speed log too' if args.calm_speed_log else ''}"
         f"{'; two-axis speed logs' if args.speed_log_axes == 2 else ''}"
-        f"{f' at {args.speed_log_x_m:g} m forward' if args.speed_log_x_m else ''}; "
+        f"{f' at {args.speed_log_x_m:g} m forward' if args.speed_log_x_m else ''}"
+        f"{f'; {args.gnss_jump_pct:g} % GNSS jumps' if args.gnss_jump_pct else ''}; "
         f"model {args.model}, "
         f"method {args.method}). "
         "Columns: largest difference of a turning index [points] and of an overshoot "
@@ -290,6 +315,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 same_noise=same,
                 speed_log_axes=args.speed_log_axes,
                 speed_log_x_m=args.speed_log_x_m,
+                gnss_jump_fraction=args.gnss_jump_pct / 100.0,
             )
             start = time.perf_counter()
             sea = identify(logs, replace(settings, windage=windage))

@@ -309,6 +309,84 @@ def synthesize_log(
     )
 
 
+GNSS_JUMP_M = (50.0, 1000.0)
+"""Range of the GNSS jumps of :func:`with_gnss_jumps` [m] (issue 14: a receiver's
+single-sample jumps of tens to thousands of metres)."""
+COMPASS_SPIKE_DEG = (5.0, 180.0)
+"""Range of the compass spikes of :func:`with_compass_spikes` [deg]."""
+
+
+def _glitch_samples(log: ManeuverLog, fraction: float, rng: np.random.Generator) -> np.ndarray:
+    """Sorted distinct sample indices, ``round(fraction · n)`` of them, or raise ValueError."""
+    if not 0.0 <= fraction <= 1.0:
+        raise ValueError(f"the glitched fraction must be from 0 to 1, got {fraction!r}")
+    count = round(fraction * log.n_samples)
+    return np.sort(rng.choice(log.n_samples, count, replace=False))
+
+
+def with_gnss_jumps(log: ManeuverLog, fraction: float, seed: int) -> tuple[ManeuverLog, np.ndarray]:
+    """Replace ``fraction`` of the fixes by jumps of :data:`GNSS_JUMP_M` in any direction.
+
+    Each chosen sample's position moves by a distance uniform in :data:`GNSS_JUMP_M`
+    towards a uniform direction, the samples around it keep theirs: what a receiver's
+    multipath or a lost-and-found fix writes. The ``source`` metadata says so.
+
+    Parameters
+    ----------
+    log : ManeuverLog
+        The clean log.
+    fraction : float
+        Share of the samples to glitch, 0 to 1 (0.01: 1 %).
+    seed : int
+        Seed of the glitches' generator (same seed, same samples and jumps).
+
+    Returns
+    -------
+    tuple of ManeuverLog and numpy.ndarray
+        The log and the indices of the jumped samples.
+
+    """
+    rng = np.random.default_rng(seed)
+    index = _glitch_samples(log, fraction, rng)
+    distance = rng.uniform(*GNSS_JUMP_M, index.size)
+    direction = rng.uniform(0.0, 2.0 * math.pi, index.size)
+    x, y = log.x_m.copy(), log.y_m.copy()
+    x[index] += distance * np.cos(direction)
+    y[index] += distance * np.sin(direction)
+    low, high = GNSS_JUMP_M
+    note = f"GNSS jumps of {low:g}-{high:g} m on {index.size} samples (seed {seed})"
+    return replace(log, x_m=x, y_m=y, metadata=_noted(log, note)), index
+
+
+def with_compass_spikes(
+    log: ManeuverLog, fraction: float, seed: int
+) -> tuple[ManeuverLog, np.ndarray]:
+    """Add spikes of :data:`COMPASS_SPIKE_DEG`, either way, to ``fraction`` of the headings.
+
+    As :func:`with_gnss_jumps`, for the heading: what a gyro's serial line garbles.
+
+    Returns
+    -------
+    tuple of ManeuverLog and numpy.ndarray
+        The log and the indices of the spiked samples.
+
+    """
+    rng = np.random.default_rng(seed)
+    index = _glitch_samples(log, fraction, rng)
+    spike = np.radians(rng.uniform(*COMPASS_SPIKE_DEG, index.size))
+    heading = log.heading_rad.copy()
+    heading[index] += spike * rng.choice([-1.0, 1.0], index.size)
+    low, high = COMPASS_SPIKE_DEG
+    note = f"compass spikes of {low:g}-{high:g} deg on {index.size} samples (seed {seed})"
+    return replace(log, heading_rad=heading, metadata=_noted(log, note)), index
+
+
+def _noted(log: ManeuverLog, note: str) -> dict[str, str]:
+    """Return the metadata of ``log`` with ``note`` appended to its ``source``."""
+    source = log.metadata.get("source")
+    return {**log.metadata, "source": note if source is None else f"{source}; {note}"}
+
+
 def _noise_streams(seed: int, size: int, per_channel: bool) -> Iterator[np.ndarray]:
     """Yield standard normal noise of ``size`` samples for each channel in turn.
 
@@ -352,6 +430,8 @@ def synthesize_logs(
     speed_log_x_m: float = 0.0,
     gnss_x_m: float = 0.0,
     gnss_y_m: float = 0.0,
+    gnss_jump_fraction: float = 0.0,
+    compass_spike_fraction: float = 0.0,
     on_log: Callable[[Path], object] | None = None,
 ) -> list[Path]:
     """Write one synthetic trial log per manoeuvre, ``directory/<manoeuvre>.csv``.
@@ -376,6 +456,11 @@ def synthesize_logs(
         At sea, the speed log's axes and, with two, its position [m] (``synthesize_log``).
     gnss_x_m, gnss_y_m
         The GNSS antenna's position [m] (``synthesize_log``).
+    gnss_jump_fraction, compass_spike_fraction : float
+        Share of the samples with a GNSS jump (:func:`with_gnss_jumps`) and with a
+        compass spike (:func:`with_compass_spikes`), 0 to 1; seeded by
+        :func:`maneuver_seed` of ``seed`` and ``<manoeuvre>:gnss-jumps`` or
+        ``<manoeuvre>:compass-spikes``, so the clean channels stay those of ``seed``.
     on_log : callable, optional
         Called with each path written.
 
@@ -411,6 +496,14 @@ def synthesize_logs(
             gnss_x_m=gnss_x_m,
             gnss_y_m=gnss_y_m,
         )
+        if gnss_jump_fraction > 0.0:
+            log = with_gnss_jumps(
+                log, gnss_jump_fraction, maneuver_seed(seed, f"{name}:gnss-jumps")
+            )[0]
+        if compass_spike_fraction > 0.0:
+            log = with_compass_spikes(
+                log, compass_spike_fraction, maneuver_seed(seed, f"{name}:compass-spikes")
+            )[0]
         path = Path(directory) / f"{name}.csv"
         write_log(path, log)
         written.append(path)

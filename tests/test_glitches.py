@@ -39,7 +39,13 @@ from identifier.smoothing import (
     smooth_axis,
     smooth_track,
 )
-from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from scenarios.synthesize import (
+    MANEUVERS,
+    reference_ship,
+    synthesize_log,
+    with_compass_spikes,
+    with_gnss_jumps,
+)
 from trials.logs import ManeuverLog, read_log, write_log
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
@@ -76,29 +82,25 @@ def _select(log: ManeuverLog, keep: np.ndarray) -> ManeuverLog:
     )
 
 
-def _jumps(
-    log: ManeuverLog, fraction: float, seed: int, low_m: float = 50.0, high_m: float = 1000.0
-) -> tuple[ManeuverLog, np.ndarray]:
-    """Replace ``fraction`` of the fixes by jumps of low..high m in a random direction."""
-    rng = np.random.default_rng(seed)
-    index = np.sort(rng.choice(np.arange(log.n_samples), round(fraction * log.n_samples), False))
-    distance = rng.uniform(low_m, high_m, index.size)
-    direction = rng.uniform(0.0, 2.0 * np.pi, index.size)
-    x, y = log.x_m.copy(), log.y_m.copy()
-    x[index] += distance * np.cos(direction)
-    y[index] += distance * np.sin(direction)
-    return dataclasses.replace(log, x_m=x, y_m=y), index
-
-
-def _spikes(log: ManeuverLog, fraction: float, seed: int) -> tuple[ManeuverLog, np.ndarray]:
-    """Compass spikes of 5 to 180 deg, either way, on ``fraction`` of the samples."""
-    rng = np.random.default_rng(seed)
-    index = np.sort(rng.choice(np.arange(log.n_samples), round(fraction * log.n_samples), False))
-    heading = log.heading_rad.copy()
-    heading[index] += np.radians(rng.uniform(5.0, 180.0, index.size)) * rng.choice(
-        [-1.0, 1.0], index.size
+def test_the_synthetic_glitches_move_only_their_samples(clean: ManeuverLog) -> None:
+    log, index = with_gnss_jumps(clean, 0.01, 0)
+    assert index.size == round(0.01 * clean.n_samples) == 11 and np.unique(index).size == 11
+    jump = np.hypot(log.x_m - clean.x_m, log.y_m - clean.y_m)
+    assert np.all((jump[index] >= 50.0) & (jump[index] <= 1000.0))
+    assert np.count_nonzero(jump) == index.size
+    np.testing.assert_array_equal(log.heading_rad, clean.heading_rad)
+    assert log.metadata["source"] == (
+        clean.metadata["source"] + "; GNSS jumps of 50-1000 m on 11 samples (seed 0)"
     )
-    return dataclasses.replace(log, heading_rad=heading), index
+    again, _ = with_gnss_jumps(clean, 0.01, 0)
+    np.testing.assert_array_equal(again.x_m, log.x_m)
+    spiked, spikes = with_compass_spikes(clean, 0.02, 5)
+    spike = np.degrees(np.abs(spiked.heading_rad - clean.heading_rad))
+    assert spikes.size == 21 and np.count_nonzero(spike) == 21
+    assert np.all((spike[spikes] >= 5.0) & (spike[spikes] <= 180.0))
+    np.testing.assert_array_equal(spiked.x_m, clean.x_m)
+    with pytest.raises(ValueError, match=r"glitched fraction must be from 0 to 1, got 1\.5"):
+        with_gnss_jumps(clean, 1.5, 0)
 
 
 def _in_sigma(track: SmoothedTrack, reference: SmoothedTrack, name: str) -> tuple[float, float]:
@@ -157,7 +159,7 @@ def test_real_model_tests_lose_no_sample(run: str) -> None:
 def test_gnss_jumps_are_rejected_and_the_velocities_kept(
     clean: ManeuverLog, clean_track: SmoothedTrack, fraction: float, seed: int
 ) -> None:
-    log, index = _jumps(clean, fraction, seed)
+    log, index = with_gnss_jumps(clean, fraction, seed)
     track = _smooth(log)
     np.testing.assert_array_equal(track.position_rejected, index)
     assert track.rejected_heading_samples == 0 and track.position_reacquired.size == 0
@@ -169,13 +171,13 @@ def test_gnss_jumps_are_rejected_and_the_velocities_kept(
 def test_without_the_gate_the_same_jumps_ruin_the_velocities(
     clean: ManeuverLog, clean_track: SmoothedTrack
 ) -> None:
-    log, _ = _jumps(clean, 0.01, 0)
+    log, _ = with_gnss_jumps(clean, 0.01, 0)
     rms, _ = _in_sigma(_smooth(log, gate=False), clean_track, "u_mps")
     assert rms > 10.0
 
 
-def test_the_noise_estimate_ignores_the_jumps(clean: ManeuverLog) -> None:
-    log, _ = _jumps(clean, 0.05, 4)
+def test_the_noise_estimate_ignores_thewith_gnss_jumps(clean: ManeuverLog) -> None:
+    log, _ = with_gnss_jumps(clean, 0.05, 4)
     for clean_axis, glitched_axis in ((clean.x_m, log.x_m), (clean.y_m, log.y_m)):
         before = estimate_noise(clean.time_s, clean_axis)
         after = estimate_noise(log.time_s, glitched_axis)
@@ -184,7 +186,7 @@ def test_the_noise_estimate_ignores_the_jumps(clean: ManeuverLog) -> None:
 
 
 def test_compass_spikes_are_rejected(clean: ManeuverLog, clean_track: SmoothedTrack) -> None:
-    log, index = _spikes(clean, 0.01, 5)
+    log, index = with_compass_spikes(clean, 0.01, 5)
     track = _smooth(log)
     np.testing.assert_array_equal(track.heading_rejected, index)
     assert track.rejected_position_samples == 0
@@ -283,7 +285,7 @@ def test_an_absurd_position_is_one_rejected_sample(
 def test_a_rejected_sample_is_as_if_it_had_never_been_logged(clean: ManeuverLog) -> None:
     """The constant-acceleration model is consistent over any interval (Φ and Q compose
     exactly), so skipping the update of a sample is deleting it from the log."""
-    log, index = _jumps(clean, 0.01, 0)
+    log, index = with_gnss_jumps(clean, 0.01, 0)
 
     def given(log: ManeuverLog, gate: bool) -> SmoothedTrack:  # noise levels given
         return smooth_track(
@@ -303,7 +305,7 @@ def test_a_rejected_sample_is_as_if_it_had_never_been_logged(clean: ManeuverLog)
 def test_the_checkpointed_smoother_gates_to_the_bit(
     clean: ManeuverLog, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    log, _ = _jumps(clean, 0.03, 7)
+    log, _ = with_gnss_jumps(clean, 0.03, 7)
     x = log.x_m.copy()
     x[700:] += 80.0  # a re-acquisition in the middle of a block
     log = dataclasses.replace(log, x_m=x)
@@ -334,8 +336,8 @@ def test_a_glitch_longer_than_the_re_acquisition_rule_still_counts() -> None:
 
 
 def test_deglitched_replaces_only_the_rejected_samples(clean: ManeuverLog) -> None:
-    log, index = _jumps(clean, 0.01, 0)
-    log, spikes = _spikes(log, 0.01, 5)
+    log, index = with_gnss_jumps(clean, 0.01, 0)
+    log, spikes = with_compass_spikes(log, 0.01, 5)
     wrapped = np.mod(log.heading_rad, 2.0 * np.pi)  # as a compass writes it
     track = smooth_track(log.time_s, log.x_m, log.y_m, wrapped)
     x, y, heading = track.deglitched(log.x_m, log.y_m, wrapped)
@@ -369,8 +371,8 @@ def clean_fit(clean: ManeuverLog) -> IdentificationResult:
 @pytest.fixture(scope="module")
 def glitched(clean: ManeuverLog) -> ManeuverLog:
     """1 % GNSS jumps of 50 to 1000 m and 1 % compass spikes of 5 to 180 deg."""
-    log, _ = _jumps(clean, 0.01, 0)
-    return _spikes(log, 0.01, 5)[0]
+    log, _ = with_gnss_jumps(clean, 0.01, 0)
+    return with_compass_spikes(log, 0.01, 5)[0]
 
 
 def _deviation(result: IdentificationResult, reference: IdentificationResult) -> dict[str, float]:

@@ -278,6 +278,25 @@ def test_synthesize_writes_logs_with_per_maneuver_seeds(tmp_path, capsys):
     assert (alone / "zigzag-10.csv").read_bytes() == (both / "zigzag-10.csv").read_bytes()
 
 
+def test_synthesize_glitches_the_logs_it_is_asked_to(tmp_path, capsys):
+    common = ["synthesize", "--maneuver", "zigzag-10", "--scale", "model", "--quiet"]
+    assert main([*common, "-o", str(tmp_path / "clean")]) == 0
+    glitches = ["--gnss-jump-pct", "2", "--compass-spike-pct", "1"]
+    assert main([*common, *glitches, "-o", str(tmp_path / "glitched")]) == 0
+    clean, glitched = (read_log(tmp_path / d / "zigzag-10.csv") for d in ("clean", "glitched"))
+    jumped = np.hypot(glitched.x_m - clean.x_m, glitched.y_m - clean.y_m) > 1e-9
+    spiked = np.abs(np.angle(np.exp(1j * (glitched.heading_rad - clean.heading_rad)))) > 1e-9
+    assert np.count_nonzero(jumped) == round(0.02 * clean.n_samples)
+    assert np.count_nonzero(spiked) == round(0.01 * clean.n_samples)
+    source = glitched.metadata["source"]
+    assert "GNSS jumps of 50-1000 m" in source and "compass spikes of 5-180 deg" in source
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as excinfo:
+        main([*common, "--gnss-jump-pct", "11", "-o", str(tmp_path / "x")])
+    assert excinfo.value.code == 2 and "--gnss-jump-pct" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
 # ------------------------------------------------------------------------- gates
 
 

@@ -1,5 +1,9 @@
 """``python -m scenarios synthesize``: reference-ship trial logs, DIR/<manoeuvre>.csv.
 
+With ``--gnss-jump-pct P`` (``--compass-spike-pct P``) P % of the samples carry a GNSS
+jump of 50-1000 m (a compass spike of 5-180°), as a receiver logs them
+(``scenarios.synthesize.with_gnss_jumps``); the ``# source:`` line says so.
+
 At sea with ``--current-mps C --current-to-deg D`` (optionally changing linearly,
 ``--current-change-mps-per-h``, ``--current-veer-deg-per-h``) and/or ``--wind-mps W
 --wind-from-deg D`` (optionally gusty, ``--gust-std-mps S [--gust-time-s T]``); every
@@ -38,6 +42,9 @@ MAX_GUST_STD_MPS = 5.0
 """Largest ``--gust-std-mps`` [m/s]."""
 MAX_DIRECTION_DEG = 360.0
 """Largest |``--current-to-deg``|, |``--wind-from-deg``| [deg]."""
+MAX_GLITCH_PCT = 10.0
+"""Largest ``--gnss-jump-pct``, ``--compass-spike-pct`` [%] (a receiver glitching more
+often than one fix in ten is broken, not glitching)."""
 _SECONDS_PER_HOUR = 3600.0
 
 
@@ -82,6 +89,21 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
         default=0.0,
         metavar="Y",
         help="the GNSS antenna's position to starboard of the centre line [m] (default 0)",
+    )
+    glitch = argtypes.within(0.0, MAX_GLITCH_PCT, "%")
+    p.add_argument(
+        "--gnss-jump-pct",
+        type=glitch,
+        default=0.0,
+        metavar="P",
+        help="GNSS glitches: P %% of the fixes jump 50-1000 m in any direction (default 0)",
+    )
+    p.add_argument(
+        "--compass-spike-pct",
+        type=glitch,
+        default=0.0,
+        metavar="P",
+        help="compass glitches: P %% of the headings spike 5-180 deg either way (default 0)",
     )
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
     sea = p.add_argument_group(
@@ -228,6 +250,8 @@ def run_synthesize_command(args: argparse.Namespace) -> int:
             speed_log_x_m=args.speed_log_x_m or 0.0,
             gnss_x_m=args.gnss_x_m,
             gnss_y_m=args.gnss_y_m,
+            gnss_jump_fraction=args.gnss_jump_pct / 100.0,
+            compass_spike_fraction=args.compass_spike_pct / 100.0,
             on_log=lambda _path: bar.update(1),
         )
     finally:
