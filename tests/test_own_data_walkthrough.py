@@ -61,17 +61,19 @@ def test_nmea_recording_to_a_validated_fmu(tmp_path: Path) -> None:
 
 
 def test_a_sea_trial_recording_with_a_bridge_antenna_and_a_doppler_log(tmp_path: Path) -> None:
-    """NMEA at sea: fixes 128 m aft (the bridge), VBW from a two-axis log 128 m forward.
+    """NMEA at sea: fixes 128 m aft (the bridge), 1 % of them glitched, VBW from a two-axis
+    log 128 m forward.
 
-    Converted with both places, fitted: the current found, both log axes measured, the
-    track reduced to midship; converted without the log's place, its transverse axis
-    is left out and the fit says so.
+    Converted with both places, fitted: the glitches rejected, the current found, both
+    log axes measured, the track reduced to midship; converted without the log's place,
+    its transverse axis is left out and the fit says so.
     """
     for maneuver in ("zigzag-10", "zigzag-20"):
         _run(
             str(ROOT / "examples/own_data/record_nmea.py"), "--maneuver", maneuver,
             "--current-mps", "0.5", "--current-to-deg", "45", "--gnss-x-m", "-128",
-            "--speed-log-x-m", "128", "-o", f"recordings/{maneuver}.nmea",
+            "--speed-log-x-m", "128", "--gnss-jump-pct", "1",
+            "-o", f"recordings/{maneuver}.nmea",
             cwd=tmp_path,
         )  # fmt: skip
     recordings = ["recordings/zigzag-10.nmea", "recordings/zigzag-20.nmea"]
@@ -87,6 +89,8 @@ def test_a_sea_trial_recording_with_a_bridge_antenna_and_a_doppler_log(tmp_path:
         cwd=tmp_path,
     )  # fmt: skip
     assert "positions reduced to midship from the GNSS antenna's, 128 m aft" in fit.stderr
+    for log, jumped in zip(logs, (11, 10), strict=True):  # 1 % of 1064 and 1016 fixes
+        assert f"{log}: {jumped} position fixes and 0 headings rejected as glitches" in fit.stderr
     environment = json.loads((tmp_path / "build/params.json").read_text())["identification"][
         "environment"
     ]

@@ -7,11 +7,13 @@ plane that ``identifier convert`` uses), HDT heading, RSA rudder angle and RPM s
 speed, once per second, with checksums. At sea (``--current-mps C --current-to-deg D``)
 also VBW from a two-axis Doppler log at ``--speed-log-x-m`` forward of midship (water
 speeds only); with ``--gnss-x-m`` the fixes are those of an antenna that far forward
-(negative: aft, as a bridge's).
+(negative: aft, as a bridge's); with ``--gnss-jump-pct P`` P % of them jump 50-1000 m, as
+a receiver's glitches do (``scenarios.synthesize.with_gnss_jumps``).
 
     python examples/own_data/record_nmea.py --maneuver zigzag-10 -o recordings/zz10.nmea
     python examples/own_data/record_nmea.py --maneuver zigzag-10 --current-mps 0.5 \
-        --current-to-deg 45 --gnss-x-m -128 --speed-log-x-m 128 -o recordings/sea.nmea
+        --current-to-deg 45 --gnss-x-m -128 --speed-log-x-m 128 --gnss-jump-pct 1 \
+        -o recordings/sea.nmea
 """
 
 from __future__ import annotations
@@ -26,7 +28,13 @@ import pyproj
 
 from fmu_model.atomic import write_atomic
 from scenarios.sea import SeaEnvironment
-from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from scenarios.synthesize import (
+    MANEUVERS,
+    maneuver_seed,
+    reference_ship,
+    synthesize_log,
+    with_gnss_jumps,
+)
 
 ORIGIN_LAT_DEG, ORIGIN_LON_DEG = 63.4305, 10.3951  # Trondheimsfjorden
 START = dt.datetime(2024, 5, 17, 10, 0, 0, tzinfo=dt.UTC)
@@ -53,11 +61,12 @@ def nmea_lines(
     sea: SeaEnvironment | None = None,
     gnss_x_m: float = 0.0,
     speed_log_x_m: float = 0.0,
+    gnss_jump_fraction: float = 0.0,
 ) -> list[str]:
     """Return the NMEA sentences of one synthetic KVLCC2 manoeuvre.
 
     In ``sea`` with a two-axis speed log at ``speed_log_x_m`` forward of midship (VBW);
-    the fixes at ``gnss_x_m`` forward of midship.
+    the fixes at ``gnss_x_m`` forward of midship, ``gnss_jump_fraction`` of them jumped.
     """
     log = synthesize_log(
         reference_ship("kvlcc2", "full", sea),
@@ -67,6 +76,8 @@ def nmea_lines(
         speed_log_x_m=speed_log_x_m,
         gnss_x_m=gnss_x_m,
     )
+    if gnss_jump_fraction > 0.0:
+        log = with_gnss_jumps(log, gnss_jump_fraction, maneuver_seed(seed, "gnss-jumps"))[0]
     plane = pyproj.Proj(
         f"+proj=aeqd +lat_0={ORIGIN_LAT_DEG} +lon_0={ORIGIN_LON_DEG} +datum=WGS84 +units=m"
     )
@@ -105,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--current-to-deg", type=float, default=0.0, help="it sets towards")
     parser.add_argument("--gnss-x-m", type=float, default=0.0, help="antenna forward [m]")
     parser.add_argument("--speed-log-x-m", type=float, default=0.0, help="log forward [m]")
+    parser.add_argument("--gnss-jump-pct", type=float, default=0.0, help="glitched fixes [%%]")
     parser.add_argument("-o", "--output", required=True)
     args = parser.parse_args(argv)
     sea = None
@@ -113,7 +125,12 @@ def main(argv: list[str] | None = None) -> int:
             current_speed_mps=args.current_mps, current_to_rad=math.radians(args.current_to_deg)
         )
     lines = nmea_lines(
-        args.maneuver, args.seed, sea=sea, gnss_x_m=args.gnss_x_m, speed_log_x_m=args.speed_log_x_m
+        args.maneuver,
+        args.seed,
+        sea=sea,
+        gnss_x_m=args.gnss_x_m,
+        speed_log_x_m=args.speed_log_x_m,
+        gnss_jump_fraction=args.gnss_jump_pct / 100.0,
     )
     write_atomic(args.output, "\r\n".join(lines) + "\r\n")
     print(f"wrote {args.output}")
