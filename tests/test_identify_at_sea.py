@@ -768,25 +768,31 @@ def test_fit_cli_current_and_windage(
     out = str(tmp_path / "p.json")
     status = main(["fit", *paths, "--model", "shi2009", "--method", "ekf", "-o", out])
     assert status == 0
-    shown = re.search(
-        r"current \(constant\): ([\d.]+) m/s towards ([\d.]+) deg", capsys.readouterr().out
-    )
+    summary = capsys.readouterr().out
+    shown = re.search(r"current \(constant\): ([\d.]+) m/s towards ([\d.]+) deg", summary)
     assert shown is not None
     assert float(shown.group(1)) == pytest.approx(0.3, abs=0.02)
     assert float(shown.group(2)) == pytest.approx(60.0, abs=3.0)
-    assert "speed log:" not in capsys.readouterr().out  # no stw_mps in these logs
+    assert "speed log:" not in summary  # no stw_mps in these logs
+    assert re.search(
+        r"current \(constant\): .* m/s\); the ± are the identification noise only, no speed "
+        r"log measures the hull's share\n",
+        summary,
+    )
     for i, log in enumerate(calm_logs):
         write_log(paths[i], _with_speed_log(_with_current(log, CURRENT_NE), log, 0.0, i))
     status = main(["fit", *paths, "--model", "shi2009", "--method", "ekf", "-o", out])
     assert status == 0
+    summary = capsys.readouterr().out
     shown = re.search(
         r"speed log: ([\d,]+) samples measured \((\d+) rejected\), noise ([\d.]+) m/s, "
         r"scale error ([-+][\d.]+) ± ([\d.]+) %; alone it shows North [-+][\d.]+ ± [\d.]+, "
         r"East [-+][\d.]+ ± [\d.]+ m/s; the current's ± include the two estimates' "
         r"distance \(model form\)",
-        capsys.readouterr().out,
+        summary,
     )
     assert shown is not None, "the summary says what the speed log showed"
+    assert "identification noise only" not in summary
     assert int(shown.group(1).replace(",", "")) == sum(g.n_samples - 1 for g in calm_logs)
     assert int(shown.group(2)) == 0
     assert float(shown.group(3)) == pytest.approx(0.05, rel=0.2)

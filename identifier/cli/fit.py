@@ -165,6 +165,12 @@ def _summary(result: IdentificationResult) -> str:
             f"current ({cur.mode}): {cur.speed_mps:.3f} m/s towards "
             f"{math.degrees(cur.to_rad):.1f} deg (North {cur.north_mps:+.3f} ± {std_n:.3f}, "
             f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s)"
+            + (
+                ""
+                if np.any(cur.model_form)
+                else "; the ± are the identification noise only"
+                + ("" if cur.speed_log is not None else ", no speed log measures the hull's share")
+            )
         )
         alone, log = cur.speed_log, cur.speed_log_ekf
         if alone is not None and log is not None:
