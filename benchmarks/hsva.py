@@ -1,6 +1,7 @@
 """Cross-predictions on measured data: the four HSVA free-running zig-zags of KVLCC2 (issue 13).
 
-    python benchmarks/hsva.py [--model NAME ...] [--out benchmarks/hsva.md]
+    python benchmarks/hsva.py [--model NAME ...] [--fold NAME ...] [--current none|constant]
+        [--out benchmarks/hsva.md]
 
 Data: ``../shared/data/hsva_kvlcc2`` (model scale, L = 7 m, 20 Hz), read with the
 project's own reader. Folds:
@@ -16,7 +17,9 @@ identified model in the run's own condition (``trials.conditions.sail_again``: a
 speed, rpm, rudder amplitude and rate, the logged switch headings), and its first and
 second overshoot are compared with the run's, measured with the same definitions.
 Two estimates of each fit: ``ekf`` (the seed paper's algorithm, ``--method ekf``) and
-``default`` (what ``identifier fit`` keeps). Errors predicted − measured [deg].
+``default`` (what ``identifier fit`` keeps). Errors predicted − measured [deg]. The fits
+take the basin's water as still (``--current none``, the README's advice for tank tests);
+``--current constant`` fits as ``identifier fit`` does unless told so.
 
 The asymmetry row: the predicted second-overshoot difference port-first − starboard-first
 run of each pair, against the measured one (10/10: 17.83 − 20.54 = −2.71°).
@@ -130,11 +133,13 @@ def sail_all(
 
 
 def estimates(
-    logs: dict[str, ManeuverLog], model: str, train: Sequence[str]
+    logs: dict[str, ManeuverLog], model: str, train: Sequence[str], current: str = "none"
 ) -> dict[str, ModelParameters]:
-    """Identify ``model`` on the ``train`` runs; the EKF's estimate and the default kept one."""
-    # A towing tank: still water, no current to estimate.
-    settings = FitSettings(model=model, current="none")
+    """Identify ``model`` on the ``train`` runs; the EKF's estimate and the default kept one.
+
+    ``current``: ``FitSettings.current`` (a basin's water is still: "none").
+    """
+    settings = FitSettings(model=model, current=current)
     result = identify([logs[r] for r in train], settings, length_m=LENGTH_M)
     refinement = result.refinement
     assert refinement is not None
@@ -244,6 +249,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="fold name (repeat; default: all but 'all four')",
     )
     parser.add_argument("--data", type=Path, default=DATA, help="directory of the runs")
+    parser.add_argument(
+        "--current",
+        choices=("none", "constant"),
+        default="none",
+        help="the fits' current: none (a basin's still water, the default) or constant "
+        "(identifier fit's default)",
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("hsva.md")))
     args = parser.parse_args(argv)
     logs = read_runs(args.data)
@@ -265,7 +277,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for fold in args.folds or FOLDS:
             train = ALL_FOLDS[fold]
             start = time.perf_counter()
-            fits = estimates(logs, model, train)
+            fits = estimates(logs, model, train, args.current)
             seconds = time.perf_counter() - start
             for name, params in fits.items():
                 errors = sail_all(params, logs, train)
