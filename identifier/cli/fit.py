@@ -37,7 +37,13 @@ __all__ = ["add_parser", "run"]
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Add the ``fit`` command to the subparsers ``sub`` of ``python -m identifier``."""
     fit = sub.add_parser("fit", help="identify coefficients from trial logs")
-    fit.add_argument("logs", nargs="+", metavar="LOG.csv", help="trial logs (DESIGN.md format)")
+    fit.add_argument(
+        "logs",
+        nargs="+",
+        metavar="LOG.csv",
+        help="trial logs (DESIGN.md format), in the order they were sailed: the EKF runs "
+        "through them in that order and its estimate weighs the last most",
+    )
     fit.add_argument("-o", "--output", required=True, metavar="params.json")
     fit.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
     fit.add_argument(
