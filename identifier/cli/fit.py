@@ -167,16 +167,17 @@ def _summary(result: IdentificationResult) -> str:
     cur = result.current
     if cur is not None:
         std_n, std_e = cur.std_mps
+        model_form = bool(np.any(cur.model_form))
+        identification_only = (
+            ""
+            if model_form
+            else "; the ± are the identification noise only"
+            + ("" if cur.speed_log is not None else ", no speed log measures the hull's share")
+        )
         lines.append(
             f"current ({cur.mode}): {cur.speed_mps:.3f} m/s towards "
             f"{math.degrees(cur.to_rad):.1f} deg (North {cur.north_mps:+.3f} ± {std_n:.3f}, "
-            f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s)"
-            + (
-                ""
-                if np.any(cur.model_form)
-                else "; the ± are the identification noise only"
-                + ("" if cur.speed_log is not None else ", no speed log measures the hull's share")
-            )
+            f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s){identification_only}"
         )
         alone, log = cur.speed_log, cur.speed_log_ekf
         if alone is not None and log is not None:
@@ -190,7 +191,6 @@ def _summary(result: IdentificationResult) -> str:
                     f"; transverse axis {log.transverse_samples:,} ({log.transverse_rejected:,} "
                     f"rejected), noise {log.transverse_noise_mps:.3f} m/s"
                 )
-            model_form = np.any(cur.model_form)
             lines.append(
                 f"speed log: {measured}, scale error {100.0 * log.scale_error:+.2f} "
                 f"± {100.0 * log.scale_error_std:.2f} %; alone it shows North "
