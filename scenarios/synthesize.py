@@ -46,7 +46,7 @@ from scenarios.mariner import (
     neutral_helm,
 )
 from scenarios.sea import SeaEnvironment
-from trials.logs import ManeuverLog, write_log
+from trials.logs import ManeuverLog, on_board_offset, write_log
 from trials.maneuvers import Helm, Program, turning_circle, zigzag
 from trials.run import ModelPlant, Plant, run_program
 
@@ -253,9 +253,9 @@ def synthesize_log(
     noise = _noise_streams(seed, size, noise_per_channel)
     time_s = run["time_s"] - run["time_s"][0]
     heading = run["psi_rad"] + math.radians(heading_noise_deg) * next(noise)
-    cos_psi, sin_psi = np.cos(run["psi_rad"]), np.sin(run["psi_rad"])  # the antenna's place
-    x_m = run["x_m"] + gnss_x_m * cos_psi - gnss_y_m * sin_psi + position_noise_m * next(noise)
-    y_m = run["y_m"] + gnss_x_m * sin_psi + gnss_y_m * cos_psi + position_noise_m * next(noise)
+    north_m, east_m = on_board_offset(gnss_x_m, gnss_y_m, run["psi_rad"])  # the antenna's place
+    x_m = run["x_m"] + north_m + position_noise_m * next(noise)
+    y_m = run["y_m"] + east_m + position_noise_m * next(noise)
     source = (
         f"synthetic {program.name}: {ship.source}; {rate_hz:g} Hz, position noise "
         f"{position_noise_m:g} m, heading noise {heading_noise_deg:g} deg, seed {seed}"

@@ -114,6 +114,7 @@ __all__ = [
     "ManeuverLog",
     "at_midship",
     "format_log",
+    "on_board_offset",
     "parse_log",
     "read_log",
     "write_log",
@@ -432,13 +433,26 @@ def at_midship(log: ManeuverLog) -> ManeuverLog:
     a_x, a_y = (log.on_board_m(key) or 0.0 for key in ("gnss_x_m", "gnss_y_m"))
     if a_x == 0.0 and a_y == 0.0:
         return log
-    cos_psi, sin_psi = np.cos(log.heading_rad), np.sin(log.heading_rad)
+    north_m, east_m = on_board_offset(a_x, a_y, log.heading_rad)
     return replace(
         log,
-        x_m=log.x_m - (a_x * cos_psi - a_y * sin_psi),
-        y_m=log.y_m - (a_x * sin_psi + a_y * cos_psi),
+        x_m=log.x_m - north_m,
+        y_m=log.y_m - east_m,
         metadata={k: v for k, v in log.metadata.items() if k not in ("gnss_x_m", "gnss_y_m")},
     )
+
+
+def on_board_offset(
+    forward_m: float, starboard_m: float, heading_rad: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return a point on board's offset from midship, North and East [m], at ``heading_rad``.
+
+    (a_x cos ψ − a_y sin ψ, a_x sin ψ + a_y cos ψ): the body-axis offset (a_x forward,
+    a_y to starboard) turned to North-East by the heading ψ. :func:`at_midship` takes it
+    off a GNSS antenna's track; ``scenarios.synthesize`` puts it on.
+    """
+    cos_psi, sin_psi = np.cos(heading_rad), np.sin(heading_rad)
+    return forward_m * cos_psi - starboard_m * sin_psi, forward_m * sin_psi + starboard_m * cos_psi
 
 
 def format_log(log: ManeuverLog) -> str:
