@@ -658,6 +658,29 @@ def _deglitched(
     return replace(log, x_m=x_m, y_m=y_m, heading_rad=heading_rad)
 
 
+def ekf_order(logs: Sequence[ManeuverLog]) -> list[int]:
+    """Return the order in which the EKF runs through ``logs`` with a constant current.
+
+    By the largest rudder angle of each log, smallest first: the EKF's coefficients are a
+    random walk, so its estimate weighs the log it ends on most, and the log of the
+    largest rudder angles is the nearest to the hard-over turns a model is asked to predict
+    (``benchmarks/environment.md``, "The same logs in the other order": that log last
+    predicted the KVLCC2 35° turn 1.6–2.8 points better in six fits of six). Logs of one
+    largest angle in the order of their content (SHA-256 of the channels), so that the
+    estimate is the same for the logs given in any order.
+    """
+
+    def content(log: ManeuverLog) -> str:
+        channels = (log.time_s, log.x_m, log.y_m, log.heading_rad, log.rudder_rad, log.n_rps)
+        digest = hashlib.sha256()
+        for channel in channels:
+            digest.update(np.ascontiguousarray(channel, dtype=np.float64).tobytes())
+        return digest.hexdigest()
+
+    keys = [(float(np.max(np.abs(log.rudder_rad))), content(log)) for log in logs]
+    return sorted(range(len(logs)), key=keys.__getitem__)
+
+
 def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
     """Reject logs in which the rudder never leaves midship (nothing to identify)."""
     if any(np.max(np.abs(log.rudder_rad)) > EXECUTE_RUDDER_RAD for log in logs):
@@ -731,7 +754,9 @@ def identify(
     Parameters
     ----------
     logs : sequence of ManeuverLog
-        One manoeuvre each; processed in the given order.
+        One manoeuvre each, in any order: the EKF runs through them in :func:`ekf_order`
+        (with ``settings.current == "drifting"`` in the order given, the order sailed);
+        the result's logs, tracks and EKF histories are in that order.
     settings : FitSettings, optional
         Defaults when omitted.
     length_m : float, optional
@@ -778,7 +803,7 @@ def identify(
     stage = stage or _no_stage
     with np.errstate(all="ignore"):
         data = _smooth(logs, settings, progress, stage)
-        helm_note = _neutral_helm_note(data.logs, settings.model)
+        helm_note = _neutral_helm_note(data.logs, data.names, settings.model)
         if helm_note is not None:
             data = replace(data, notes=(*data.notes, helm_note))
         if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):
@@ -852,6 +877,11 @@ class _SmoothedLogs:
     segments: tuple[EkfSegment, ...]
     warnings: tuple[str, ...]
     notes: tuple[str, ...]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The logs' names (paths, or "log k" by the place given), in the EKF's order."""
+        return tuple(segment.name for segment in self.segments)
 
 
 def _smooth(
@@ -932,12 +962,25 @@ def _smooth(
             f"{len(with_wind)} of {len(cleaned)} logs carry a measured wind, but no windage was "
             "given: its load stays in the coefficients (give --windage FILE.json)"
         )
+    # A drifting current's random walk runs through the logs in the order they were sailed.
+    order = list(range(len(logs))) if settings.current == "drifting" else ekf_order(cleaned)
+    if order != sorted(order):
+        names = ", ".join(Path(_log_name(logs[i], i)).name for i in order)
+        notes.append(
+            f"the EKF runs through the logs by their largest rudder angle, smallest first "
+            f"(its estimate weighs the last most): {names}"
+        )
     return _SmoothedLogs(
-        tuple(logs), tuple(cleaned), tuple(tracks), tuple(segments), tuple(warnings), tuple(notes)
+        given=tuple(logs[i] for i in order),
+        logs=tuple(cleaned[i] for i in order),
+        tracks=tuple(tracks[i] for i in order),
+        segments=tuple(segments[i] for i in order),
+        warnings=tuple(warnings),
+        notes=tuple(notes),
     )
 
 
-def _neutral_helm_note(logs: Sequence[ManeuverLog], model: str) -> str | None:
+def _neutral_helm_note(logs: Sequence[ManeuverLog], names: Sequence[str], model: str) -> str | None:
     """Say when the logs approach at a helm off the centre line the model has no term for.
 
     A single-screw ship runs straight at a neutral helm off the centre line (the Mariner
@@ -954,7 +997,7 @@ def _neutral_helm_note(logs: Sequence[ManeuverLog], model: str) -> str | None:
     if abs(helms[i]) <= NEUTRAL_HELM_NOTE_RAD:
         return None
     return (
-        f"{_log_name(logs[i], i)} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
+        f"{names[i]} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
         f"(mean rudder before execute): a single screw's neutral helm, which "
         f"{family_name(model)} has no term for; --model {PRIME_RUDDER_OFFSET.name} has one"
     )
@@ -1039,7 +1082,8 @@ def _fit(
         identification={
             "method": "smoothing (CA Kalman + RTS) -> augmented-state EKF (Shi et al. 2009)",
             "logs": [
-                {"path": _log_name(log, i), "sha256": _sha256(log)} for i, log in enumerate(logs)
+                {"path": name, "sha256": _sha256(log)}
+                for name, log in zip(data.names, logs, strict=True)
             ],
             "settings": _json_safe(asdict(settings)),
             **({} if shape is None else {"shape": shape.as_dict()}),

@@ -19,6 +19,7 @@ from identifier.identify import (
     FitSettings,
     IdentificationResult,
     centripetal_warning,
+    ekf_order,
     fixed_thrust_model,
     identify,
     thrust_warning,
@@ -135,15 +136,18 @@ def test_track_measurements_beat_the_papers_velocity_measurements(
             current="none",  # the paper's: still water (and the velocities are over ground)
         ),
     )
-    ours = {c.name: c.value for c in recovered.coefficients}
+    ours = {c.name: c for c in recovered.coefficients}
     theirs = {c.name: c.value for c in paper.coefficients}
     for name in ("b1", "b4", "c2", "c3"):
         truth = SEED_COEFFICIENTS[name]
         # The paper's variant (smoothed u, v, r, one Euler step per sample) finds the
         # dominant coefficients within 30 %, biased by the smoother's lag ...
         assert theirs[name] == pytest.approx(truth, rel=0.3), name
-        # ... the EKF on the logged track is closer to the truth.
-        assert abs(ours[name] - truth) < abs(theirs[name] - truth), name
+        # ... the EKF on the logged track within 2σ of the truth ...
+        assert abs(ours[name].value - truth) < 2.0 * ours[name].std, name
+    for name in ("b1", "c2"):  # ... and closer where the lag biases most (−27 %, −11 %)
+        truth = SEED_COEFFICIENTS[name]
+        assert abs(ours[name].value - truth) < 0.5 * abs(theirs[name] - truth), name
 
 
 def _straight_log() -> ManeuverLog:
@@ -197,9 +201,11 @@ def test_cli_fit_writes_params_and_plots(log_files: list[Path], tmp_path: Path, 
     params = load_params(out)
     assert params.model == "shi2009" and params.length_m == 100.0
     doc = json.loads(out.read_text())
+    in_ekf_order = [log_files[i] for i in ekf_order([read_log(p) for p in log_files])]
     assert [entry["sha256"] for entry in doc["identification"]["logs"]] == [
-        __import__("hashlib").sha256(p.read_bytes()).hexdigest() for p in log_files
+        __import__("hashlib").sha256(p.read_bytes()).hexdigest() for p in in_ekf_order
     ]
+    assert in_ekf_order[-1].name == "turning-35.csv"  # the largest rudder angle last
     assert np.allclose(np.array(doc["covariance"]), np.array(doc["covariance"]).T)
     for name in ("track.png", "velocities.png", "convergence.png"):
         assert (tmp_path / name).stat().st_size > 10_000

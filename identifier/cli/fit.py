@@ -41,8 +41,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "logs",
         nargs="+",
         metavar="LOG.csv",
-        help="trial logs (DESIGN.md format), in the order they were sailed: the EKF runs "
-        "through them in that order and its estimate weighs the last most",
+        help="trial logs (DESIGN.md format), in any order: the EKF runs through them by "
+        "their largest rudder angle, smallest first (its estimate weighs the last most); "
+        "with --current drifting in the order given: the order they were sailed",
     )
     fit.add_argument("-o", "--output", required=True, metavar="params.json")
     fit.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())

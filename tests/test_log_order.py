@@ -1,0 +1,82 @@
+"""The logs' order: with a constant current (or none) ``fit`` runs the EKF through the logs
+by their largest rudder angle (``identifier.identify.ekf_order``), so the logs given in any
+order give the same model; a drifting current keeps the order they were sailed in."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from fmu_model import ModelParameters
+from identifier.identify import FitSettings, ekf_order, identify
+from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
+from tests.conftest import SEED_COEFFICIENTS
+from trials.logs import ManeuverLog
+
+ORDER_NOTE = "the EKF runs through the logs by their largest rudder angle, smallest first"
+
+
+def _seed_logs() -> list[ManeuverLog]:
+    """A 20/20 and a 10/10 zig-zag of the seed paper's ship (1 Hz), the larger one first."""
+    params = ModelParameters.from_vector(
+        "shi2009",
+        np.array(list(SEED_COEFFICIENTS.values())),
+        length_m=100.0,
+        vessel_name="testship",
+        nominal_speed_mps=5.0,
+        nominal_n_rps=2.0,
+    )
+    ship = model_ship(params, rudder_rate_radps=math.radians(5.0))
+    return [
+        synthesize_log(ship, MANEUVERS[name](), rate_hz=1.0, seed=seed)
+        for seed, name in enumerate(("zigzag-20", "zigzag-10"))
+    ]
+
+
+def test_the_order_is_by_largest_rudder_angle_and_ties_by_content() -> None:
+    big, small = _seed_logs()
+    assert ekf_order([big, small]) == [1, 0]
+    assert ekf_order([small, big]) == [0, 1]
+    # Two logs of one largest angle: one order, whichever is given first.
+    twin = replace(small, x_m=small.x_m + 1.0)
+    first = ekf_order([small, twin])
+    assert ekf_order([twin, small]) == first[::-1]
+    # The angle is the largest magnitude, to either side.
+    port = replace(small, rudder_rad=-2.5 * small.rudder_rad)
+    assert ekf_order([port, big]) == [1, 0]
+
+
+def test_fit_gives_the_same_model_for_the_logs_in_either_order() -> None:
+    logs = _seed_logs()
+    settings = FitSettings(model="shi2009", method="ekf")
+    given, reversed_ = identify(logs, settings), identify(logs[::-1], settings)
+    np.testing.assert_array_equal(given.params.coefficients, reversed_.params.coefficients)
+    assert given.current is not None and reversed_.current is not None
+    np.testing.assert_array_equal(given.current.vector, reversed_.current.vector)
+    # The larger zig-zag given first was moved last, and the note says so by name.
+    assert [log.n_samples for log in given.logs] == [logs[1].n_samples, logs[0].n_samples]
+    assert f"{ORDER_NOTE} (its estimate weighs the last most): log 2, log 1" in given.notes
+    assert not any(ORDER_NOTE in note for note in reversed_.notes)  # given in that order
+    assert [entry["path"] for entry in given.params.identification["logs"]] == ["log 2", "log 1"]
+
+
+def test_a_drifting_current_runs_through_the_logs_as_they_were_sailed() -> None:
+    logs = _seed_logs()
+    settings = FitSettings(model="shi2009", method="ekf", current="drifting")
+    given, reversed_ = identify(logs, settings), identify(logs[::-1], settings)
+    assert [log.n_samples for log in given.logs] == [log.n_samples for log in logs]
+    assert not any(ORDER_NOTE in note for note in given.notes)
+    moved = np.abs(given.params.coefficients - reversed_.params.coefficients)
+    assert given.params.std is not None
+    assert np.max(moved / given.params.std) > 0.05  # the order given is the order filtered
+
+
+def test_the_order_holds_without_a_current_too() -> None:
+    logs = _seed_logs()
+    settings = FitSettings(model="shi2009", method="ekf", current="none")
+    np.testing.assert_array_equal(
+        identify(logs, settings).params.coefficients,
+        identify(logs[::-1], settings).params.coefficients,
+    )
