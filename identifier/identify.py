@@ -659,7 +659,7 @@ def _deglitched(
 
 
 def ekf_order(logs: Sequence[ManeuverLog]) -> list[int]:
-    """Return the order in which the EKF runs through ``logs`` with a constant current.
+    """Return the order in which the EKF runs through ``logs`` (unless the current drifts).
 
     By the largest rudder angle of each log, smallest first: the EKF's coefficients are a
     random walk, so its estimate weighs the log it ends on most, and the log of the
@@ -965,7 +965,7 @@ def _smooth(
     # A drifting current's random walk runs through the logs in the order they were sailed.
     order = list(range(len(logs))) if settings.current == "drifting" else ekf_order(cleaned)
     if order != sorted(order):
-        names = ", ".join(Path(_log_name(logs[i], i)).name for i in order)
+        names = ", ".join(Path(segments[i].name).name for i in order)
         notes.append(
             f"the EKF runs through the logs by their largest rudder angle, smallest first "
             f"(its estimate weighs the last most): {names}"
