@@ -4,15 +4,13 @@ order give the same model; a drifting current keeps the order they were sailed i
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
 
-from fmu_model import ModelParameters
 from identifier.identify import FitSettings, ekf_order, identify
-from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
-from tests.conftest import SEED_COEFFICIENTS
+from scenarios.synthesize import MANEUVERS, synthesize_log
+from tests.test_identify import _ship
 from trials.logs import ManeuverLog
 
 ORDER_NOTE = "the EKF runs through the logs by their largest rudder angle, smallest first"
@@ -20,17 +18,8 @@ ORDER_NOTE = "the EKF runs through the logs by their largest rudder angle, small
 
 def _seed_logs() -> list[ManeuverLog]:
     """A 20/20 and a 10/10 zig-zag of the seed paper's ship (1 Hz), the larger one first."""
-    params = ModelParameters.from_vector(
-        "shi2009",
-        np.array(list(SEED_COEFFICIENTS.values())),
-        length_m=100.0,
-        vessel_name="testship",
-        nominal_speed_mps=5.0,
-        nominal_n_rps=2.0,
-    )
-    ship = model_ship(params, rudder_rate_radps=math.radians(5.0))
     return [
-        synthesize_log(ship, MANEUVERS[name](), rate_hz=1.0, seed=seed)
+        synthesize_log(_ship(), MANEUVERS[name](), seed=seed)
         for seed, name in enumerate(("zigzag-20", "zigzag-10"))
     ]
 
