@@ -5,13 +5,17 @@ order give the same model; a drifting current keeps the order they were sailed i
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
+import pytest
 
+from fmu_model import load_params
+from identifier.cli import main
 from identifier.identify import FitSettings, ekf_order, identify
 from scenarios.synthesize import MANEUVERS, synthesize_log
 from tests.test_identify import _ship
-from trials.logs import ManeuverLog
+from trials.logs import ManeuverLog, write_log
 
 ORDER_NOTE = "the EKF runs through the logs by their largest rudder angle, smallest first"
 
@@ -69,3 +73,23 @@ def test_the_order_holds_without_a_current_too() -> None:
         identify(logs, settings).params.coefficients,
         identify(logs[::-1], settings).params.coefficients,
     )
+
+
+def test_fit_on_the_command_line_writes_one_model_and_says_when_it_reordered(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    paths = []
+    for log, name in zip(_seed_logs(), ("zz20.csv", "zz10.csv"), strict=True):
+        paths.append(tmp_path / name)
+        write_log(paths[-1], log)
+    coefficients, stderr = [], []
+    for order, out in ((paths, "given.json"), (paths[::-1], "reversed.json")):
+        args = ["fit", *map(str, order), "--model", "shi2009", "--method", "ekf"]
+        assert main([*args, "-o", str(tmp_path / out)]) == 0
+        coefficients.append(load_params(tmp_path / out).coefficients)
+        stderr.append(capsys.readouterr().err)
+    np.testing.assert_array_equal(*coefficients)
+    assert (
+        f"note: {ORDER_NOTE} (its estimate weighs the last most): zz10.csv, zz20.csv" in (stderr[0])
+    )
+    assert ORDER_NOTE not in stderr[1]
