@@ -89,7 +89,6 @@ def test_fit_on_the_command_line_writes_one_model_and_says_when_it_reordered(
         coefficients.append(load_params(tmp_path / out).coefficients)
         stderr.append(capsys.readouterr().err)
     np.testing.assert_array_equal(*coefficients)
-    assert (
-        f"note: {ORDER_NOTE} (its estimate weighs the last most): zz10.csv, zz20.csv" in (stderr[0])
-    )
+    note = f"note: {ORDER_NOTE} (its estimate weighs the last most): zz10.csv, zz20.csv"
+    assert note in stderr[0]
     assert ORDER_NOTE not in stderr[1]
