@@ -15,6 +15,8 @@ guarded: the refined estimate is kept only when the guards of
 reference/model_structures.md §6–§7 pass, else the better-replaying start. That is
 the procedure that predicts held-out manoeuvres best (benchmarks/fidelity.md,
 benchmarks/hsva.md); ``method="ekf"`` keeps the EKF estimate, the paper's algorithm.
+The EKF runs through several logs in :func:`ekf_order` (by their largest rudder angle),
+so the logs given in any order give one model; a drifting current keeps the order given.
 
 A ``prime-rudder`` estimate whose free thrust X_nn·n²L + X_un·u·n is not a propeller's
 (:func:`thrust_warning`: no thrust at bollard, or one that grows with the speed; logs at
