@@ -869,6 +869,9 @@ def fixed_thrust_model(model: str) -> str | None:
 class _SmoothedLogs:
     """The logs as given, deglitched, smoothed and as EKF segments: what every fit starts from.
 
+    Every tuple is in the order the EKF runs through the logs (:func:`ekf_order`, or the
+    order given with a drifting current); ``names`` keep the places given ("log 2").
+
     Smoothing depends on the logs and the noise settings only, not on the model, so a
     refit (``identify``'s thrust rule) starts from the same.
     """
