@@ -6,15 +6,17 @@ training approach state (:class:`Approach`) with the start and the refined
 coefficients (:func:`virtual_turns`). When no training log turns through 180°
 (:func:`covers_turn`) and the refined tactical diameter differs from the start's by
 more than ``turn_tolerance`` (:func:`turn_spread`; by default 0: at all), the start
-estimate is kept and the spread reported (unless the start does not even turn through
-180°): without a turning log, output error is a check on the turn, not an estimate of
-it. Independently, a refined estimate is only kept when it lowers the cost, every
-training log replays without divergence and both virtual turns stay bounded and pass
-360° (or, when the start's do not either, go at least as far as the start's), and,
-when the start's do, its virtual 20°/20° zig-zags to both sides reach their second
-overshoot without diverging (:func:`virtual_zigzags`; :func:`decide`). Unless the logs
-turn through 180° to both sides, a refined estimate whose two virtual turns differ by
-more than :data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is rejected too: the
+estimate is kept and the spread reported, also when the start does not turn through
+180° (it then fails the sanity guard, whose rescue judges it: whether a failing turn
+stops short of 180° or just past it must not choose the estimate): without a turning
+log, output error is a check on the turn, not an estimate of it. Independently, a
+refined estimate is only kept when it lowers the cost, every training log replays
+without divergence and both virtual turns stay bounded and pass 360° (or, when the
+start's do not either, go at least as far as the start's), and, when the start's do,
+its virtual 20°/20° zig-zags to both sides reach their second overshoot without
+diverging (:func:`virtual_zigzags`; :func:`decide`). Unless the logs turn through 180°
+to both sides, a refined estimate whose two virtual turns differ by more than
+:data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is rejected too: the
 side no log verifies is then the refinement's guess.
 """
 
@@ -447,15 +449,10 @@ def decide(
             f"ship shows, and no turning log verifies both sides; {keep}"
         )
     if turn_check and not spread <= tolerance:
-        text = _spread_text(initial, refined, spread)
-        if any(t.tactical_diameter_m is None for t in initial.turns):
-            return "refined", (
-                f"{text}; kept the output-error estimate although no turning log verifies "
-                f"it, because the {label} estimate does not turn through 180 deg"
-            )
         return "initial", (
-            f"{text}, more than the turn check allows ({tolerance:.0%}: output error is not "
-            f"trusted on turns without a turning log); {keep}"
+            f"{_spread_text(initial, refined, spread)}, more than the turn check allows "
+            f"({tolerance:.0%}: output error is not trusted on turns without a turning log); "
+            f"{keep}"
         )
     return "refined", "output-error estimate accepted"
 

@@ -178,7 +178,7 @@ def refine_output_error(
         label=label,
         both_sides_logged=covers_both_sides([t.heading_rad for t in tracks]),
     )
-    if kept == "initial" or "although" in reason:
+    if kept == "initial":
         warnings.append(reason)
     kept_fit = refined if kept == "refined" else initial
     if not all(t.sane for t in kept_fit.turns):
