@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -435,6 +436,11 @@ def _fit(
     )
 
 
+def _decide(initial: FitSummary, refined: FitSummary, **settings: Any) -> tuple[str, str]:
+    """:func:`decide` with the spread of the two fits' virtual turns."""
+    return decide(initial, refined, spread=turn_spread(initial.turns, refined.turns), **settings)
+
+
 @pytest.mark.parametrize(
     ("initial", "refined", "turn_check", "kept", "words"),
     [
@@ -483,10 +489,7 @@ def _fit(
 def test_decide_keeps_the_start_when_a_guard_fires(
     initial: FitSummary, refined: FitSummary, turn_check: bool, kept: str, words: str
 ) -> None:
-    spread = turn_spread(initial.turns, refined.turns)
-    choice, reason = decide(
-        initial, refined, turn_check=turn_check, spread=spread, tolerance=0.05, label="EKF"
-    )
+    choice, reason = _decide(initial, refined, turn_check=turn_check, tolerance=0.05, label="EKF")
     assert choice == kept and words in reason
     assert ("kept the EKF estimate" in reason) == (kept == "initial")
 
@@ -506,14 +509,7 @@ def test_whether_an_insane_start_turned_through_180_deg_does_not_choose_the_esti
         ),
     )
     for start in (short, past):
-        choice, _ = decide(
-            start,
-            refined,
-            turn_check=True,
-            spread=turn_spread(start.turns, refined.turns),
-            tolerance=0.0,
-            label="equation-error",
-        )
+        choice, _ = _decide(start, refined, turn_check=True, tolerance=0.0, label="equation-error")
         assert choice == "initial"
 
 
@@ -524,11 +520,10 @@ def test_without_a_turning_log_the_default_keeps_the_start_whenever_the_turn_mov
     """The default turn check has no tolerance: a refined turn 0.5 % wider is not kept
     (a 5 % threshold let a beam wind flip the estimate kept, environment.md)."""
     initial, refined = _fit(2.0, (300.0, 300.0)), _fit(1.0, (refined_m, refined_m))
-    choice, reason = decide(
+    choice, reason = _decide(
         initial,
         refined,
         turn_check=True,
-        spread=turn_spread(initial.turns, refined.turns),
         tolerance=RefineSettings().turn_tolerance,
         label="equation-error",
     )
@@ -587,11 +582,10 @@ def test_decide_rejects_a_refined_turn_lopsided_beyond_a_single_screw(
     """Refined starboard turn 300 m, port ``port_m``: beyond 10 % apart, and further apart
     than the start's, it is rejected unless the logs turn both ways."""
     initial, refined = _fit(2.0, start), _fit(1.0, (300.0, port_m))
-    choice, reason = decide(
+    choice, reason = _decide(
         initial,
         refined,
         turn_check=False,
-        spread=turn_spread(initial.turns, refined.turns),
         tolerance=0.05,
         label="EKF",
         both_sides_logged=both_sides_logged,
