@@ -86,7 +86,7 @@ from identifier.ekf import (
     sample_windows,
 )
 from identifier.equation_error import EquationErrorFit, equation_error_fit
-from identifier.output_error import RefinementResult, refine_output_error
+from identifier.output_error import RefinementResult, covers_turn, refine_output_error
 from identifier.shape import ShapeSelection, select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
@@ -721,6 +721,31 @@ def thrust_warning(params: ModelParameters) -> str | None:
     )
 
 
+TURN_SURGE_TERMS = ("X_vr", "X_vv", "X_rr")
+"""The prime families' surge terms of a hard turn: the centripetal v·r and the drag of
+drift and yaw, which set the speed a model keeps in a turn."""
+
+
+def turn_surge_warning(weak: Sequence[str], *, turn_logged: bool) -> str | None:
+    """Return a warning when the surge force of a hard turn is left open, else None.
+
+    ``weak``: the coefficients the logs do not determine. Zig-zags leave
+    :data:`TURN_SURGE_TERMS` open, and those alone move the held-out 35° turn of a
+    KVLCC2 fit by 30 points (benchmarks/fidelity.md, "Where the KVLCC2 turn's error
+    lives"); a turning log (``turn_logged``, through 180°) fixes them, and then, or when
+    none of them is weak, None.
+    """
+    open_terms = [name for name in TURN_SURGE_TERMS if name in weak]
+    if turn_logged or not open_terms:
+        return None
+    return (
+        f"the surge force of a hard turn ({', '.join(open_terms)}) is not determined by "
+        "these logs, and it sets the speed the model keeps in a turn: its turning circles "
+        "are extrapolated (on the KVLCC2 reference these terms alone move a zig-zag fit's "
+        "35 deg tactical diameter by 30 points); add a turning circle to the logs"
+    )
+
+
 def centripetal_warning(params: ModelParameters) -> str | None:
     """Return a warning when the estimate's surge v·r term has no ship's sign, else None.
 
@@ -1107,6 +1132,9 @@ def _fit(
             "not identifiable from these logs (not excited, collinear with other terms, or "
             f"posterior std above {settings.max_relative_std:.0%} of the value): " + ", ".join(weak)
         )
+    open_turn = turn_surge_warning(weak, turn_logged=covers_turn(tracks))
+    if open_turn is not None:
+        warnings.append(open_turn)
     refinement = None
     steps = _replay_steps(logs, length, nominal_speed_mps)
     if settings.method == "output-error" and steps > MAX_REFINE_STEPS:

@@ -23,8 +23,9 @@ from identifier.identify import (
     fixed_thrust_model,
     identify,
     thrust_warning,
+    turn_surge_warning,
 )
-from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
+from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, reference_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log, write_log
@@ -410,6 +411,40 @@ def test_a_centripetal_surge_term_of_no_ships_sign_is_warned_about(
     assert (warning is not None) == warned
     if warning is not None:
         assert f"X_vr = {x_vr:.3g}" in warning and "--current none" in warning
+
+
+@pytest.mark.parametrize(
+    ("weak", "turn_logged", "named"),
+    [
+        (("X_vr", "X_vv", "X_rr", "Y_rar"), False, "X_vr, X_vv, X_rr"),
+        (("X_un", "X_rr"), False, "X_rr"),
+        (("X_vr", "X_vv", "X_rr"), True, None),  # a turning log fixes them
+        (("X_un", "Y_rar"), False, None),  # the turn's surge is determined
+        (("a5",), False, None),  # not a prime family's
+    ],
+)
+def test_a_turns_surge_force_left_open_is_warned_about(
+    weak: tuple[str, ...], turn_logged: bool, named: str | None
+) -> None:
+    warning = turn_surge_warning(weak, turn_logged=turn_logged)
+    if named is None:
+        assert warning is None
+    else:
+        assert warning is not None
+        assert warning.startswith(f"the surge force of a hard turn ({named}) is not determined")
+        assert warning.endswith("add a turning circle to the logs")
+
+
+def test_zigzags_alone_leave_the_turns_surge_open_and_a_turning_log_does_not() -> None:
+    """The default family fitted on a zig-zag alone is warned that its turns extrapolate
+    the surge; with a turning circle beside it, not."""
+    ship = reference_ship("kvlcc2")
+    zigzag, turn = (synthesize_log(ship, MANEUVERS[m]()) for m in ("zigzag-10", "turning-35"))
+    settings = FitSettings(method="ekf", current="none")
+    alone = [w for w in identify([zigzag], settings).warnings if "surge force of a hard turn" in w]
+    assert len(alone) == 1 and "X_vr" in alone[0]
+    both = identify([zigzag, turn], settings).warnings
+    assert not any("surge force of a hard turn" in w for w in both)
 
 
 @pytest.mark.parametrize(
