@@ -732,8 +732,8 @@ def turn_surge_warning(weak: Sequence[str], *, turn_logged: bool) -> str | None:
     ``weak``: the coefficients the logs do not determine. Zig-zags leave
     :data:`TURN_SURGE_TERMS` open, and those alone move the held-out 35° turn of a
     KVLCC2 fit by 30 points (benchmarks/fidelity.md, "Where the KVLCC2 turn's error
-    lives"); a turning log (``turn_logged``, through 180°) fixes them, and then, or when
-    none of them is weak, None.
+    lives"). None when a log turns through 180° (``turn_logged``: it fixes them) or none
+    of them is weak.
     """
     open_terms = [name for name in TURN_SURGE_TERMS if name in weak]
     if turn_logged or not open_terms:
