@@ -830,7 +830,7 @@ def identify(
     stage = stage or _no_stage
     with np.errstate(all="ignore"):
         data = _smooth(logs, settings, progress, stage)
-        helm_note = _neutral_helm_note(data.logs, data.names, settings.model)
+        helm_note = _neutral_helm_note(data, settings.model)
         if helm_note is not None:
             data = replace(data, notes=(*data.notes, helm_note))
         if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):
@@ -1010,7 +1010,7 @@ def _smooth(
     )
 
 
-def _neutral_helm_note(logs: Sequence[ManeuverLog], names: Sequence[str], model: str) -> str | None:
+def _neutral_helm_note(data: _SmoothedLogs, model: str) -> str | None:
     """Say when the logs approach at a helm off the centre line the model has no term for.
 
     A single-screw ship runs straight at a neutral helm off the centre line (the Mariner
@@ -1022,12 +1022,12 @@ def _neutral_helm_note(logs: Sequence[ManeuverLog], names: Sequence[str], model:
     parsed = parse_family(model)
     if parsed is not None and any(c.symbol == NEUTRAL_RUDDER_OFFSET for c in parsed[0].shape):
         return None
-    helms = [approach_helm_rad(log) for log in logs]
+    helms = [approach_helm_rad(log) for log in data.logs]
     i = int(np.argmax(np.abs(helms)))
     if abs(helms[i]) <= NEUTRAL_HELM_NOTE_RAD:
         return None
     return (
-        f"{names[i]} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
+        f"{data.names[i]} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
         f"(mean rudder before execute): a single screw's neutral helm, which "
         f"{family_name(model)} has no term for; --model {PRIME_RUDDER_OFFSET.name} has one"
     )
