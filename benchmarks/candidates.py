@@ -10,7 +10,10 @@ from logs approaching at its neutral helm is ``prime-rudder-offset`` (the candid
 ``offset`` of earlier rounds, with ``prime-rudder-offset-thrust`` as its thrust fallback).
 Each is
 ``prime-rudder`` plus terms with one gain each, or with another rudder force and its
-shape constants:
+shape constants. The ``offset-*`` candidates take the default's surge equation, since
+the round of 2026-12-06 (tenth) with its prior on the surge drag of drift and yaw
+(``fmu_model.variants.with_surge_drag_prior``); their tables measured before are of the
+free one:
 
 * ``asym-hull``: even yaw-rate terms of the hull, q·r′² in sway and yaw (r²L, r²), a
   side-dependent yaw damping: the propeller's swirl makes the stern flow asymmetric;
@@ -67,12 +70,6 @@ shape constants:
 * ``offset-norar``, ``offset-norar-thrust``: the default ``prime-rudder-offset`` without
   N_rar (its HSVA fits have N_rar > 0, a yaw damping that falls with the rate): what a
   sign constraint N_rar ≤ 0 gives where it binds; and the same with the fixed thrust;
-* ``offset-surgeprior``: the default ``prime-rudder-offset`` with a zero-mean prior on the
-  drift and yaw drag of the surge equation, X_vv and X_rr, of 0.1 in the MMG's X′ (per
-  ½ρLdU²) divided by m′ + m_x′ ≈ 0.24 (:data:`SURGE_MASS`; KVLCC2 X′_vv −0.040, X′_rr
-  0.011): two of the three surge terms of a turn that zig-zags leave open
-  (``fidelity.md``, "Where the KVLCC2 turn's error lives") counted only where the logs
-  determine them;
 * ``both-prior002``, ``both-prior010``: ``rudder-both`` with a zero-mean prior on the
   cubic terms (``Term.prior_std``) of 0.02 and 0.1 in the MMG's Y′ and N′ (per ½ρL²d,
   ½ρL³d; KVLCC2 |Y′_vvv| 1.6, |N′_vvr| 0.29): cubic terms that count only where the logs
@@ -193,8 +190,6 @@ def _with_prior(terms: tuple[Term, ...], std: float) -> tuple[Term, ...]:
 # and yaw coefficients of the prime structures are Y' and N' divided by them.
 SWAY_MASS = 0.4
 YAW_INERTIA = 0.022
-# Typical m' + m_x' (per ½ρL²d; KVLCC2 0.240): the surge coefficients are X' divided by it.
-SURGE_MASS = 0.24
 
 
 _, _HELM_SWAY, _HELM_YAW = rudder_gain_terms(
@@ -247,14 +242,6 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         name="offset-norar",
         yaw=tuple(t for t in PRIME_RUDDER_OFFSET.yaw if t.coefficient != "N_rar"),
     )
-    surge_prior = replace(
-        PRIME_RUDDER_OFFSET,
-        name="offset-surgeprior",
-        surge=tuple(
-            replace(t, prior_std=0.1 / SURGE_MASS) if t.coefficient in ("X_vv", "X_rr") else t
-            for t in PRIME_RUDDER_OFFSET.surge
-        ),
-    )
     crossflow_lift = _with_terms(
         "crossflow-lift", PRIME_CROSSFLOW.surge, (_OFFSET_SWAY3,), (_OFFSET_YAW3,), PRIME_CROSSFLOW
     )
@@ -280,7 +267,6 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         with_fixed_thrust(offset_xflow, "offset-xflow-thrust", "offset-xflow, fixed thrust"),
         no_rar,
         with_fixed_thrust(no_rar, "offset-norar-thrust", "offset-norar, fixed thrust"),
-        surge_prior,
         hullmix,
         with_fixed_thrust(hullmix, "offset-hullmix-thrust", "offset-hullmix, fixed thrust"),
         offset_asym_hull,

@@ -4,15 +4,22 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from fmu_model import ModelParameters, get_model, load_params
+from fmu_model import ModelParameters, get_model, load_params, variants
 from fmu_model.envelope import trajectory_envelope, union
 from fmu_model.interface import logged_envelope
-from fmu_model.variants import THRUST_SLOPE
+from fmu_model.variants import (
+    PRIME_RUDDER_OFFSET,
+    SURGE_DRAG_PRIOR_X,
+    SURGE_DRAG_TERMS,
+    SURGE_MASS,
+    THRUST_SLOPE,
+)
 from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
 from identifier.identify import (
@@ -25,6 +32,7 @@ from identifier.identify import (
     thrust_warning,
     turn_surge_warning,
 )
+from scenarios.kvlcc2 import kvlcc2
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, reference_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from trials.errors import IdentificationError
@@ -435,16 +443,61 @@ def test_a_turns_surge_force_left_open_is_warned_about(
         assert warning.endswith("add a turning circle to the logs")
 
 
-def test_zigzags_alone_leave_the_turns_surge_open_and_a_turning_log_does_not() -> None:
-    """The default family fitted on a zig-zag alone is warned that its turns extrapolate
-    the surge; with a turning circle beside it, not."""
+_SURGE_SETTINGS = FitSettings(method="ekf", current="none")
+
+
+@pytest.fixture(scope="module")
+def kvlcc2_zigzag_and_turn() -> tuple[ManeuverLog, ManeuverLog]:
     ship = reference_ship("kvlcc2")
     zigzag, turn = (synthesize_log(ship, MANEUVERS[m]()) for m in ("zigzag-10", "turning-35"))
-    settings = FitSettings(method="ekf", current="none")
-    alone = [w for w in identify([zigzag], settings).warnings if "surge force of a hard turn" in w]
-    assert len(alone) == 1 and "X_vr" in alone[0]
-    both = identify([zigzag, turn], settings).warnings
+    return zigzag, turn
+
+
+@pytest.fixture(scope="module")
+def kvlcc2_zigzag_fit(
+    kvlcc2_zigzag_and_turn: tuple[ManeuverLog, ManeuverLog],
+) -> IdentificationResult:
+    return identify([kvlcc2_zigzag_and_turn[0]], _SURGE_SETTINGS)
+
+
+def test_zigzags_alone_leave_the_turns_surge_open_and_a_turning_log_does_not(
+    kvlcc2_zigzag_and_turn: tuple[ManeuverLog, ManeuverLog],
+    kvlcc2_zigzag_fit: IdentificationResult,
+) -> None:
+    """The default family fitted on a zig-zag alone is warned that its turns extrapolate
+    the surge; with a turning circle beside it, not."""
+    alone = [w for w in kvlcc2_zigzag_fit.warnings if "surge force of a hard turn" in w]
+    assert len(alone) == 1 and "X_vv" in alone[0]
+    both = identify(list(kvlcc2_zigzag_and_turn), _SURGE_SETTINGS).warnings
     assert not any("surge force of a hard turn" in w for w in both)
+
+
+def test_the_surge_drag_prior_leaves_the_centripetal_term_to_a_zigzag(
+    kvlcc2_zigzag_and_turn: tuple[ManeuverLog, ManeuverLog],
+    kvlcc2_zigzag_fit: IdentificationResult,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Held to a ship's size, X_vv and X_rr leave X_vr to the zig-zag: determined, within
+    2σ of the reference's (m + m_y + ½ρL²d·X′_vr)/(m + m_x); without the prior not one of
+    the three is determined."""
+    ship = kvlcc2("full")
+    half_rho_L2_d = 0.5 * ship.water_density_kgpm3 * ship.length_m**2 * ship.draught_m
+    m = ship.mass_kg
+    centripetal = (m + half_rho_L2_d * (ship.m_y + ship.X_vr)) / (m + half_rho_L2_d * ship.m_x)
+    report = {c.name: c for c in kvlcc2_zigzag_fit.coefficients}
+    assert report["X_vr"].identifiable
+    assert abs(report["X_vr"].value - centripetal) < 2.0 * report["X_vr"].std
+    for name in SURGE_DRAG_TERMS:
+        assert report[name].std <= SURGE_DRAG_PRIOR_X / SURGE_MASS
+
+    free = replace(
+        PRIME_RUDDER_OFFSET,
+        name="test-free-surge-drag",
+        surge=tuple(replace(t, prior_std=None) for t in PRIME_RUDDER_OFFSET.surge),
+    )
+    monkeypatch.setitem(variants._FAMILIES, free.name, free)
+    fit = identify([kvlcc2_zigzag_and_turn[0]], replace(_SURGE_SETTINGS, model=free.name))
+    assert {"X_vr", *SURGE_DRAG_TERMS} <= set(fit.not_identifiable)
 
 
 @pytest.mark.parametrize(
