@@ -602,11 +602,13 @@ NEUTRAL_RUDDER_OFFSET = sp.Symbol("d0", real=True)
 # X_rr·q·r′², nor the centripetal X_vr·v·r beside them: a ship at 10–20° of rudder drifts
 # too little. They set the speed a model keeps in a hard turn, and with it the share of
 # the slipstream in the rudder's inflow: free, the three take whatever the zig-zags' noise
-# leaves (a KVLCC2 10/10 zig-zag: X_vr −3.9 ± 6.9, no ship's sign), and a
-# zig-zag-trained turning circle is off by several points more. A zero-mean prior holds
-# the two drag terms to the size a ship's are, X′ per ½ρLdU² of SURGE_DRAG_PRIOR_X
-# (KVLCC2 X′_vv −0.040, X′_rr 0.011, Yasukawa & Yoshimura 2015; the Mariner's X′_vv in
-# the same units −0.18), over m′ + m_x′ ≈ SURGE_MASS (KVLCC2 0.240) since the family's
+# leaves (a KVLCC2 10/10 zig-zag: X_vr −3.9 ± 6.9, no ship's sign), and the
+# zig-zag-trained turning circles scatter with them (ten noise draws: KVLCC2 7.3–12.3 %
+# off, the Mariner 4.4–11.9 %; with the prior 7.0–11.1 % and 4.2–9.6 %). A prior holds
+# the two drag terms to the size a ship's are, zero-mean with a standard deviation in X′
+# per ½ρLdU² of SURGE_DRAG_PRIOR_X (KVLCC2 X′_vv −0.040, X′_rr 0.011, Yasukawa &
+# Yoshimura 2015; the Mariner's X′_vv in the same units −0.18), over
+# m′ + m_x′ ≈ SURGE_MASS (KVLCC2 0.240) since the family's
 # coefficients are accelerations; X_vr, the centripetal (m + m_y)·v·r of the hull's
 # added mass, stays free and the zig-zag then determines it (KVLCC2: 2.0 ± 0.9, the
 # reference's 1.85). Measured the same at a bound of 0.1 (benchmarks/fidelity.md).
