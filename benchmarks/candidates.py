@@ -70,6 +70,10 @@ free one:
 * ``offset-norar``, ``offset-norar-thrust``: the default ``prime-rudder-offset`` without
   N_rar (its HSVA fits have N_rar > 0, a yaw damping that falls with the rate): what a
   sign constraint N_rar ≤ 0 gives where it binds; and the same with the fixed thrust;
+* ``offset-thrustprior``: ``prime-rudder-offset-thrust`` (the thrust of fixed open-water
+  slope, X_T·(n²L − κ·u·n)) plus a free slope term X_un·u·n under a zero-mean prior of
+  :data:`THRUST_SLOPE_DEVIATION_STD`: the propeller's slope where the logs leave the split
+  open, theirs where they determine it — the thrust rule's switch made a prior;
 * ``both-prior002``, ``both-prior010``: ``rudder-both`` with a zero-mean prior on the
   cubic terms (``Term.prior_std``) of 0.02 and 0.1 in the MMG's Y′ and N′ (per ½ρL²d,
   ½ρL³d; KVLCC2 |Y′_vvv| 1.6, |N′_vvr| 0.29): cubic terms that count only where the logs
@@ -82,7 +86,7 @@ from dataclasses import replace
 
 import sympy as sp
 
-from fmu_model.structure import L, ModelStructure, Term, n, r
+from fmu_model.structure import L, ModelStructure, Term, n, r, u
 from fmu_model.variants import (
     NEUTRAL_RUDDER_OFFSET,
     PRIME_CROSSFLOW,
@@ -91,6 +95,7 @@ from fmu_model.variants import (
     PRIME_RUDDER,
     PRIME_RUDDER_LIFT,
     PRIME_RUDDER_OFFSET,
+    PRIME_RUDDER_OFFSET_THRUST,
     PROPELLER_INFLOW,
     RUDDER_INFLOW_SQUARED,
     SLIPSTREAM_K,
@@ -192,6 +197,11 @@ SWAY_MASS = 0.4
 YAW_INERTIA = 0.022
 
 
+# X_un of a propeller's thrust is −κ·X_T (KVLCC2 X_T ≈ 2e-5, κ 20): a deviation of
+# 10·X_T is a slope κ ± 10, single-screw ships' 12–40 within two of it.
+THRUST_SLOPE_DEVIATION_STD = 2e-4
+
+
 _, _HELM_SWAY, _HELM_YAW = rudder_gain_terms(
     RUDDER_INFLOW_SQUARED * sp.cos(rudder_angle_of_attack()), suffix="0"
 )
@@ -242,6 +252,14 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         name="offset-norar",
         yaw=tuple(t for t in PRIME_RUDDER_OFFSET.yaw if t.coefficient != "N_rar"),
     )
+    thrust_prior = replace(
+        PRIME_RUDDER_OFFSET_THRUST,
+        name="offset-thrustprior",
+        surge=(
+            *PRIME_RUDDER_OFFSET_THRUST.surge,
+            Term("X_un", u * n, prior_std=THRUST_SLOPE_DEVIATION_STD),
+        ),
+    )
     crossflow_lift = _with_terms(
         "crossflow-lift", PRIME_CROSSFLOW.surge, (_OFFSET_SWAY3,), (_OFFSET_YAW3,), PRIME_CROSSFLOW
     )
@@ -266,6 +284,7 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         offset_xflow,
         with_fixed_thrust(offset_xflow, "offset-xflow-thrust", "offset-xflow, fixed thrust"),
         no_rar,
+        thrust_prior,
         with_fixed_thrust(no_rar, "offset-norar-thrust", "offset-norar, fixed thrust"),
         hullmix,
         with_fixed_thrust(hullmix, "offset-hullmix-thrust", "offset-hullmix, fixed thrust"),
