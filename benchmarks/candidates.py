@@ -73,7 +73,8 @@ free one:
 * ``offset-thrustprior``: ``prime-rudder-offset-thrust`` (the thrust of fixed open-water
   slope, X_T·(n²L − κ·u·n)) plus a free slope term X_un·u·n under a zero-mean prior of
   :data:`THRUST_SLOPE_DEVIATION_STD`: the propeller's slope where the logs leave the split
-  open, theirs where they determine it — the thrust rule's switch made a prior;
+  open, theirs where they determine it — the thrust rule's switch made a prior
+  (``fidelity.md``, "The surge drag prior in the default family", last paragraph);
 * ``both-prior002``, ``both-prior010``: ``rudder-both`` with a zero-mean prior on the
   cubic terms (``Term.prior_std``) of 0.02 and 0.1 in the MMG's Y′ and N′ (per ½ρL²d,
   ½ρL³d; KVLCC2 |Y′_vvv| 1.6, |N′_vvr| 0.29): cubic terms that count only where the logs
@@ -198,7 +199,7 @@ YAW_INERTIA = 0.022
 
 
 # X_un of a propeller's thrust is −κ·X_T (KVLCC2 X_T ≈ 2e-5, κ 20): a deviation of
-# 10·X_T is a slope κ ± 10, single-screw ships' 12–40 within two of it.
+# 10·X_T is a slope κ ± 10, single-screw ships' 12–40 within two standard deviations.
 THRUST_SLOPE_DEVIATION_STD = 2e-4
 
 
