@@ -726,23 +726,33 @@ TURN_SURGE_TERMS = ("X_vr", "X_vv", "X_rr")
 drift and yaw, which set the speed a model keeps in a turn."""
 
 
-def turn_surge_warning(weak: Sequence[str], *, turn_logged: bool) -> str | None:
+def turn_surge_warning(
+    weak: Sequence[str], *, turn_logged: bool, held: Sequence[str] = ()
+) -> str | None:
     """Return a warning when the surge force of a hard turn is left open, else None.
 
     ``weak``: the coefficients the logs do not determine. Zig-zags leave
     :data:`TURN_SURGE_TERMS` open, and those alone move the held-out 35° turn of a
     KVLCC2 fit by 30 points (benchmarks/fidelity.md, "Where the KVLCC2 turn's error
-    lives"). None when a log turns through 180° (``turn_logged``: it fixes them) or none
-    of them is weak.
+    lives"). ``held``: the coefficients the family holds by a zero-mean prior (the
+    default's X_vv, X_rr, ``fmu_model.variants.with_surge_drag_prior``); the warning says
+    which of the open ones keep the prior's value rather than the logs'. None when a log
+    turns through 180° (``turn_logged``: it fixes them) or none of them is weak.
     """
     open_terms = [name for name in TURN_SURGE_TERMS if name in weak]
     if turn_logged or not open_terms:
         return None
+    by_prior = [name for name in open_terms if name in held]
+    prior = (
+        f"; {', '.join(by_prior)} keep the family's prior (near zero, a ship's size)"
+        if by_prior
+        else ""
+    )
     return (
         f"the surge force of a hard turn ({', '.join(open_terms)}) is not determined by "
         "these logs, and it sets the speed the model keeps in a turn: its turning circles "
         "are extrapolated (on the KVLCC2 reference these terms alone move a zig-zag fit's "
-        "35 deg tactical diameter by 30 points); add a turning circle to the logs"
+        f"35 deg tactical diameter by 30 points){prior}; add a turning circle to the logs"
     )
 
 
@@ -1132,7 +1142,8 @@ def _fit(
             "not identifiable from these logs (not excited, collinear with other terms, or "
             f"posterior std above {settings.max_relative_std:.0%} of the value): " + ", ".join(weak)
         )
-    open_turn = turn_surge_warning(weak, turn_logged=covers_turn(tracks))
+    held = [t.coefficient for t in structure.terms if t.prior_std is not None]
+    open_turn = turn_surge_warning(weak, turn_logged=covers_turn(tracks), held=held)
     if open_turn is not None:
         warnings.append(open_turn)
     refinement = None

@@ -443,6 +443,16 @@ def test_a_turns_surge_force_left_open_is_warned_about(
         assert warning.endswith("add a turning circle to the logs")
 
 
+def test_the_open_surge_terms_a_prior_holds_are_named() -> None:
+    weak = ("X_vv", "X_rr", "Y_rar")
+    warning = turn_surge_warning(weak, turn_logged=False, held=("X_vv", "X_rr", "Y_vav"))
+    assert warning is not None
+    assert "(X_vv, X_rr) is not determined" in warning
+    assert "; X_vv, X_rr keep the family's prior (near zero, a ship's size);" in warning
+    free = turn_surge_warning(("X_vr",), turn_logged=False, held=("X_vv", "X_rr"))
+    assert free is not None and "prior" not in free
+
+
 _SURGE_SETTINGS = FitSettings(method="ekf", current="none")
 
 
@@ -467,7 +477,7 @@ def test_zigzags_alone_leave_the_turns_surge_open_and_a_turning_log_does_not(
     """The default family fitted on a zig-zag alone is warned that its turns extrapolate
     the surge; with a turning circle beside it, not."""
     alone = [w for w in kvlcc2_zigzag_fit.warnings if "surge force of a hard turn" in w]
-    assert len(alone) == 1 and "X_vv" in alone[0]
+    assert len(alone) == 1 and "X_vv, X_rr keep the family's prior" in alone[0]
     both = identify(list(kvlcc2_zigzag_and_turn), _SURGE_SETTINGS).warnings
     assert not any("surge force of a hard turn" in w for w in both)
 
