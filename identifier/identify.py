@@ -743,8 +743,9 @@ def turn_surge_warning(
     if turn_logged or not open_terms:
         return None
     by_prior = [name for name in open_terms if name in held]
+    keep = "keeps" if len(by_prior) == 1 else "keep"
     prior = (
-        f"; {', '.join(by_prior)} keep the family's prior (near zero, a ship's size)"
+        f"; {', '.join(by_prior)} {keep} the family's prior (near zero, a ship's size)"
         if by_prior
         else ""
     )

@@ -449,6 +449,8 @@ def test_the_open_surge_terms_a_prior_holds_are_named() -> None:
     assert warning is not None
     assert "(X_vv, X_rr) is not determined" in warning
     assert "; X_vv, X_rr keep the family's prior (near zero, a ship's size);" in warning
+    one = turn_surge_warning(("X_vr", "X_rr"), turn_logged=False, held=("X_vv", "X_rr"))
+    assert one is not None and "; X_rr keeps the family's prior" in one
     free = turn_surge_warning(("X_vr",), turn_logged=False, held=("X_vv", "X_rr"))
     assert free is not None and "prior" not in free
 
