@@ -243,7 +243,8 @@ class Interval:
     n_samples : int
         Coefficient sets drawn.
     n_failed : int
-        Samples without a value (diverged or the run did not reach the event).
+        Samples without a value (diverged, the run did not reach the event, or the turn
+        fell back against its rudder).
     model_form : float
         Half-width of the model-form term in the bounds (the spread of the fit's
         alternative estimates, ``scenarios.uncertainty.model_form``) [unit]; 0 when the

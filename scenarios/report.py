@@ -476,7 +476,8 @@ def _uncertainty_paragraph(validation: Validation) -> list[str]:
         ]
         lines += [
             "",
-            "Samples without a value (diverged, or the run did not reach the event), "
+            "Samples without a value (diverged, the run did not reach the event, or the "
+            "turn fell back against its rudder), "
             f"left out of the intervals: {'; '.join(parts)}.",
         ]
     return lines

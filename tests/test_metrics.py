@@ -16,6 +16,7 @@ from trials.metrics import (
     pullout_metrics,
     spiral_metrics,
     steady_yaw_rate,
+    turned_back_rad,
     turning_metrics,
     zigzag_metrics,
 )
@@ -206,6 +207,32 @@ def test_straight_run_is_not_a_turning_circle() -> None:
     traj = circle_run(turned_rad=0.0, approach_s=100.0)
     with pytest.raises(MetricsError, match="never changes"):
         turning_metrics(traj, execute_time_s=-50.0)
+
+
+@pytest.mark.parametrize("side", [1, -1])
+def test_a_turn_that_keeps_its_direction_never_turns_back(side: int) -> None:
+    assert turned_back_rad(circle_run(side=side, approach_s=100.0)) == 0.0
+
+
+@pytest.mark.parametrize("side", [1, -1])
+def test_a_turn_that_loops_back_falls_back_by_the_loop(side: int) -> None:
+    # Heading 0 → 150° → 115° (35° back against the rudder) → 150° → 600°, then a
+    # smaller wobble (10° back) later: the largest fall counts, not the sum.
+    legs = (0.0, 150.0, 115.0, 400.0, 390.0, 600.0)
+    change_deg = np.concatenate(
+        [np.linspace(a, b, 200, endpoint=False) for a, b in zip(legs, legs[1:], strict=False)]
+    )
+    traj = empty_trajectory(change_deg.size)
+    traj["time_s"] = np.arange(change_deg.size, dtype=float)
+    traj["psi_rad"] = 0.3 + side * change_deg * DEG
+    assert turned_back_rad(traj) == pytest.approx(35.0 * DEG, abs=1e-12)
+    # From execute after the loop only the later wobble is left.
+    assert turned_back_rad(traj, execute_time_s=500.0) == pytest.approx(10.0 * DEG, abs=1e-12)
+
+
+def test_turning_back_needs_a_turn() -> None:
+    with pytest.raises(MetricsError, match="never changes"):
+        turned_back_rad(circle_run(turned_rad=0.0, approach_s=100.0), execute_time_s=-50.0)
 
 
 @pytest.mark.parametrize(

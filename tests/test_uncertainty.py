@@ -29,10 +29,15 @@ from scipy import integrate, stats
 from fmu_model import ModelParameters, get_model, save_params
 from scenarios.cli.uncertainty import add_uncertainty_command, run_uncertainty_command
 from scenarios.errors import UncertaintyError
-from scenarios.uncertainty.monte_carlo import monte_carlo_metrics
+from scenarios.uncertainty.monte_carlo import (
+    TURN_BACK_TOLERANCE_RAD,
+    monte_carlo_metrics,
+    program_metrics,
+)
 from scenarios.uncertainty.results import STATUS_DIVERGED, STATUS_INCOMPLETE, STATUS_OK
 from scenarios.uncertainty.sampling import draw_coefficients
 from trials.maneuvers import turning_circle, zigzag
+from trials.metrics import turned_back_rad
 from trials.run import ModelPlant, run_batch, run_program
 
 NAMES = get_model("shi2009").coefficient_names
@@ -292,6 +297,37 @@ def test_ships_turning_the_wrong_way_are_incomplete(client: Client) -> None:
         )
     assert "incomplete" not in result.summary_table()  # the table counts, the CLI explains
     assert f"/{result.n_samples} |" in result.summary_table()
+
+
+@pytest.mark.parametrize(
+    ("fall_deg", "status"),
+    [(0.0, STATUS_OK), (1.5, STATUS_OK), (20.0, STATUS_INCOMPLETE)],
+)
+def test_a_turn_that_falls_back_against_its_rudder_is_incomplete(
+    fall_deg: float, status: int
+) -> None:
+    # The linear ship's 35° turn (< 1° of heading a step) with its heading made to drop
+    # by fall_deg in one step after 120° of turn and come round again (a sample that
+    # loses its speed in the turn): falling back beyond TURN_BACK_TOLERANCE_RAD, its 180°
+    # crossing is a loop's, and not a metric.
+    traj = run_program(
+        ModelPlant(linear_ship()),
+        TURN,
+        speed_mps=SPEED_MPS,
+        n_rps=0.0,
+        rudder_rate_radps=2.34 * DEG,
+        dt_s=0.5,
+    )
+    turned = traj["psi_rad"] - traj["psi_rad"][0]
+    start = int(np.argmax(turned > 120.0 * DEG))
+    dip = np.interp(np.arange(turned.size), [start, start + 1, start + 81], [0.0, fall_deg, 0.0])
+    traj["psi_rad"] -= dip * DEG
+    fell = turned_back_rad(traj)
+    assert (fell > 0.0) == (fall_deg > 0.0)
+    assert (fell > TURN_BACK_TOLERANCE_RAD) == (status == STATUS_INCOMPLETE)
+    values, found = program_metrics(TURN, traj)
+    assert found == status
+    assert np.isnan(values).all() == (status == STATUS_INCOMPLETE)
 
 
 # --------------------------------------------------------------------------------------

@@ -38,6 +38,7 @@ __all__ = [
     "pullout_metrics",
     "spiral_metrics",
     "steady_yaw_rate",
+    "turned_back_rad",
     "turning_metrics",
     "zigzag_metrics",
 ]
@@ -377,12 +378,7 @@ def turning_metrics(traj: np.ndarray, execute_time_s: float = 0.0) -> TurningMet
         _checked(traj, ("time_s", "x_m", "y_m", "psi_rad", "u_mps", "v_mps")), execute_time_s
     )
     t = run["time_s"]
-    dpsi = run["psi_rad"] - run["psi_rad"][0]
-    k_max = int(np.argmax(np.abs(dpsi)))
-    if dpsi[k_max] == 0.0:
-        raise MetricsError("the heading never changes after execute; not a turning circle")
-    direction = 1 if dpsi[k_max] > 0.0 else -1
-    turned = direction * dpsi  # heading change towards the turn [rad]
+    direction, turned = _turn(run)
     for needed_rad in (0.5 * math.pi, math.pi):
         if turned.max() < needed_rad:
             raise MetricsError(
@@ -445,6 +441,27 @@ def turning_metrics(traj: np.ndarray, execute_time_s: float = 0.0) -> TurningMet
         steady_diameter_m=steady_diameter_m,
         steady_yaw_rate_radps=steady_r,
     )
+
+
+def turned_back_rad(traj: np.ndarray, execute_time_s: float = 0.0) -> float:
+    """How far the heading of a turn falls back against the turn's direction [rad].
+
+    The largest distance of the heading below its running extreme towards the turn
+    (the direction as in :func:`turning_metrics`), over the run after execute; 0 for a
+    turn that keeps its direction. A ship holding its rudder hard over does not turn
+    back; a model that does, at a speed its logs never reached, is not sailing a
+    turning circle, and metrics taken at its 90° and 180° crossings would measure a
+    loop of its own.
+
+    Raises
+    ------
+    MetricsError
+        When the trajectory is malformed, the execute time lies outside it, or the
+        heading never changes after execute.
+
+    """
+    _, turned = _turn(_run_from(_checked(traj, ("time_s", "psi_rad")), execute_time_s))
+    return float(np.max(np.maximum.accumulate(turned) - turned))
 
 
 def distance_at_heading_change(
@@ -799,6 +816,20 @@ def _run_from(traj: np.ndarray, t0_s: float) -> np.ndarray:
         if np.issubdtype(traj.dtype[name], np.floating):
             first[name] = np.interp(t0_s, t, traj[name])
     return np.concatenate((first, later))
+
+
+def _turn(run: np.ndarray) -> tuple[int, np.ndarray]:
+    """Direction of a turn (sign of the largest heading change) and the change towards it.
+
+    ``run`` starts at execute; returns +1 (starboard) or −1 (port) and
+    direction · (ψ − ψ₀) per sample [rad].
+    """
+    dpsi = run["psi_rad"] - run["psi_rad"][0]
+    k_max = int(np.argmax(np.abs(dpsi)))
+    if dpsi[k_max] == 0.0:
+        raise MetricsError("the heading never changes after execute; not a turning circle")
+    direction = 1 if dpsi[k_max] > 0.0 else -1
+    return direction, direction * dpsi
 
 
 def _rising_crossings(t: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

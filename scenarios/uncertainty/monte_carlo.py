@@ -33,18 +33,31 @@ from scenarios.uncertainty.results import (
 from scenarios.uncertainty.sampling import draw_coefficients
 from trials.cluster import cluster_client
 from trials.maneuvers import DEFAULT_RUDDER_RATE_DEG_S, Program, standard_set
-from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
+from trials.metrics import MetricsError, turned_back_rad, turning_metrics, zigzag_metrics
 from trials.run import ModelPlant, run_batch
 
 if TYPE_CHECKING:
     from distributed import Client
 
-__all__ = ["DEFAULT_RUDDER_RATE_RADPS", "monte_carlo_metrics"]
+__all__ = [
+    "DEFAULT_RUDDER_RATE_RADPS",
+    "TURN_BACK_TOLERANCE_RAD",
+    "monte_carlo_metrics",
+    "program_metrics",
+]
 
 DEFAULT_RUDDER_RATE_RADPS = math.radians(DEFAULT_RUDDER_RATE_DEG_S)
 """Default steering-gear rate [rad/s] (``trials.maneuvers.DEFAULT_RUDDER_RATE_DEG_S``)."""
 
 _MAX_DEFAULT_CHUNK = 100
+
+TURN_BACK_TOLERANCE_RAD = math.radians(1.0)
+"""Largest fall of a turning sample's heading against its rudder [rad] before the sample
+counts as incomplete (``trials.metrics.turned_back_rad``). Samples of a zig-zag-trained
+fit that lose their speed in a hard turn, where no log went, can loop back and come round
+again: their "tactical diameter" is then that of the loop (the demo's KVLCC2 fit: 7 of
+200 samples, 1,690-2,100 m against 1,000 m, which set the upper 95 % bound at 1,840 m;
+``benchmarks/coverage.md``, "Samples that turn back")."""
 
 
 # --------------------------------------------------------------------------------------
@@ -65,7 +78,7 @@ class RunSetup:
     divergence_factor: float
 
 
-def _program_metrics(program: Program, traj: np.ndarray) -> tuple[np.ndarray, int]:
+def program_metrics(program: Program, traj: np.ndarray) -> tuple[np.ndarray, int]:
     """Metric values (``METRICS[program.kind]`` order, NaN where missing) and the status."""
     names = METRICS[program.kind]
     values = np.full(len(names), math.nan)
@@ -73,7 +86,7 @@ def _program_metrics(program: Program, traj: np.ndarray) -> tuple[np.ndarray, in
         if program.kind == "turning":
             m = turning_metrics(traj)
             side = 1 if program.rudder_rad >= 0.0 else -1
-            if m.direction != side:
+            if m.direction != side or turned_back_rad(traj) > TURN_BACK_TOLERANCE_RAD:
                 return values, STATUS_INCOMPLETE  # turned against its rudder
             found: tuple[float | None, ...] = (
                 m.advance_m,
@@ -114,7 +127,7 @@ def simulate_chunk(theta: np.ndarray, setup: RunSetup) -> list[tuple[np.ndarray,
         status = np.full(theta.shape[1], STATUS_DIVERGED, dtype=np.int8)
         for j, traj in enumerate(run.trajectories):
             if not run.diverged[j]:
-                values[j], status[j] = _program_metrics(program, traj)
+                values[j], status[j] = program_metrics(program, traj)
         out.append((values, status))
     return out
 
