@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 
@@ -220,7 +221,7 @@ def test_a_turn_that_loops_back_falls_back_by_the_loop(side: int) -> None:
     # smaller wobble (10° back) later: the largest fall counts, not the sum.
     legs = (0.0, 150.0, 115.0, 400.0, 390.0, 600.0)
     change_deg = np.concatenate(
-        [np.linspace(a, b, 200, endpoint=False) for a, b in zip(legs, legs[1:], strict=False)]
+        [np.linspace(a, b, 200, endpoint=False) for a, b in itertools.pairwise(legs)]
     )
     traj = empty_trajectory(change_deg.size)
     traj["time_s"] = np.arange(change_deg.size, dtype=float)

@@ -55,9 +55,9 @@ TURN_BACK_TOLERANCE_RAD = math.radians(1.0)
 """Largest fall of a turning sample's heading against its rudder [rad] before the sample
 counts as incomplete (``trials.metrics.turned_back_rad``). Samples of a zig-zag-trained
 fit that lose their speed in a hard turn, where no log went, can loop back and come round
-again: their "tactical diameter" is then that of the loop (the demo's KVLCC2 fit: 7 of
-200 samples, 1,690-2,100 m against 1,000 m, which set the upper 95 % bound at 1,840 m;
-``benchmarks/coverage.md``, "Samples that turn back")."""
+again: their "tactical diameter" is then that of the loop (the demo's KVLCC2 fit: 6 of
+200 samples of each turn, up to 2,100 m against 1,000 m, which set the upper 95 % bound
+at 1,840 m; ``benchmarks/coverage.md``, "Samples that turn back")."""
 
 
 # --------------------------------------------------------------------------------------
