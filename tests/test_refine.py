@@ -256,7 +256,8 @@ def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candida
     np.testing.assert_array_equal(result.params.to_vector(), other.to_vector())
     why = (
         "the EKF estimate from the EKF start fails the sanity guard (a virtual hard-over turn "
-        "diverges or does not pass 360 deg); refined again from the equation-error estimate, "
+        "diverges, turns back or does not pass 360 deg); refined again from the "
+        "equation-error estimate, "
         "which sails the virtual turns and zig-zags"
     )
     assert why in result.warnings and why in result.reason
@@ -273,6 +274,7 @@ def test_turn_spread_compares_tactical_diameters() -> None:
     # A symmetric ship turns symmetrically.
     assert base[0].tactical_diameter_m == pytest.approx(base[1].tactical_diameter_m, rel=1e-9)
     assert base[0].sane and base[1].sane
+    assert base[0].turned_back_rad == base[1].turned_back_rad == 0.0
     assert turn_spread(base, base) == 0.0
     theta = truth.to_vector().copy()
     theta[truth.names.index("c3")] *= 1.3  # more rudder yaw moment: a tighter turn
@@ -407,9 +409,10 @@ def _fit(
     diverged: tuple[str, ...] = (),
     short_rad: float = 2.0,
     zigzags_complete: bool = True,
+    turned_back_rad: float = 0.0,
 ) -> FitSummary:
     """A fit whose virtual turns reach 360 deg exactly when they have a diameter [m]
-    (else ``short_rad`` of heading)."""
+    (else ``short_rad`` of heading), falling back by ``turned_back_rad`` on the way."""
     turns = tuple(
         VirtualTurn(
             rudder_rad=sign * math.radians(35.0),
@@ -419,6 +422,7 @@ def _fit(
             heading_change_rad=7.0 if d is not None else short_rad,
             bounded=True,
             passed_360=d is not None,
+            turned_back_rad=turned_back_rad,
         )
         for sign, d in zip((1.0, -1.0), diameters, strict=True)
     )
@@ -454,6 +458,23 @@ def _decide(initial: FitSummary, refined: FitSummary, **settings: Any) -> tuple[
         (_fit(2.0, (300.0, 300.0)), _fit(3.0, (300.0, 300.0)), False, "initial", "not lower"),
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, None)), False, "initial", "360 deg"),
         (_fit(2.0, (300.0, 300.0)), _fit(1.0, (300.0, 300.0), ("a",)), False, "initial", "a div"),
+        # A turn that loops back against its rudder (a model that loses its speed in the
+        # turn) before it comes round through 360 deg is not a turning circle; within
+        # TURN_BACK_TOLERANCE_RAD (1 deg) it is.
+        (
+            _fit(2.0, (300.0, 300.0)),
+            _fit(1.0, (300.0, 300.0), turned_back_rad=math.radians(20.0)),
+            False,
+            "initial",
+            "turns back",
+        ),
+        (
+            _fit(2.0, (300.0, 300.0)),
+            _fit(1.0, (300.0, 300.0), turned_back_rad=math.radians(0.5)),
+            False,
+            "refined",
+            "accepted",
+        ),
         # A virtual 20/20 zig-zag the refinement breaks; one the start never sailed either.
         (
             _fit(2.0, (300.0, 300.0)),

@@ -29,15 +29,11 @@ from scipy import integrate, stats
 from fmu_model import ModelParameters, get_model, save_params
 from scenarios.cli.uncertainty import add_uncertainty_command, run_uncertainty_command
 from scenarios.errors import UncertaintyError
-from scenarios.uncertainty.monte_carlo import (
-    TURN_BACK_TOLERANCE_RAD,
-    monte_carlo_metrics,
-    program_metrics,
-)
+from scenarios.uncertainty.monte_carlo import monte_carlo_metrics, program_metrics
 from scenarios.uncertainty.results import STATUS_DIVERGED, STATUS_INCOMPLETE, STATUS_OK
 from scenarios.uncertainty.sampling import draw_coefficients
 from trials.maneuvers import turning_circle, zigzag
-from trials.metrics import turned_back_rad
+from trials.metrics import TURN_BACK_TOLERANCE_RAD, turned_back_rad
 from trials.run import ModelPlant, run_batch, run_program
 
 NAMES = get_model("shi2009").coefficient_names

@@ -29,6 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 __all__ = [
+    "TURN_BACK_TOLERANCE_RAD",
     "MetricsError",
     "PulloutMetrics",
     "SpiralMetrics",
@@ -42,6 +43,13 @@ __all__ = [
     "turning_metrics",
     "zigzag_metrics",
 ]
+
+
+TURN_BACK_TOLERANCE_RAD = math.radians(1.0)
+"""Largest fall of a turn's heading against its rudder [rad] (:func:`turned_back_rad`)
+that still counts as a turn keeping its direction: a ship holding its rudder hard over
+does not fall back at all, and a model that does is not sailing a turning circle (the
+Monte-Carlo samples of ``scenarios.uncertainty``, the refinement's virtual turns)."""
 
 
 class MetricsError(ValueError):

@@ -11,7 +11,7 @@ estimate is kept and the spread reported, also when the start does not turn thro
 stops short of 180° or just past it must not choose the estimate): without a turning
 log, output error is a check on the turn, not an estimate of it. Independently, a
 refined estimate is only kept when it lowers the cost, every training log replays
-without divergence and both virtual turns stay bounded and pass 360° (or, when the
+without divergence and both virtual turns stay bounded, keep turning and pass 360° (or, when the
 start's do not either, go at least as far as the start's), and, when the start's do,
 its virtual 20°/20° zig-zags to both sides reach their second overshoot without
 diverging (:func:`virtual_zigzags`; :func:`decide`). Unless the logs turn through 180°
@@ -35,7 +35,7 @@ from identifier.output_error.records import FitSummary, RefineSettings, VirtualT
 from identifier.smoothing import SmoothedTrack
 from trials.logs import ManeuverLog
 from trials.maneuvers import Program, turning_circle, zigzag
-from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
+from trials.metrics import MetricsError, turned_back_rad, turning_metrics, zigzag_metrics
 from trials.run import BatchRun, ModelPlant, run_batch
 
 MAX_SIDE_ASYMMETRY = 0.10
@@ -222,6 +222,7 @@ def virtual_turns(
                 heading_change_rad=change,
                 bounded=not bool(run.diverged[0]),
                 passed_360=change >= 2.0 * math.pi,
+                turned_back_rad=turned_back_rad(traj) if change > 0.0 else 0.0,
             )
         )
     return turns[0], turns[1]
@@ -430,8 +431,8 @@ def decide(
         )
     if not all(_no_worse(a, b) for a, b in zip(initial.turns, refined.turns, strict=True)):
         return "initial", (
-            "output-error estimate rejected: a virtual hard-over turn diverges or does not "
-            f"pass 360 deg; {keep}"
+            "output-error estimate rejected: a virtual hard-over turn diverges, turns back "
+            f"or does not pass 360 deg; {keep}"
         )
     if initial.zigzags_complete and not refined.zigzags_complete:
         return "initial", (

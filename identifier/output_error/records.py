@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from fmu_model import ModelParameters
+from trials.metrics import TURN_BACK_TOLERANCE_RAD
 
 
 @dataclass(frozen=True)
@@ -123,6 +124,9 @@ class VirtualTurn:
         The run stayed finite with its speed below five times the approach speed.
     passed_360 : bool
         The heading changed by at least 360°.
+    turned_back_rad : float
+        How far the heading fell back against the rudder (``trials.metrics.
+        turned_back_rad``) [rad].
 
     """
 
@@ -133,11 +137,12 @@ class VirtualTurn:
     heading_change_rad: float
     bounded: bool
     passed_360: bool
+    turned_back_rad: float = 0.0
 
     @property
     def sane(self) -> bool:
-        """Bounded and through 360° (model_structures.md §7)."""
-        return self.bounded and self.passed_360
+        """Bounded, through 360° (model_structures.md §7) and never turning back."""
+        return self.bounded and self.passed_360 and self.turned_back_rad <= TURN_BACK_TOLERANCE_RAD
 
 
 @dataclass(frozen=True)
@@ -186,7 +191,7 @@ class FitSummary:
 
     @property
     def sane(self) -> bool:
-        """Every log replays and both turns are bounded and pass 360° (§7)."""
+        """Every log replays and both turns are sane (:attr:`VirtualTurn.sane`)."""
         return not self.diverged and all(t.sane for t in self.turns)
 
 

@@ -76,10 +76,10 @@ def refine_output_error(
     the candidate whose replay fits best (smallest J at its own estimate, the prior term
     then being zero). The paper's one-step-ahead EKF fit is not always the estimate that
     simulates or predicts whole manoeuvres best.
-    When the estimate kept (refined or start)
-    fails the sanity guard (a virtual hard-over turn diverges or does not pass 360°) and
-    another candidate sails the virtual turns and zig-zags, the refinement runs again
-    from that candidate, and the result says why.
+    When the estimate kept (refined or start) fails the sanity guard (a virtual hard-over
+    turn diverges, turns back or does not pass 360°) and another candidate sails the
+    virtual turns and zig-zags, the refinement runs again from that candidate, and the
+    result says why.
 
     Every log is replayed from its execute sample on, from the state there that the
     start model gives when fitted to the approach (:func:`execute_state`). That state is
@@ -162,7 +162,7 @@ def refine_output_error(
     if not all(t.sane for t in initial.turns):
         warnings.append(
             f"the {label} estimate fails the sanity guard: a virtual hard-over turn "
-            "diverges or does not pass 360 deg"
+            "diverges, turns back or does not pass 360 deg"
         )
     opt = objective.solve(np.zeros(objective.size), settings.max_nfev)
     refined_params = params.with_vector(objective.theta(opt.x), _covariance(objective, opt))
@@ -190,7 +190,8 @@ def refine_output_error(
             kept_label = "output-error" if kept == "refined" else label
             why = (
                 f"the {kept_label} estimate from the {label} start fails the sanity guard (a "
-                "virtual hard-over turn diverges or does not pass 360 deg); refined again from "
+                "virtual hard-over turn diverges, turns back or does not pass 360 deg); refined "
+                "again from "
                 f"the {method_label(sane)} estimate, which sails the virtual turns and zig-zags"
             )
             return replace(

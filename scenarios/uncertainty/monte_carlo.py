@@ -33,7 +33,13 @@ from scenarios.uncertainty.results import (
 from scenarios.uncertainty.sampling import draw_coefficients
 from trials.cluster import cluster_client
 from trials.maneuvers import DEFAULT_RUDDER_RATE_DEG_S, Program, standard_set
-from trials.metrics import MetricsError, turned_back_rad, turning_metrics, zigzag_metrics
+from trials.metrics import (
+    TURN_BACK_TOLERANCE_RAD,
+    MetricsError,
+    turned_back_rad,
+    turning_metrics,
+    zigzag_metrics,
+)
 from trials.run import ModelPlant, run_batch
 
 if TYPE_CHECKING:
@@ -41,7 +47,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_RUDDER_RATE_RADPS",
-    "TURN_BACK_TOLERANCE_RAD",
     "monte_carlo_metrics",
     "program_metrics",
 ]
@@ -50,14 +55,6 @@ DEFAULT_RUDDER_RATE_RADPS = math.radians(DEFAULT_RUDDER_RATE_DEG_S)
 """Default steering-gear rate [rad/s] (``trials.maneuvers.DEFAULT_RUDDER_RATE_DEG_S``)."""
 
 _MAX_DEFAULT_CHUNK = 100
-
-TURN_BACK_TOLERANCE_RAD = math.radians(1.0)
-"""Largest fall of a turning sample's heading against its rudder [rad] before the sample
-counts as incomplete (``trials.metrics.turned_back_rad``). Samples of a zig-zag-trained
-fit that lose their speed in a hard turn, where no log went, can loop back and come round
-again: their "tactical diameter" is then that of the loop (the demo's KVLCC2 fit: 6 of
-200 samples of each turn, up to 2,100 m against 1,000 m, which set the upper 95 % bound
-at 1,840 m; ``benchmarks/coverage.md``, "Samples that turn back")."""
 
 
 # --------------------------------------------------------------------------------------
@@ -86,8 +83,14 @@ def program_metrics(program: Program, traj: np.ndarray) -> tuple[np.ndarray, int
         if program.kind == "turning":
             m = turning_metrics(traj)
             side = 1 if program.rudder_rad >= 0.0 else -1
+            # A sample that turned against its rudder, or fell back against it on the
+            # way: one that lost its speed in the turn, where no log went, loops back and
+            # comes round again, and its "tactical diameter" is the loop's (the demo's
+            # KVLCC2 fit: 6 of 200 samples of each turn, up to 2,100 m against 1,000 m,
+            # set the upper 95 % bound at 1,840 m; benchmarks/coverage.md, "Samples that
+            # turn back").
             if m.direction != side or turned_back_rad(traj) > TURN_BACK_TOLERANCE_RAD:
-                return values, STATUS_INCOMPLETE  # turned against its rudder
+                return values, STATUS_INCOMPLETE
             found: tuple[float | None, ...] = (
                 m.advance_m,
                 m.transfer_m,

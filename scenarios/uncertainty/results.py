@@ -33,7 +33,7 @@ STATUS_DIVERGED = 1
 """The ship diverged (non-finite state or outside the physical envelope)."""
 STATUS_INCOMPLETE = 2
 """The run did not cover the metric's event (90°/180°, check heading, turn side), or the
-turn fell back against its rudder (``monte_carlo.TURN_BACK_TOLERANCE_RAD``)."""
+turn fell back against its rudder (``trials.metrics.TURN_BACK_TOLERANCE_RAD``)."""
 
 METRICS: Mapping[str, tuple[str, ...]] = {
     "turning": ("advance_m", "transfer_m", "tactical_diameter_m", "steady_diameter_m"),
