@@ -257,8 +257,7 @@ def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candida
     why = (
         "the EKF estimate from the EKF start fails the sanity guard (a virtual hard-over turn "
         "diverges, turns back or does not pass 360 deg); refined again from the "
-        "equation-error estimate, "
-        "which sails the virtual turns and zig-zags"
+        "equation-error estimate, which sails the virtual turns and zig-zags"
     )
     assert why in result.warnings and why in result.reason
     assert why in result.params.identification["refinement"]["reason"]

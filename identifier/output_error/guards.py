@@ -11,13 +11,13 @@ estimate is kept and the spread reported, also when the start does not turn thro
 stops short of 180° or just past it must not choose the estimate): without a turning
 log, output error is a check on the turn, not an estimate of it. Independently, a
 refined estimate is only kept when it lowers the cost, every training log replays
-without divergence and both virtual turns stay bounded, keep turning and pass 360° (or, when the
-start's do not either, go at least as far as the start's), and, when the start's do,
-its virtual 20°/20° zig-zags to both sides reach their second overshoot without
-diverging (:func:`virtual_zigzags`; :func:`decide`). Unless the logs turn through 180°
-to both sides, a refined estimate whose two virtual turns differ by more than
-:data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is rejected too: the
-side no log verifies is then the refinement's guess.
+without divergence and both virtual turns stay bounded, never fall back against their
+rudder and pass 360° (or, when the start's do not either, go at least as far as the
+start's), and, when the start's do, its virtual 20°/20° zig-zags to both sides reach
+their second overshoot without diverging (:func:`virtual_zigzags`; :func:`decide`).
+Unless the logs turn through 180° to both sides, a refined estimate whose two virtual
+turns differ by more than :data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is
+rejected too: the side no log verifies is then the refinement's guess.
 """
 
 from __future__ import annotations

@@ -190,9 +190,9 @@ def refine_output_error(
             kept_label = "output-error" if kept == "refined" else label
             why = (
                 f"the {kept_label} estimate from the {label} start fails the sanity guard (a "
-                "virtual hard-over turn diverges, turns back or does not pass 360 deg); refined "
-                "again from "
-                f"the {method_label(sane)} estimate, which sails the virtual turns and zig-zags"
+                "virtual hard-over turn diverges, turns back or does not pass 360 deg); "
+                f"refined again from the {method_label(sane)} estimate, which sails the "
+                "virtual turns and zig-zags"
             )
             return replace(
                 again,
