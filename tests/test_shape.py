@@ -262,6 +262,23 @@ def test_shape_search_is_rate_aware_and_bounded(monkeypatch: pytest.MonkeyPatch)
     assert few.rows <= 500
 
 
+def test_the_polish_stops_at_its_evaluation_cap(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The Powell polish is capped (SHAPE_POLISH_MAX_EVALUATIONS, a regularisation
+    measured on the benchmarks): with the cap lowered it stops there, short of the
+    residual it reaches with the default cap."""
+    segments = _segments()
+    fixed = {name: TRUE_SHAPE[name] for name in ("dgamma", "wake", "dwake")}
+    grid = 7 * 5 * 3  # k, gamma, l
+    capped = shape_module.SHAPE_POLISH_MAX_EVALUATIONS
+    default = select_shape(PRIME_RUDDER, segments, LENGTH_M, SPEED_MPS, N_RPS, fixed=fixed)
+    monkeypatch.setattr(shape_module, "SHAPE_POLISH_MAX_EVALUATIONS", 20)
+    short = select_shape(PRIME_RUDDER, segments, LENGTH_M, SPEED_MPS, N_RPS, fixed=fixed)
+    # grid, polish, then J at the chosen and at the default shape
+    assert short.evaluations == grid + 20 + 2
+    assert grid + 20 + 2 < default.evaluations <= grid + capped + 2
+    assert default.residual < 0.5 * short.residual
+
+
 def test_shape_regression_reuses_the_shape_free_sums_and_equals_the_whole_regression() -> None:
     """J's residuals from the shaped columns alone equal those of all 21 columns."""
     assert PRIME_RUDDER.shaped_columns == tuple(
