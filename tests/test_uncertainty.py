@@ -15,6 +15,7 @@ import argparse
 import json
 import logging
 import math
+import re
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -455,6 +456,21 @@ def test_cli_writes_json_and_table(
         "first_overshoot_deg",
         "second_overshoot_deg",
     }
+
+
+def test_cli_says_which_samples_failed_and_why(
+    client: Client, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # σ(c3) = C3: about one ship in six has a rudder that turns it the wrong way.
+    path = tmp_path / "params.json"
+    save_params(path, linear_ship(c3_std=C3))
+    argv = ["uncertainty", "--params", str(path), "--samples", "12", "--seed", "4"]
+    argv += ["--chunk-size", "12", "--scheduler", client.scheduler_info()["address"], "--quiet"]
+    assert run_uncertainty_command(_parse(argv)) == 0
+    lines = [x for x in capsys.readouterr().out.splitlines() if x.startswith("failed samples")]
+    assert len(lines) == 1
+    assert "incomplete: the run did not reach the event, or its turn fell back" in lines[0]
+    assert re.search(r"turning-35-stbd: 0 diverged, [1-9]\d* incomplete", lines[0])
 
 
 def test_cli_warns_of_a_ships_steering_rate_on_a_tank_model(

@@ -124,5 +124,8 @@ def run_uncertainty_command(args: argparse.Namespace) -> int:
         if p.n_diverged or p.n_incomplete
     ]
     if failed:
-        print("failed samples (excluded from the statistics): " + "; ".join(failed))
+        print(
+            "failed samples (excluded from the statistics; incomplete: the run did not reach "
+            "the event, or its turn fell back against the rudder): " + "; ".join(failed)
+        )
     return 0
