@@ -5,17 +5,17 @@ coefficients once a few shape constants are fixed: for ``prime-rudder`` the slip
 share k of the rudder inflow, the flow-straightening factor γ and its port/starboard
 asymmetry Δγ, the rudder position l (in L) of reference/model_structures.md §4, and the
 wake recovery in a drift and its asymmetry (wake, dwake; ``fmu_model.variants``). They
-are chosen, inside their physical bounds, by the smallest equation-error residual on
-the training data, summed over the three equations relative to their signal,
+are chosen, inside their physical bounds, by the equation-error residual on the
+training data, summed over the three equations relative to their signal,
 
     J(shape) = Σ_j ‖a_j − Φ_j(shape) θ̂_j(shape)‖² / ‖a_j‖²,   j ∈ {u, v, r},
 
-first on the grid each constant declares (``ShapeConstant.grid``), then polished from
-the best grid point with a bounded Powell search (``scipy.optimize.minimize``) of at
-most :data:`SHAPE_POLISH_MAX_EVALUATIONS` evaluations (a deliberate cap, see there). Nothing
-of a held-out manoeuvre is used. The slipstream share k is searched as κ = k (n₀L/U₀)²,
-the (nL)² part of the rudder inflow relative to U₀² at the nominal approach, so that one
-grid fits every ship.
+first the smallest on the grid each constant declares (``ShapeConstant.grid``), then
+polished from that grid point with a bounded Powell search (``scipy.optimize.minimize``)
+of at most :data:`SHAPE_POLISH_MAX_EVALUATIONS` evaluations: a deliberate cap, short of
+J's minimum along its flat valleys (see there). Nothing of a held-out manoeuvre is used.
+The slipstream share k is searched as κ = k (n₀L/U₀)², the (nL)² part of the rudder
+inflow relative to U₀² at the nominal approach, so that one grid fits every ship.
 
 Rate-aware. J is evaluated on the regression of ``identifier.equation_error``, decimated
 to about L/U/40 (1 Hz for KVLCC2 at full scale; the smoother being the anti-aliasing
