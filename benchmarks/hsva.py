@@ -251,9 +251,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--data", type=Path, default=DATA, help="directory of the runs")
     parser.add_argument(
         "--current",
-        choices=("none", "constant"),
+        choices=("none", "constant", "auto"),
         default="none",
-        help="the fits' current: none (a basin's still water, the default) or constant "
+        help="the fits' current: none (a basin's still water, the default), constant or auto "
         "(identifier fit's default)",
     )
     parser.add_argument("--out", default=str(Path(__file__).with_name("hsva.md")))

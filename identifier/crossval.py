@@ -28,11 +28,9 @@ from typing import Any
 import numpy as np
 
 from fmu_model import ModelParameters
-from fmu_model.replay import replay
 from identifier.identify import FitSettings, identify
-from identifier.output_error import execute_state, smooth_log
+from identifier.output_error import predict_log, smooth_log
 from identifier.smoothing import SmoothedTrack
-from identifier.wind import known_acceleration
 from trials.conditions import KINDS, maneuver_indices, maneuver_kind, zigzag_angles
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship
@@ -210,50 +208,6 @@ def _trajectory(
     traj["x_m"], traj["y_m"], traj["psi_rad"] = states[:, 3], states[:, 4], states[:, 5]
     traj["rudder_rad"], traj["n_rps"] = rudder_rad, n_rps
     return traj
-
-
-def predict_log(
-    params: ModelParameters, log: ManeuverLog, track: SmoothedTrack | None = None
-) -> tuple[int, np.ndarray]:
-    """Replay the model with a log's inputs from its state at execute.
-
-    The state at execute comes from the approach alone
-    (``identifier.output_error.execute_state``); from there on the model runs open loop on
-    the logged rudder [rad] and propeller speed [rev/s].
-
-    Parameters
-    ----------
-    params : ModelParameters
-        The model.
-    log : ManeuverLog
-        The log whose inputs are replayed.
-    track : SmoothedTrack, optional
-        Its smoothed track; smoothed here when omitted.
-
-    Returns
-    -------
-    tuple of (int, numpy.ndarray)
-        The execute index k and the predicted (u, v, r, x, y, ψ) at the samples
-        ``k, k+1, …`` (shape (N − k, 6), SI units; NaN from a divergence on).
-
-    """
-    log = at_midship(log)  # a GNSS antenna's track: the midship point's, as the model's
-    track = track or smooth_log(log)
-    k, state = execute_state(params, log, track)
-    known = known_acceleration(log, params.windage)
-    states = replay(
-        params.structure,
-        params.to_vector(),
-        params.length_m,
-        log.time_s[k:],
-        log.rudder_rad[k:],
-        log.n_rps[k:],
-        state,
-        extra_acceleration=None if known is None else known[k:],
-        max_step_s=0.05 * params.length_m / max(float(state[0]), 0.1),
-        speed_limit_mps=5.0 * max(float(np.max(np.hypot(track.u_mps, track.v_mps))), 0.1),
-    )
-    return k, states
 
 
 def held_out_errors(

@@ -42,7 +42,7 @@ starts the alternation, says whether the log is plausible at all, and is reporte
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -55,8 +55,13 @@ from identifier.smoothing import SmoothedTrack
 from trials.conditions import execute_index
 from trials.logs import ManeuverLog
 
-CURRENT_MODES = ("none", "constant", "drifting")
-"""``--current``: none (still water), a constant current, a drifting one (random walk)."""
+CURRENT_MODES = ("auto", "none", "constant", "drifting")
+"""``--current``: auto (a constant current or none, whichever predicts the training logs
+better: :func:`choose_current`), none (still water), a constant current, a drifting one
+(random walk)."""
+
+DEFAULT_CURRENT = "auto"
+"""The default ``--current``: a basin's still water and a trial at sea alike."""
 
 CURRENT_PRIOR_STD_MPS = 1.0
 """Prior standard deviation of each current component [m/s]: 2 kn, an open-sea current
@@ -234,6 +239,56 @@ class CurrentEstimate:
             else {**self.speed_log_ekf.as_dict(), "alone": self.speed_log.as_dict()},
             "speed_log_ignored": self.speed_log_ignored,
         }
+
+
+@dataclass(frozen=True)
+class CurrentChoice:
+    """What ``--current auto`` kept, and why (:func:`choose_current`).
+
+    Attributes
+    ----------
+    kept : str
+        ``"constant"`` or ``"none"``.
+    track_rms_m : dict of str to float
+        Per mode fitted, the RMS distance of the training logs' predictions (open loop
+        from execute, every sample after it) from their smoothed tracks over the ground
+        [m]; ``math.inf`` where a prediction diverges. Empty when a speed log decided.
+    reason : str
+        One sentence for the fit summary.
+
+    """
+
+    kept: str
+    track_rms_m: dict[str, float]
+    reason: str
+
+    def as_dict(self) -> dict[str, object]:
+        """Return the record of params.json's ``environment.current_choice`` (JSON numbers)."""
+        return {
+            "requested": "auto",
+            "kept": self.kept,
+            "track_rms_m": {
+                mode: value if math.isfinite(value) else None
+                for mode, value in self.track_rms_m.items()
+            },
+            "reason": self.reason,
+        }
+
+
+def choose_current(track_rms_m: Mapping[str, float]) -> str:
+    """Return the mode of ``--current auto``: "none" or "constant", by the better prediction.
+
+    ``track_rms_m`` holds, for "none" and "constant", how far the fit's open-loop
+    predictions of its own training logs stay from the smoothed tracks over the ground
+    [m] (a fit with a current predicts the track through the water and adds the current).
+    A current the logs show makes the still-water fit's prediction drift off (the KVLCC2
+    zig-zags in 0.25–1.0 m/s: 3.5–6 times the distance of the fit with a current); a
+    current the estimator invents in still water (a basin's runs: the structure's error,
+    0.01–0.04 m/s at 1.2 m/s) makes the fit with it predict worse (the HSVA 10/10 pair:
+    0.14 against 0.09 L, ``benchmarks/hsva.md``). Ties, and two diverging predictions,
+    keep the current.
+    """
+    return "none" if track_rms_m["none"] < track_rms_m["constant"] else "constant"
 
 
 @dataclass(frozen=True)

@@ -61,13 +61,16 @@ from identifier.current import (
     ALTERNATION_WINDOWS,
     CURRENT_MODES,
     CURRENT_PRIOR_STD_MPS,
+    DEFAULT_CURRENT,
     DRIFTING_RANDOM_WALK_MPS,
     MAX_CURRENT_ITERATIONS,
     MIN_HEADING_SPAN_RAD,
     SHAPE_PASSES,
     SPEED_LOG_SCALE_STD,
+    CurrentChoice,
     CurrentEstimate,
     SpeedLogInEkf,
+    choose_current,
     current_model_form,
     current_tolerance_mps,
     heading_span_rad,
@@ -86,7 +89,12 @@ from identifier.ekf import (
     sample_windows,
 )
 from identifier.equation_error import EquationErrorFit, equation_error_fit
-from identifier.output_error import RefinementResult, covers_turn, refine_output_error
+from identifier.output_error import (
+    RefinementResult,
+    covers_turn,
+    refine_output_error,
+    track_distance_m,
+)
 from identifier.shape import ShapeSelection, select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
@@ -176,9 +184,12 @@ class FitSettings:
         (``identifier.output_error.refine_output_error``, default settings), starting from
         the equation-error estimate (the EKF's when that one's replay diverges), and
         keeping that start when the guards fire; "ekf": the EKF estimate (the paper).
-    current : {"constant", "drifting", "none"}
+    current : {"auto", "constant", "drifting", "none"}
         Uniform current estimated with the coefficients (``identifier.current``):
-        constant over all logs, a random walk, or none (still water, the paper's).
+        constant over all logs, a random walk, or none (still water, the paper's); "auto"
+        fits a constant one and none and keeps the fit that predicts the training logs'
+        tracks better (``identifier.current.choose_current``; a constant one straight
+        away when the logs carry a speed log).
     speed_log_scale_std : float
         Prior standard deviation of the speed log's scale error, a fraction of the speed
         (the EKF's, ``identifier.ekf.SpeedLogMeasurement``, and the separate fit's,
@@ -202,7 +213,7 @@ class FitSettings:
     max_relative_std: float = 0.5
     max_variance_inflation: float = 1e4
     method: str = "output-error"
-    current: str = "constant"
+    current: str = DEFAULT_CURRENT
     speed_log_scale_std: float = SPEED_LOG_SCALE_STD
     windage: Windage | None = None
 
@@ -235,6 +246,7 @@ class IdentificationResult:
     settings: FitSettings
     refinement: RefinementResult | None = None  # both fits with method "output-error"
     current: CurrentEstimate | None = None  # unless settings.current == "none"
+    current_choice: CurrentChoice | None = None  # with settings.current == "auto"
     notes: tuple[str, ...] = ()  # what was done to the data (glitches rejected)
 
     @property
@@ -847,19 +859,132 @@ def identify(
         if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):
             unused = "the speed log (stw_mps) is measured with a current only: not used here"
             data = replace(data, notes=(*data.notes, f"{unused} (--current none)"))
-        result = _fit(data, settings, length, vessel, progress, stage)
-        fixed_slope = fixed_thrust_model(settings.model)
-        if fixed_slope is None or thrust_warning(result.params) is None:
-            return result
-        free = result.params.as_dict()
-        del result  # a long log's EKF histories: not held twice (issue 17)
-        stage("refit with a thrust of fixed open-water slope")
-        try:
-            refit = _fit(data, replace(settings, model=fixed_slope), length, vessel, None, stage)
-        except IdentificationError as exc:  # the free split again (deterministic), warned
-            failed = f"the refit as {fixed_slope} failed ({exc}); kept {settings.model}"
-            kept = _fit(data, settings, length, vessel, None, stage)
-            return replace(kept, notes=(*kept.notes, failed))
+        if settings.current == "auto":
+            return _fit_auto_current(data, settings, length, vessel, progress, stage)
+        return _fit_thrust_ruled(data, settings, length, vessel, progress, stage)
+
+
+def _fit_auto_current(
+    data: _SmoothedLogs,
+    settings: FitSettings,
+    length: float,
+    vessel: str,
+    progress: Callable[[int], None] | None,
+    stage: Callable[[str], None],
+) -> IdentificationResult:
+    """:func:`identify`'s fit with ``current="auto"``: a constant current or none.
+
+    Logs with a speed log are fitted with a current (the log measures it). Otherwise
+    both are fitted and the one whose open-loop predictions of the training logs stay
+    closer to their tracks over the ground is kept (``identifier.current.choose_current``).
+    """
+    if any(log.stw_mps is not None for log in data.logs):
+        reason = "the logs carry a speed log (stw_mps), which measures the current"
+        kept = _fit_thrust_ruled(
+            data, replace(settings, current="constant"), length, vessel, progress, stage
+        )
+        return _with_choice(kept, settings, CurrentChoice("constant", {}, reason))
+    fits: dict[str, IdentificationResult] = {}
+    rms: dict[str, float] = {}
+    for mode in ("constant", "none"):
+        label = "with a current" if mode == "constant" else "in still water"
+        fits[mode] = _fit_thrust_ruled(
+            data,
+            replace(settings, current=mode),
+            length,
+            vessel,
+            progress if mode == "constant" else None,
+            _labelled(stage, label),
+        )
+        rms[mode] = _training_track_rms_m(fits[mode], data)
+    kept_mode = choose_current(rms)
+    other = "none" if kept_mode == "constant" else "constant"
+    current = fits["constant"].current
+    assert current is not None
+    found = f"a current of {current.speed_mps:.3f} m/s"
+    reason = (
+        f"predicted open loop from execute, the training logs stay {rms[kept_mode]:.3g} m (RMS) "
+        f"from their tracks {'with' if kept_mode == 'constant' else 'in still water, without'} "
+        f"{found}, {rms[other]:.3g} m {'without' if kept_mode == 'constant' else 'with'} it"
+    )
+    return _with_choice(fits[kept_mode], settings, CurrentChoice(kept_mode, rms, reason))
+
+
+def _labelled(stage: Callable[[str], None], label: str) -> Callable[[str], None]:
+    """Return ``stage`` with ``label`` before every stage name (which fit of auto's)."""
+
+    def labelled(name: str) -> None:
+        stage(f"{label}: {name}")
+
+    return labelled
+
+
+def _training_track_rms_m(result: IdentificationResult, data: _SmoothedLogs) -> float:
+    """RMS distance of ``result``'s predictions of its training logs from their tracks [m].
+
+    Every sample after each log's execute counts alike; a fit with a current predicts the
+    track through the water (``water_frame``), which is the one over the ground less the
+    current's drift. ``math.inf`` when a prediction diverges.
+    """
+    distances = []
+    for log, track in zip(data.logs, data.tracks, strict=True):
+        if result.current is not None:
+            log, track = water_frame(log, track, result.current.vector)
+        distances.append(track_distance_m(result.params, log, track))
+    pooled = np.concatenate(distances)
+    return math.sqrt(float(np.mean(pooled**2))) if np.all(np.isfinite(pooled)) else math.inf
+
+
+def _with_choice(
+    result: IdentificationResult, settings: FitSettings, choice: CurrentChoice
+) -> IdentificationResult:
+    """Return the kept mode's ``result``, recorded as ``settings`` asked it, with ``choice``."""
+    identification = result.params.identification
+    environment = {**identification["environment"], "current_choice": choice.as_dict()}
+    params = replace(
+        result.params,
+        identification={
+            **identification,
+            "settings": _json_safe(asdict(settings)),
+            "environment": environment,
+        },
+    )
+    note = f"current (auto): kept {choice.kept}: {choice.reason}"
+    return replace(
+        result,
+        params=params,
+        settings=settings,
+        current_choice=choice,
+        notes=(*result.notes, note),
+    )
+
+
+def _fit_thrust_ruled(
+    data: _SmoothedLogs,
+    settings: FitSettings,
+    length: float,
+    vessel: str,
+    progress: Callable[[int], None] | None,
+    stage: Callable[[str], None],
+) -> IdentificationResult:
+    """Return :func:`_fit`'s result, refitted with a thrust of fixed slope if need be.
+
+    Refitted (``fixed_thrust_model``) when the free thrust is not a propeller's
+    (:func:`thrust_warning`), and recorded why.
+    """
+    result = _fit(data, settings, length, vessel, progress, stage)
+    fixed_slope = fixed_thrust_model(settings.model)
+    if fixed_slope is None or thrust_warning(result.params) is None:
+        return result
+    free = result.params.as_dict()
+    del result  # a long log's EKF histories: not held twice (issue 17)
+    stage("refit with a thrust of fixed open-water slope")
+    try:
+        refit = _fit(data, replace(settings, model=fixed_slope), length, vessel, None, stage)
+    except IdentificationError as exc:  # the free split again (deterministic), warned
+        failed = f"the refit as {fixed_slope} failed ({exc}); kept {settings.model}"
+        kept = _fit(data, settings, length, vessel, None, stage)
+        return replace(kept, notes=(*kept.notes, failed))
     why = (
         f"{settings.model}'s thrust came out not a propeller's (X_nn = {free['X_nn']:.3g}, "
         f"X_un = {free['X_un']:.3g}: the logs do not split it); refitted as "

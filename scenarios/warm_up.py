@@ -44,9 +44,10 @@ def warm_up(model: str = DEFAULT_MODEL) -> WarmUp:
     """Fit :data:`WARM_UP_MANEUVER` of KVLCC2 with ``model`` under every current mode.
 
     Each current mode (``identifier.current.CURRENT_MODES``) takes its own path through
-    the identification (the still-water EKF, the alternation with a current), so each
-    is fitted once, with the default procedure (its output-error refinement compiles the
-    replay): whatever a default fit calls is compiled.
+    the identification (the still-water EKF, the alternation with a current, a drifting
+    one), so each is fitted once, with the default procedure (its output-error refinement
+    compiles the replay): whatever a default fit calls is compiled. "auto" fits
+    "constant" and "none" (the warm-up's log carries no speed log), so it stands for both.
 
     Raises
     ------
@@ -59,6 +60,7 @@ def warm_up(model: str = DEFAULT_MODEL) -> WarmUp:
     start = time.perf_counter()
     log = synthesize_log(reference_ship("kvlcc2", "full"), MANEUVERS[WARM_UP_MANEUVER]())
     for current in CURRENT_MODES:
-        identify([log], FitSettings(model=model, current=current))
+        if current not in ("constant", "none"):  # both of them inside "auto"
+            identify([log], FitSettings(model=model, current=current))
     compiled, loaded = numba_compilations()
     return WarmUp(compiled, loaded, time.perf_counter() - start, str(cache_directory()))

@@ -39,7 +39,7 @@ from identifier.batch.records import (
 )
 from identifier.batch.summary import BatchSummary, VesselResult, write_summary
 from identifier.batch.task import VesselJob, describe_error, identify_vessel, sha256_of
-from identifier.current import CURRENT_MODES
+from identifier.current import CURRENT_MODES, DEFAULT_CURRENT
 from identifier.identify import METHODS
 from trials.cluster import cluster_client
 
@@ -111,7 +111,7 @@ def run_batch(
     model: str | None = None,
     method: str = METHODS[0],
     build_fmu: bool = True,
-    current: str = CURRENT_MODES[1],
+    current: str = DEFAULT_CURRENT,
     progress: Callable[[VesselResult, int, int], None] | None = None,
 ) -> BatchSummary:
     """Identify every vessel of a manifest or directory, one Dask task per vessel.

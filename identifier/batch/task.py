@@ -19,6 +19,7 @@ from pathlib import Path
 from fmu_model import ModelParameters, ParamsFormatError
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_native import build_native_fmu, osp_sidecar_path
+from identifier.current import DEFAULT_CURRENT
 from identifier.identify import FitSettings, IdentificationResult, identify
 from trials.errors import IdentificationError, LogFormatError, one_line
 from trials.logs import read_log
@@ -55,7 +56,7 @@ class VesselJob:
     model: str
     method: str
     build_fmu: bool
-    current: str = "constant"
+    current: str = DEFAULT_CURRENT
 
 
 @dataclass(frozen=True)

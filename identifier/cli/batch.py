@@ -17,7 +17,7 @@ from fmu_model import DEFAULT_MODEL, argtypes, model_names
 from identifier.batch import ManifestError, VesselResult, format_failures, run_batch
 from identifier.batch.task import describe_error
 from identifier.cli.common import error
-from identifier.current import CURRENT_MODES
+from identifier.current import CURRENT_MODES, DEFAULT_CURRENT
 from identifier.identify import METHODS
 from trials.errors import one_line
 
@@ -51,9 +51,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     batch.add_argument(
         "--current",
         choices=CURRENT_MODES,
-        default=CURRENT_MODES[1],
-        help="uniform current estimated with each vessel's coefficients: constant (default), "
-        "drifting or none (still water)",
+        default=DEFAULT_CURRENT,
+        help="uniform current estimated with each vessel's coefficients: auto (default: "
+        "constant or none, whichever predicts the vessel's logs better), constant, drifting "
+        "or none (still water)",
     )
     batch.add_argument("--no-fmu", action="store_true", help="write params.json only")
     batch.add_argument("--quiet", action="store_true", help="no per-vessel lines on stdout")

@@ -15,7 +15,7 @@ from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, logged_envelope
 from fmu_model.kernels import numba_compilations
 from fmu_model.variants import family_name
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
-from identifier.current import CURRENT_MODES, SPEED_LOG_SCALE_STD
+from identifier.current import CURRENT_MODES, DEFAULT_CURRENT, SPEED_LOG_SCALE_STD
 from identifier.identify import (
     ALPHA_RANGE,
     HEADING_NOISE_RANGE_DEG,
@@ -111,8 +111,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     fit.add_argument(
         "--current",
         choices=CURRENT_MODES,
-        help="uniform current estimated with the coefficients: constant (default), drifting "
-        "(a random walk) or none (still water; the default with --measurements velocities)",
+        help="uniform current estimated with the coefficients: auto (default: a constant one "
+        "or none, whichever predicts the training logs' tracks better; constant with a speed "
+        "log), constant, drifting (a random walk) or none (still water; the default with "
+        "--measurements velocities)",
     )
     low_pct, high_pct = (100.0 * f for f in SPEED_LOG_SCALE_STD_RANGE)
     fit.add_argument(
@@ -217,7 +219,7 @@ def _summary(result: IdentificationResult) -> str:
 
 
 def _fit(args: argparse.Namespace) -> int:
-    current = args.current or ("none" if args.measurements == "velocities" else "constant")
+    current = args.current or ("none" if args.measurements == "velocities" else DEFAULT_CURRENT)
     if current != "none" and args.measurements == "velocities":
         return error(
             f"--current {current} needs --measurements track (the smoothed velocities of "

@@ -8,6 +8,8 @@ The one place to import the refinement from. Its modules, one job each:
     the output-error objective J(θ) and its least-squares solve;
 ``initial_state``
     a log's execute sample and the model's state there;
+``prediction``
+    a log predicted open loop from there;
 ``covariance``
     the Newey–West sandwich covariance of the optimum;
 ``guards``
@@ -28,6 +30,7 @@ from identifier.output_error.initial_state import (
     fit_initial_state,
     smooth_log,
 )
+from identifier.output_error.prediction import predict_log, track_distance_m
 from identifier.output_error.records import (
     FitSummary,
     RefinementResult,
@@ -46,8 +49,10 @@ __all__ = [
     "execute_state",
     "fit_initial_state",
     "newey_west_covariance",
+    "predict_log",
     "refine_output_error",
     "smooth_log",
+    "track_distance_m",
     "turn_spread",
     "virtual_turns",
 ]
