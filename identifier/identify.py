@@ -898,14 +898,12 @@ def _fit_auto_current(
         )
         rms[mode] = _training_track_rms_m(fits[mode], data)
     kept_mode = choose_current(rms)
-    other = "none" if kept_mode == "constant" else "constant"
     current = fits["constant"].current
     assert current is not None
-    found = f"a current of {current.speed_mps:.3f} m/s"
     reason = (
-        f"predicted open loop from execute, the training logs stay {rms[kept_mode]:.3g} m (RMS) "
-        f"from their tracks {'with' if kept_mode == 'constant' else 'in still water, without'} "
-        f"{found}, {rms[other]:.3g} m {'without' if kept_mode == 'constant' else 'with'} it"
+        f"predicted open loop from execute, the training logs stay {rms['constant']:.3g} m "
+        f"(RMS) from their tracks with a current of {current.speed_mps:.3f} m/s towards "
+        f"{math.degrees(current.to_rad):.0f} deg, {rms['none']:.3g} m in still water"
     )
     return _with_choice(fits[kept_mode], settings, CurrentChoice(kept_mode, rms, reason))
 
@@ -949,14 +947,7 @@ def _with_choice(
             "environment": environment,
         },
     )
-    note = f"current (auto): kept {choice.kept}: {choice.reason}"
-    return replace(
-        result,
-        params=params,
-        settings=settings,
-        current_choice=choice,
-        notes=(*result.notes, note),
-    )
+    return replace(result, params=params, settings=settings, current_choice=choice)
 
 
 def _fit_thrust_ruled(

@@ -121,6 +121,46 @@ def test_coefficients_in_a_current_are_the_ships(
     assert biased, "ignoring a 0.3 m/s current should bias the sway/yaw coefficients"
 
 
+def test_auto_keeps_a_current_the_logs_show(
+    calm_logs: list[ManeuverLog], in_current: IdentificationResult
+) -> None:
+    """--current auto (the default): the fit with the current predicts the training tracks
+    better than the still-water one, whose hull took the current in, and is kept as it is."""
+    logs = [_with_current(log, CURRENT_NE) for log in calm_logs]
+    auto = identify(logs, replace(SEED, current="auto"))
+    choice = auto.current_choice
+    assert choice is not None and choice.kept == "constant"
+    assert choice.track_rms_m["none"] > 2.0 * choice.track_rms_m["constant"], choice
+    np.testing.assert_array_equal(auto.params.to_vector(), in_current.params.to_vector())
+    assert auto.current is not None and auto.current.north_mps == in_current.current.north_mps
+    env = auto.params.identification["environment"]
+    assert env["current"] == "constant" and env["current_choice"]["kept"] == "constant"
+    assert env["current_choice"]["track_rms_m"]["none"] == choice.track_rms_m["none"]
+    assert auto.settings.current == "auto"
+
+
+def test_auto_with_a_speed_log_fits_the_current_alone(
+    calm_logs: list[ManeuverLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A speed log measures the current: auto fits with one, and no still-water fit."""
+    logs = [
+        _with_speed_log(_with_current(g, CURRENT_NE), g, 0.0, i) for i, g in enumerate(calm_logs)
+    ]
+    modes: list[str] = []
+    fit = identify_module._fit_thrust_ruled
+
+    def counted(data: Any, settings: FitSettings, *args: Any) -> IdentificationResult:
+        modes.append(settings.current)
+        return fit(data, settings, *args)
+
+    monkeypatch.setattr(identify_module, "_fit_thrust_ruled", counted)
+    auto = identify(logs, replace(SEED, current="auto"))
+    assert modes == ["constant"]
+    assert auto.current_choice is not None and auto.current_choice.track_rms_m == {}
+    assert "speed log" in auto.current_choice.reason
+    assert auto.current is not None and auto.current.speed_log_ekf is not None
+
+
 def test_a_drifting_current_follows_a_change(calm_logs: list[ManeuverLog]) -> None:
     """--current drifting: the last log is sailed in a current 0.2 m/s stronger to the East."""
     later = CURRENT_NE + np.array([0.0, 0.2])
@@ -769,13 +809,20 @@ def test_fit_cli_current_and_windage(
     status = main(["fit", *paths, "--model", "shi2009", "--method", "ekf", "-o", out])
     assert status == 0
     summary = capsys.readouterr().out
-    shown = re.search(r"current \(constant\): ([\d.]+) m/s towards ([\d.]+) deg", summary)
+    shown = re.search(r"current \(auto → constant\): ([\d.]+) m/s towards ([\d.]+) deg", summary)
     assert shown is not None
+    assert re.search(
+        r"current choice \(auto\): constant, as predicted open loop from execute, the training "
+        r"logs stay [\d.]+ m \(RMS\) from their tracks with a current of 0\.[23]\d\d m/s towards "
+        r"(59|60|61) deg, [\d.]+ m in still water\n",
+        summary,
+    )
     assert float(shown.group(1)) == pytest.approx(0.3, abs=0.02)
     assert float(shown.group(2)) == pytest.approx(60.0, abs=3.0)
     assert "speed log:" not in summary  # no stw_mps in these logs
     assert re.search(
-        r"current \(constant\): .* m/s\); the ± are the identification noise only, no speed "
+        r"current \(auto → constant\): .* m/s\); the ± are the identification noise only, no "
+        r"speed "
         r"log measures the hull's share\n",
         summary,
     )

@@ -167,7 +167,9 @@ def _summary(result: IdentificationResult) -> str:
         f"nominal: {p.nominal_speed_mps:.3f} m/s through the water at "
         f"{p.nominal_n_rps * 60.0:.1f} rpm; L = {p.length_m:g} m"
     )
-    cur = result.current
+    cur, choice = result.current, result.current_choice
+    if cur is None and choice is not None:
+        lines.append("current (auto → none): still water")
     if cur is not None:
         std_n, std_e = cur.std_mps
         model_form = bool(np.any(cur.model_form))
@@ -178,7 +180,8 @@ def _summary(result: IdentificationResult) -> str:
             + ("" if cur.speed_log is not None else ", no speed log measures the hull's share")
         )
         lines.append(
-            f"current ({cur.mode}): {cur.speed_mps:.3f} m/s towards "
+            f"current ({cur.mode if choice is None else 'auto → ' + cur.mode}): "
+            f"{cur.speed_mps:.3f} m/s towards "
             f"{math.degrees(cur.to_rad):.1f} deg (North {cur.north_mps:+.3f} ± {std_n:.3f}, "
             f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s){identification_only}"
         )
@@ -202,6 +205,8 @@ def _summary(result: IdentificationResult) -> str:
                 + ("; the current's ± include the two estimates' distance (model form)"
                    if model_form else "")
             )  # fmt: skip
+    if choice is not None:
+        lines.append(f"current choice (auto): {choice.kept}, as {choice.reason}")
     ls = result.equation_error
     rates = f"regression on {ls.rows:,} rows at {ls.sample_interval_s:g} s (about L/U/40"
     shape = p.identification.get("shape")

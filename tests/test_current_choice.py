@@ -1,0 +1,91 @@
+"""``--current auto``: a constant current or still water, whichever predicts the training
+logs' tracks better (``identifier.current.choose_current``). The fits of logs sailed in a
+current are in test_identify_at_sea.py; here the rule itself and a basin's runs."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from identifier.current import DEFAULT_CURRENT, CurrentChoice, choose_current
+from identifier.identify import FitSettings, IdentificationResult, identify
+from identifier.output_error import track_distance_m
+from trials.logs import read_log
+
+HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
+
+
+@pytest.mark.parametrize(
+    ("constant_m", "none_m", "kept"),
+    [
+        (1.36, 6.44, "constant"),  # a current the logs show: still water drifts off
+        (0.57, 0.35, "none"),  # a current the estimator invents in a basin
+        (0.5, 0.5, "constant"),  # a tie keeps the current
+        (math.inf, 0.35, "none"),  # the fit with a current diverges
+        (0.35, math.inf, "constant"),
+        (math.inf, math.inf, "constant"),
+    ],
+)
+def test_the_better_prediction_of_the_training_tracks_is_kept(
+    constant_m: float, none_m: float, kept: str
+) -> None:
+    assert choose_current({"constant": constant_m, "none": none_m}) == kept
+
+
+def test_the_choice_is_recorded_as_json() -> None:
+    choice = CurrentChoice("none", {"constant": math.inf, "none": 0.35}, "why")
+    record = json.loads(json.dumps(choice.as_dict(), allow_nan=False))
+    assert record == {
+        "requested": "auto",
+        "kept": "none",
+        "track_rms_m": {"constant": None, "none": 0.35},
+        "reason": "why",
+    }
+    assert FitSettings().current == DEFAULT_CURRENT == "auto"
+
+
+@pytest.fixture(scope="module")
+def basin() -> tuple[list, IdentificationResult, IdentificationResult]:
+    logs = [read_log(HSVA / f"hsva_zz10_{side}.csv") for side in ("stbd", "port")]
+    settings = FitSettings(method="ekf")
+    return logs, identify(logs, settings), identify(logs, replace(settings, current="none"))
+
+
+def test_a_basins_runs_keep_still_water(
+    basin: tuple[list, IdentificationResult, IdentificationResult],
+) -> None:
+    """The HSVA 10/10 pair: the estimator finds a current of some 0.03 m/s in the basin's
+    still water (the structure's error); with it the fit predicts its own runs worse."""
+    _, auto, still = basin
+    choice = auto.current_choice
+    assert choice is not None and choice.kept == "none"
+    assert auto.current is None
+    assert choice.track_rms_m["none"] < 0.8 * choice.track_rms_m["constant"]
+    np.testing.assert_array_equal(auto.params.to_vector(), still.params.to_vector())
+    env = auto.params.identification["environment"]
+    assert env["current"] == "none" and env["current_choice"]["kept"] == "none"
+    assert auto.params.identification["settings"]["current"] == "auto"
+    assert "in still water" in choice.reason
+
+
+def test_the_kept_fits_distance_is_its_prediction_of_the_tracks(
+    basin: tuple[list, IdentificationResult, IdentificationResult],
+) -> None:
+    """The recorded RMS is the still-water fit's predictions against the smoothed tracks,
+    every sample after each run's execute alike."""
+    _, auto, still = basin
+    assert auto.current_choice is not None
+    distances = np.concatenate(
+        [
+            track_distance_m(still.params, log, track)
+            for log, track in zip(still.logs, still.tracks, strict=True)
+        ]
+    )
+    assert auto.current_choice.track_rms_m["none"] == pytest.approx(
+        math.sqrt(float(np.mean(distances**2))), rel=1e-12
+    )
