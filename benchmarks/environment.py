@@ -3,7 +3,8 @@
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
         [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf] [--same-noise]
-        [--calm-speed-log] [--speed-log-axes 1|2 [--speed-log-x-m X]] [--gnss-jump-pct P]
+        [--calm-speed-log] [--speed-log-axes 1|2 [--speed-log-x-m X]] [--no-speed-log]
+        [--gnss-jump-pct P]
         [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
@@ -19,14 +20,17 @@ every log draws each channel's noise from a generator of its own
 carry the same noise sample by sample (other noise than the default's). With
 ``--calm-speed-log`` the calm-water logs carry the speed log too, as the logs at sea do; with
 ``--speed-log-axes 2`` the speed logs have a transverse axis too (a two-axis Doppler log's
-``stw_transverse_mps``), at ``--speed-log-x-m`` forward of midship (default 0). With
+``stw_transverse_mps``), at ``--speed-log-x-m`` forward of midship (default 0); with
+``--no-speed-log`` the logs at sea carry none (the current from the track alone). With
 ``--position-noise-m 0.01 --heading-noise-deg 0.001`` what remains is the sea's own effect
 on the identification, without the noise's. With ``--gnss-jump-pct P`` P % of the fixes of
 the sea logs jump 50–1000 m (``scenarios.synthesize.with_gnss_jumps``), the calm logs'
 not; with ``--current-mps 0 --wind-mps 0`` the condition is calm water itself, so the
 rows compare the glitched logs with the clean ones (issue 14's glitch bar). Two fits:
 
-* ``default``: ``identify`` with the default settings (the current estimated, constant; the
+* ``default``: ``identify`` with the default settings (the current ``auto``: with a speed
+  log a constant one, otherwise a constant one or none, whichever predicts the training
+  logs better; the table says which each fit kept; the
   model family ``--model``, by default the default one; the procedure ``--method``, by
   default output error, ``ekf`` the seed paper's EKF estimate) and
   the ship's windage (``--windage``), so the measured wind's load is taken out;
@@ -196,6 +200,11 @@ def current_consistency(result: IdentificationResult, condition: Condition) -> t
     )
 
 
+def kept_current(result: IdentificationResult) -> str:
+    """Return the current mode a fit kept ("none", "constant", "drifting")."""
+    return str(result.params.identification["environment"]["current"])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the grid; print and write the table."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
@@ -240,6 +249,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="a two-axis log's position forward of midship [m] (default 0)",
     )
     parser.add_argument(
+        "--no-speed-log",
+        action="store_true",
+        help="the logs at sea carry no speed log (a trial without one: the current from the "
+        "track alone)",
+    )
+    parser.add_argument(
         "--gnss-jump-pct",
         type=float,
         default=0.0,
@@ -248,6 +263,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
+    if args.no_speed_log and (args.calm_speed_log or args.speed_log_axes == 2):
+        parser.error("--no-speed-log excludes --calm-speed-log and --speed-log-axes 2")
     quality = replace(
         BASELINE, position_noise_m=args.position_noise_m, heading_noise_deg=args.heading_noise_deg
     )
@@ -276,20 +293,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{', one noise generator per channel' if same else ''}"
         f"{'; the calm-water logs with a speed log too' if args.calm_speed_log else ''}"
         f"{'; two-axis speed logs' if args.speed_log_axes == 2 else ''}"
+        f"{'; no speed log at sea' if args.no_speed_log else ''}"
         f"{f' at {args.speed_log_x_m:g} m forward' if args.speed_log_x_m else ''}"
         f"{f'; {args.gnss_jump_pct:g} % GNSS jumps' if args.gnss_jump_pct else ''}; "
         f"model {args.model}, "
         f"method {args.method}). "
         "Columns: largest difference of a turning index [points] and of an overshoot "
         "[deg]; error of the current estimate [m/s, deg] and its eᵀC⁻¹e with the EKF's "
-        "covariance / with the model-form term (χ²₂: mean 2, 95 % below 5.99); fit time [s].",
+        "covariance / with the model-form term (χ²₂: mean 2, 95 % below 5.99); fit time [s]; "
+        "the current the calm and the sea fit kept (``--current auto``).",
         "",
         "| condition | draw | calm fit s | default: turn Δ | OS Δ | current err m/s | dir err ° "
-        "| eᵀC⁻¹e | s | --current none: turn Δ | OS Δ |",
-        "|" + "---|" * 11,
+        "| eᵀC⁻¹e | s | kept calm / sea | --current none: turn Δ | OS Δ |",
+        "|" + "---|" * 12,
     ]
     print("\n".join(lines), flush=True)
-    calm: dict[int, tuple[Indices, float]] = {}
+    calm: dict[int, tuple[Indices, float, str]] = {}
     for draw in range(args.draws):
         start = time.perf_counter()
         calm_fit = identify(
@@ -305,7 +324,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             settings,
         )
         calm[draw] = (indices(ModelPlant(calm_fit.params), ship, args.dt_s),
-                      time.perf_counter() - start)  # fmt: skip
+                      time.perf_counter() - start, kept_current(calm_fit))  # fmt: skip
     for condition in conditions:
         for draw in range(args.draws):
             logs = training_logs(
@@ -317,6 +336,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 speed_log_x_m=args.speed_log_x_m,
                 gnss_jump_fraction=args.gnss_jump_pct / 100.0,
             )
+            if args.no_speed_log:
+                logs = [replace(g, stw_mps=None, stw_transverse_mps=None) for g in logs]
             start = time.perf_counter()
             sea = identify(logs, replace(settings, windage=windage))
             seconds = time.perf_counter() - start
@@ -339,6 +360,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "" if math.isnan(angle_err) else f"{angle_err:+.1f}",
                 f"{identification_only:.2f} / {with_model_form:.2f}",
                 f"{seconds:.0f}",
+                f"{calm[draw][2]} / {kept_current(sea)}",
                 f"{still_turn:.1f}",
                 f"{still_os:.2f}",
             ]
