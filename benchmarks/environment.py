@@ -2,7 +2,8 @@
 
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
-        [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf] [--same-noise]
+        [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf]
+        [--current auto|constant] [--same-noise]
         [--calm-speed-log] [--speed-log-axes 1|2 [--speed-log-x-m X]] [--no-speed-log]
         [--gnss-jump-pct P]
         [--out benchmarks/environment.md]
@@ -30,7 +31,8 @@ rows compare the glitched logs with the clean ones (issue 14's glitch bar). Two 
 
 * ``default``: ``identify`` with the default settings (the current ``auto``: with a speed
   log a constant one, otherwise a constant one or none, whichever predicts the training
-  logs better; the table says which each fit kept; the
+  logs better; the table says which each fit kept; ``--current constant``, the default
+  before the twelfth round of 2026-12-06, always the current; the
   model family ``--model``, by default the default one; the procedure ``--method``, by
   default output error, ``ekf`` the seed paper's EKF estimate) and
   the ship's windage (``--windage``), so the measured wind's load is taken out;
@@ -63,6 +65,7 @@ from report import write_block
 from sensitivity import BASELINE, LogQuality
 
 from fmu_model import DEFAULT_MODEL, model_names
+from identifier.current import DEFAULT_CURRENT
 from identifier.identify import FitSettings, IdentificationResult, identify
 from scenarios.kvlcc2 import kvlcc2_windage
 from scenarios.sea import SeaEnvironment
@@ -226,6 +229,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="procedure of every fit (default: output-error, the default of fit)",
     )
     parser.add_argument(
+        "--current",
+        default=DEFAULT_CURRENT,
+        choices=("auto", "constant"),
+        help="the current of the default fits (default: auto, the default of fit)",
+    )
+    parser.add_argument(
         "--same-noise",
         action="store_true",
         help="one noise generator per channel: calm and sea logs of a draw share their noise",
@@ -278,7 +287,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for w in winds
         if c or w or args.gnss_jump_pct
     ]
-    settings = FitSettings(model=args.model, method=args.method)
+    settings = FitSettings(model=args.model, method=args.method, current=args.current)
     same = args.same_noise
     ship: TruthShip = reference_ship("kvlcc2", "full")
     truth = indices(ship.plant, ship, args.dt_s)
@@ -297,7 +306,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{f' at {args.speed_log_x_m:g} m forward' if args.speed_log_x_m else ''}"
         f"{f'; {args.gnss_jump_pct:g} % GNSS jumps' if args.gnss_jump_pct else ''}; "
         f"model {args.model}, "
-        f"method {args.method}). "
+        f"method {args.method}, current {args.current}). "
         "Columns: largest difference of a turning index [points] and of an overshoot "
         "[deg]; error of the current estimate [m/s, deg] and its eᵀC⁻¹e with the EKF's "
         "covariance / with the model-form term (χ²₂: mean 2, 95 % below 5.99); fit time [s]; "
