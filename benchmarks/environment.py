@@ -3,7 +3,7 @@
     python benchmarks/environment.py [--current-mps C ...] [--current-to-deg D ...]
         [--wind-mps W ...] [--wind-from-deg D] [--draws N] [--position-noise-m 1]
         [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf]
-        [--current auto|constant] [--same-noise]
+        [--current constant|auto] [--same-noise]
         [--calm-speed-log] [--speed-log-axes 1|2 [--speed-log-x-m X]] [--no-speed-log]
         [--gnss-jump-pct P]
         [--out benchmarks/environment.md]
@@ -29,10 +29,9 @@ the sea logs jump 50–1000 m (``scenarios.synthesize.with_gnss_jumps``), the ca
 not; with ``--current-mps 0 --wind-mps 0`` the condition is calm water itself, so the
 rows compare the glitched logs with the clean ones (issue 14's glitch bar). Two fits:
 
-* ``default``: ``identify`` with the default settings (the current ``auto``: with a speed
-  log a constant one, otherwise a constant one or none, whichever predicts the training
-  logs better; the table says which each fit kept; ``--current constant``, the default
-  before the twelfth round of 2026-12-06, always the current; the
+* ``default``: ``identify`` with the default settings (the current estimated, constant;
+  with ``--current auto`` a constant one or none, whichever predicts the training logs
+  better, a constant one with a speed log; the table says which each fit kept; the
   model family ``--model``, by default the default one; the procedure ``--method``, by
   default output error, ``ekf`` the seed paper's EKF estimate) and
   the ship's windage (``--windage``), so the measured wind's load is taken out;
@@ -231,8 +230,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--current",
         default=DEFAULT_CURRENT,
-        choices=("auto", "constant"),
-        help="the current of the default fits (default: auto, the default of fit)",
+        choices=("constant", "auto"),
+        help="the current of the default fits (default: constant, the default of fit)",
     )
     parser.add_argument(
         "--same-noise",
@@ -310,7 +309,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "Columns: largest difference of a turning index [points] and of an overshoot "
         "[deg]; error of the current estimate [m/s, deg] and its eᵀC⁻¹e with the EKF's "
         "covariance / with the model-form term (χ²₂: mean 2, 95 % below 5.99); fit time [s]; "
-        "the current the calm and the sea fit kept (``--current auto``).",
+        "the current the calm and the sea fit kept (with ``--current auto``).",
         "",
         "| condition | draw | calm fit s | default: turn Δ | OS Δ | current err m/s | dir err ° "
         "| eᵀC⁻¹e | s | kept calm / sea | --current none: turn Δ | OS Δ |",

@@ -1,6 +1,6 @@
 """Cross-predictions on measured data: the four HSVA free-running zig-zags of KVLCC2 (issue 13).
 
-    python benchmarks/hsva.py [--model NAME ...] [--fold NAME ...] [--current auto|none|constant]
+    python benchmarks/hsva.py [--model NAME ...] [--fold NAME ...] [--current none|constant|auto]
         [--out benchmarks/hsva.md]
 
 Data: ``../shared/data/hsva_kvlcc2`` (model scale, L = 7 m, 20 Hz), read with the
@@ -18,10 +18,10 @@ speed, rpm, rudder amplitude and rate, the logged switch headings), and its firs
 second overshoot are compared with the run's, measured with the same definitions.
 Two estimates of each fit: ``ekf`` (the seed paper's algorithm, ``--method ekf``) and
 ``default`` (what ``identifier fit`` keeps). Errors predicted − measured [deg]. The fits
-choose the current as ``identifier fit`` does (``--current auto``: a constant one or none,
-whichever predicts the training runs better; the fold's cell says which was kept);
-``--current none`` takes the basin's water as still, as the tables before 2026-12-06's
-twelfth round did.
+take the basin's water as still (``--current none``, the README's advice for tank tests);
+``--current constant`` fits as ``identifier fit`` does unless told so, ``--current auto``
+chooses between the two as ``fit --current auto`` does (the fold's cell says which it
+kept).
 
 The asymmetry row: the predicted second-overshoot difference port-first − starboard-first
 run of each pair, against the measured one (10/10: 17.83 − 20.54 = −2.71°).
@@ -135,11 +135,11 @@ def sail_all(
 
 
 def estimates(
-    logs: dict[str, ManeuverLog], model: str, train: Sequence[str], current: str = "auto"
+    logs: dict[str, ManeuverLog], model: str, train: Sequence[str], current: str = "none"
 ) -> dict[str, ModelParameters]:
     """Identify ``model`` on the ``train`` runs; the EKF's estimate and the default kept one.
 
-    ``current``: ``FitSettings.current`` (``identifier fit``'s default: "auto").
+    ``current``: ``FitSettings.current`` (a basin's water is still: "none").
     """
     settings = FitSettings(model=model, current=current)
     result = identify([logs[r] for r in train], settings, length_m=LENGTH_M)
@@ -253,10 +253,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--data", type=Path, default=DATA, help="directory of the runs")
     parser.add_argument(
         "--current",
-        choices=("auto", "none", "constant"),
-        default="auto",
-        help="the fits' current: auto (identifier fit's default), none (a basin's still water) "
-        "or constant",
+        choices=("none", "constant", "auto"),
+        default="none",
+        help="the fits' current: none (a basin's still water, the default), constant "
+        "(identifier fit's default) or auto",
     )
     parser.add_argument("--out", default=str(Path(__file__).with_name("hsva.md")))
     args = parser.parse_args(argv)

@@ -2,6 +2,7 @@
 
     python benchmarks/identify.py [--rates-hz 10,1] [--samples 1000000]
         [--large-rates-hz 1,10] [--no-large] [--method ekf|output-error] [--timeout-s S]
+        [--current-modes-only]
 
 The data are KVLCC2 full-scale trial logs (MMG reference ship, ``scenarios.synthesize``):
 turning circle 35°, zig-zag 10/10 and 20/20, about 3,200 samples at 1 Hz and 32,000 at
@@ -34,6 +35,12 @@ compiles the smoother and the model family's EKF and replay, as the first fit on
 machine does; once with the caches one ``python -m scenarios warm-up`` filled (what
 ``make`` does after installing; timed and reported once), as every later fit.
 
+Last, the cost of ``--current auto`` (the default: two fits unless a speed log decides):
+``identify`` with ``current`` "none", "constant" and "auto" side by side in this process
+(its caches warm from a first, untimed fit), on the three KVLCC2 logs at 1 Hz and on the
+HSVA 10/10 pair (model scale, 20 Hz), and the ratios auto / constant and auto / none
+(``--current-modes-only`` runs this part alone).
+
 ``--method`` picks the procedure of the end-to-end runs (default: the ``FitSettings``
 default); a run not finished after ``--timeout-s`` is stopped and reported as such.
 """
@@ -54,6 +61,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
+from hsva import DATA, RUNS
 
 from fmu_model import get_model
 from fmu_model.kernels import CACHE_ENV
@@ -62,7 +70,7 @@ from identifier.equation_error import equation_error_fit
 from identifier.identify import FitSettings, identify
 from identifier.smoothing import smooth_track
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
-from trials.logs import ManeuverLog
+from trials.logs import ManeuverLog, read_log
 
 MODEL = "shi2009"
 MANEUVER_NAMES = ("turning-35", "zigzag-10", "zigzag-20")
@@ -382,6 +390,26 @@ def throughput(rate_hz: float) -> float | None:
     return compile_s
 
 
+def current_modes(method: str | None) -> None:
+    """Print ``identify``'s seconds per current mode side by side, and auto's ratios."""
+    hsva = [read_log(DATA / f"{run}.csv") for run in RUNS[:2]]
+    for label, logs in (("KVLCC2, three logs at 1 Hz", reference_logs(1.0)),
+                        ("HSVA 10/10 pair, model scale, 20 Hz", hsva)):  # fmt: skip
+        settings = FitSettings() if method is None else FitSettings(method=method)
+        identify(logs, replace(settings, current="none"))  # caches warm, untimed
+        seconds = {}
+        for current in ("none", "constant", "auto"):
+            start = time.perf_counter()
+            result = identify(logs, replace(settings, current=current))
+            seconds[current] = time.perf_counter() - start
+            kept = result.params.identification["environment"]["current"]
+            print(f"  {label}, --current {current}: {seconds[current]:.1f} s (kept {kept})")
+        print(
+            f"  {label}: auto / constant {seconds['auto'] / seconds['constant']:.2f}, "
+            f"auto / none {seconds['auto'] / seconds['none']:.2f}"
+        )
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
@@ -398,11 +426,20 @@ def main() -> int:
     parser.add_argument(
         "--timeout-s", type=float, default=900.0, help="stop an end-to-end run after this"
     )
+    parser.add_argument(
+        "--current-modes-only",
+        action="store_true",
+        help="only the side-by-side of the current modes",
+    )
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--rate-hz", type=float, default=10.0, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         print(json.dumps(large_identification(args.rate_hz, args.samples, args.method)))
+        return 0
+    if args.current_modes_only:
+        print("identify() by --current mode, this process, caches warm")
+        current_modes(args.method)
         return 0
 
     compile_s = None
@@ -422,6 +459,8 @@ def main() -> int:
             print(f"identify() of one {args.samples:,}-sample log, default model, fresh process")
             rates = tuple(map(float, args.large_rates_hz.split(",")))
             end_to_end(rates, args.samples, args.method, args.timeout_s, warm)
+    print("identify() by --current mode, this process, caches warm")
+    current_modes(args.method)
     if hasattr(os, "getloadavg"):
         load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
         print(f"load average {load} on {os.cpu_count()} CPUs")

@@ -27,6 +27,14 @@ the free split would make the
 ship lose its thrust as it slows in a hard turn (benchmarks/hsva.md, "The propeller
 thrust is why"). The result says so (a note, ``identification.thrust``); fits of other
 families with such a thrust are warned about.
+
+By default a constant current is estimated with the coefficients (``identifier.current``).
+With ``current="auto"`` the whole fit is made twice, with a constant current and in still
+water, and the one whose open-loop predictions of its own training logs stay closer to
+their tracks over the ground is kept (``identifier.current.choose_current``): a basin's
+runs keep still water where the current the estimator would find there is the
+structure's error. Logs with a speed log are fitted with the current alone (the log
+measures it).
 """
 
 from __future__ import annotations
@@ -184,12 +192,12 @@ class FitSettings:
         (``identifier.output_error.refine_output_error``, default settings), starting from
         the equation-error estimate (the EKF's when that one's replay diverges), and
         keeping that start when the guards fire; "ekf": the EKF estimate (the paper).
-    current : {"auto", "constant", "drifting", "none"}
+    current : {"constant", "none", "drifting", "auto"}
         Uniform current estimated with the coefficients (``identifier.current``):
-        constant over all logs, a random walk, or none (still water, the paper's); "auto"
-        fits a constant one and none and keeps the fit that predicts the training logs'
-        tracks better (``identifier.current.choose_current``; a constant one straight
-        away when the logs carry a speed log).
+        constant over all logs (the default), none (still water, the paper's), a random
+        walk; "auto" fits a constant one and none and keeps the fit that predicts the
+        training logs' tracks better (``identifier.current.choose_current``; a constant
+        one straight away when the logs carry a speed log).
     speed_log_scale_std : float
         Prior standard deviation of the speed log's scale error, a fraction of the speed
         (the EKF's, ``identifier.ekf.SpeedLogMeasurement``, and the separate fit's,

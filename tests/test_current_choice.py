@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +15,7 @@ import pytest
 from identifier.current import DEFAULT_CURRENT, CurrentChoice, choose_current
 from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.output_error import track_distance_m
-from trials.logs import read_log
+from trials.logs import ManeuverLog, read_log
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
 
@@ -46,22 +46,36 @@ def test_the_choice_is_recorded_as_json() -> None:
         "track_rms_m": {"constant": None, "none": 0.35},
         "reason": "why",
     }
-    assert FitSettings().current == DEFAULT_CURRENT == "auto"
+    assert FitSettings().current == DEFAULT_CURRENT == "constant"  # auto is asked for
+
+
+@dataclass(frozen=True)
+class Basin:
+    """The HSVA 10/10 pair fitted with --current auto (its stages and samples counted) and
+    with --current none."""
+
+    logs: list[ManeuverLog]
+    auto: IdentificationResult
+    still: IdentificationResult
+    stages: list[str]
+    counted: list[int]
 
 
 @pytest.fixture(scope="module")
-def basin() -> tuple[list, IdentificationResult, IdentificationResult]:
+def basin() -> Basin:
     logs = [read_log(HSVA / f"hsva_zz10_{side}.csv") for side in ("stbd", "port")]
-    settings = FitSettings(method="ekf")
-    return logs, identify(logs, settings), identify(logs, replace(settings, current="none"))
+    settings = FitSettings(method="ekf", current="auto")
+    stages: list[str] = []
+    counted: list[int] = []
+    auto = identify(logs, settings, progress=counted.append, stage=stages.append)
+    still = identify(logs, replace(settings, current="none"))
+    return Basin(logs, auto, still, stages, counted)
 
 
-def test_a_basins_runs_keep_still_water(
-    basin: tuple[list, IdentificationResult, IdentificationResult],
-) -> None:
+def test_a_basins_runs_keep_still_water(basin: Basin) -> None:
     """The HSVA 10/10 pair: the estimator finds a current of some 0.03 m/s in the basin's
     still water (the structure's error); with it the fit predicts its own runs worse."""
-    _, auto, still = basin
+    auto, still = basin.auto, basin.still
     choice = auto.current_choice
     assert choice is not None and choice.kept == "none"
     assert auto.current is None
@@ -73,12 +87,10 @@ def test_a_basins_runs_keep_still_water(
     assert "in still water" in choice.reason
 
 
-def test_the_kept_fits_distance_is_its_prediction_of_the_tracks(
-    basin: tuple[list, IdentificationResult, IdentificationResult],
-) -> None:
+def test_the_kept_fits_distance_is_its_prediction_of_the_tracks(basin: Basin) -> None:
     """The recorded RMS is the still-water fit's predictions against the smoothed tracks,
     every sample after each run's execute alike."""
-    _, auto, still = basin
+    auto, still = basin.auto, basin.still
     assert auto.current_choice is not None
     distances = np.concatenate(
         [
@@ -89,3 +101,22 @@ def test_the_kept_fits_distance_is_its_prediction_of_the_tracks(
     assert auto.current_choice.track_rms_m["none"] == pytest.approx(
         math.sqrt(float(np.mean(distances**2))), rel=1e-12
     )
+
+
+def test_the_two_fits_are_named_in_the_stages_and_the_samples_counted_once(basin: Basin) -> None:
+    """What the fit's bar shows: smoothing, then every stage of the fit with a current, then
+    of the one in still water, each by name; smoothing and the first EKF count the samples."""
+    names = [f"smoothing {name}" for name in ("hsva_zz10_stbd.csv", "hsva_zz10_port.csv")]
+    assert basin.stages[:2] == names
+    with_current = [s for s in basin.stages if s.startswith("with a current: ")]
+    still = [s for s in basin.stages if s.startswith("in still water: ")]
+    assert basin.stages == [*names, *with_current, *still]
+    assert with_current[:2] == [
+        "with a current: equation-error start",
+        "with a current: current: EKF pass 1",
+    ]
+    assert still[:2] == [
+        "in still water: equation-error start",
+        "in still water: EKF on every sample",
+    ]
+    assert sum(basin.counted) == 2 * sum(log.n_samples for log in basin.logs)

@@ -43,9 +43,7 @@ from trials.run import ModelPlant, run_program
 
 TRAINING = ("turning-35", "zigzag-10", "zigzag-20")
 RUDDER_RATE = math.radians(5.0)
-# The paper's EKF, the truth's structure, and a current estimated with it (the fit of
-# --current constant; "auto", the default, fits it and still water: test_current_choice.py).
-SEED = FitSettings(model="shi2009", method="ekf", current="constant")
+SEED = FitSettings(model="shi2009", method="ekf")  # the paper's EKF, the truth's structure
 
 
 def _truth() -> ModelParameters:
@@ -314,28 +312,19 @@ def test_cli_fit_says_when_it_compiled(
 
 
 def test_stages_are_named_as_they_begin_and_samples_counted_twice(log_files: list[Path]) -> None:
-    """What the fit's bar shows: every stage, in order, each of the default's two fits (a
-    current and still water, --current auto) by name; smoothing and the first fit's EKF
-    count the samples."""
+    """What the fit's bar shows: every stage, in order; smoothing and EKF count the samples."""
     logs = [read_log(p) for p in log_files]
     stages: list[str] = []
     counted: list[int] = []
     identify(logs, FitSettings(model="shi2009"), progress=counted.append, stage=stages.append)
     names = [f"smoothing {Path(p).name}" for p in log_files]
     assert stages[: len(logs)] == names
-    with_current = [s.removeprefix("with a current: ") for s in stages if "with a current" in s]
-    still = [s.removeprefix("in still water: ") for s in stages if "in still water" in s]
-    assert stages == [*names, *(f"with a current: {s}" for s in with_current),
-                      *(f"in still water: {s}" for s in still)]  # fmt: skip
-    assert with_current[0] == "equation-error start" and with_current[1] == "current: EKF pass 1"
-    passes = [int(s.rsplit(" ", 1)[1]) for s in with_current if s.startswith("current: EKF")]
+    rest = stages[len(logs) :]
+    assert rest[0] == "equation-error start" and rest[1] == "current: EKF pass 1"
+    passes = [int(s.rsplit(" ", 1)[1]) for s in rest if s.startswith("current: EKF pass")]
     assert passes == list(range(1, len(passes) + 1)) and len(passes) >= 2
-    assert with_current[-2:] == ["EKF on every sample", "output-error refinement"]
-    assert set(with_current[:-2]) == {
-        "equation-error start",
-        *(f"current: EKF pass {k}" for k in passes),
-    }
-    assert still == ["equation-error start", "EKF on every sample", "output-error refinement"]
+    assert rest[-2:] == ["EKF on every sample", "output-error refinement"]
+    assert set(rest[:-2]) == {"equation-error start", *(f"current: EKF pass {k}" for k in passes)}
     assert sum(counted) == 2 * sum(log.n_samples for log in logs)
 
 

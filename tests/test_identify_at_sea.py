@@ -806,7 +806,8 @@ def test_fit_cli_current_and_windage(
         paths.append(str(tmp_path / f"{i}.csv"))
         write_log(paths[-1], _with_current(log, CURRENT_NE))
     out = str(tmp_path / "p.json")
-    status = main(["fit", *paths, "--model", "shi2009", "--method", "ekf", "-o", out])
+    status = main(["fit", *paths, "--model", "shi2009", "--method", "ekf", "--current", "auto",
+                   "-o", out])  # fmt: skip
     assert status == 0
     summary = capsys.readouterr().out
     shown = re.search(r"current \(auto → constant\): ([\d.]+) m/s towards ([\d.]+) deg", summary)

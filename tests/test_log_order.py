@@ -43,7 +43,7 @@ def test_the_order_is_by_largest_rudder_angle_and_ties_by_content() -> None:
 
 def test_fit_gives_the_same_model_for_the_logs_in_either_order() -> None:
     logs = _seed_logs()
-    settings = FitSettings(model="shi2009", method="ekf", current="constant")
+    settings = FitSettings(model="shi2009", method="ekf")
     given, reversed_ = identify(logs, settings), identify(logs[::-1], settings)
     np.testing.assert_array_equal(given.params.coefficients, reversed_.params.coefficients)
     assert given.current is not None and reversed_.current is not None

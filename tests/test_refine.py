@@ -294,11 +294,10 @@ def test_sanity_guard_flags_a_diverging_turn() -> None:
 def test_identify_by_default_refines_and_carries_every_estimate(
     logs: dict[str, ManeuverLog],
 ) -> None:
-    settings = FitSettings(model="shi2009", current="constant")  # one path: a current
-    plain = identify(list(logs.values()), replace(settings, method="ekf"))
+    plain = identify(list(logs.values()), FitSettings(model="shi2009", method="ekf"))
     assert plain.refinement is None and "refinement" not in plain.params.identification
     assert set(plain.params.identification["estimates"]) == {"ekf", "equation-error"}
-    result = identify(list(logs.values()), settings)
+    result = identify(list(logs.values()), FitSettings(model="shi2009"))
     r = result.refinement
     assert r is not None
     start = {"ekf": plain.params.to_vector(), "equation-error": plain.equation_error.theta}

@@ -52,9 +52,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--current",
         choices=CURRENT_MODES,
         default=DEFAULT_CURRENT,
-        help="uniform current estimated with each vessel's coefficients: auto (default: "
-        "constant or none, whichever predicts the vessel's logs better), constant, drifting "
-        "or none (still water)",
+        help="uniform current estimated with each vessel's coefficients: constant (default), "
+        "drifting, none (still water) or auto (constant or none, whichever predicts the "
+        "vessel's logs better)",
     )
     batch.add_argument("--no-fmu", action="store_true", help="write params.json only")
     batch.add_argument("--quiet", action="store_true", help="no per-vessel lines on stdout")

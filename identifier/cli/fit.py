@@ -111,10 +111,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     fit.add_argument(
         "--current",
         choices=CURRENT_MODES,
-        help="uniform current estimated with the coefficients: auto (default: a constant one "
-        "or none, whichever predicts the training logs' tracks better; constant with a speed "
-        "log), constant, drifting (a random walk) or none (still water; the default with "
-        "--measurements velocities)",
+        help="uniform current estimated with the coefficients: constant (default), drifting "
+        "(a random walk), none (still water; the default with --measurements velocities) or "
+        "auto (a constant one or none, whichever predicts the training logs' tracks better; "
+        "constant with a speed log)",
     )
     low_pct, high_pct = (100.0 * f for f in SPEED_LOG_SCALE_STD_RANGE)
     fit.add_argument(
