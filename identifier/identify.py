@@ -44,6 +44,7 @@ import hashlib
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -867,40 +868,38 @@ def identify(
         if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):
             unused = "the speed log (stw_mps) is measured with a current only: not used here"
             data = replace(data, notes=(*data.notes, f"{unused} (--current none)"))
+        fit = partial(_fit_thrust_ruled, data, length=length, vessel=vessel)
         if settings.current == "auto":
-            return _fit_auto_current(data, settings, length, vessel, progress, stage)
-        return _fit_thrust_ruled(data, settings, length, vessel, progress, stage)
+            return _fit_auto_current(data, settings, fit, progress, stage)
+        return fit(settings, progress, stage)
 
 
 def _fit_auto_current(
     data: _SmoothedLogs,
     settings: FitSettings,
-    length: float,
-    vessel: str,
+    fit: Callable[
+        [FitSettings, Callable[[int], None] | None, Callable[[str], None]], IdentificationResult
+    ],
     progress: Callable[[int], None] | None,
     stage: Callable[[str], None],
 ) -> IdentificationResult:
     """:func:`identify`'s fit with ``current="auto"``: a constant current or none.
 
-    Logs with a speed log are fitted with a current (the log measures it). Otherwise
-    both are fitted and the one whose open-loop predictions of the training logs stay
-    closer to their tracks over the ground is kept (``identifier.current.choose_current``).
+    ``fit(settings, progress, stage)`` fits ``data``. Logs with a speed log are fitted
+    with a current (the log measures it). Otherwise both are fitted and the one whose
+    open-loop predictions of the training logs stay closer to their tracks over the
+    ground is kept (``identifier.current.choose_current``).
     """
     if any(log.stw_mps is not None for log in data.logs):
         reason = "the logs carry a speed log (stw_mps), which measures the current"
-        kept = _fit_thrust_ruled(
-            data, replace(settings, current="constant"), length, vessel, progress, stage
-        )
+        kept = fit(replace(settings, current="constant"), progress, stage)
         return _with_choice(kept, settings, CurrentChoice("constant", {}, reason))
     fits: dict[str, IdentificationResult] = {}
     rms: dict[str, float] = {}
     for mode in ("constant", "none"):
         label = "with a current" if mode == "constant" else "in still water"
-        fits[mode] = _fit_thrust_ruled(
-            data,
+        fits[mode] = fit(
             replace(settings, current=mode),
-            length,
-            vessel,
             progress if mode == "constant" else None,
             _labelled(stage, label),
         )
@@ -961,10 +960,11 @@ def _with_choice(
 def _fit_thrust_ruled(
     data: _SmoothedLogs,
     settings: FitSettings,
-    length: float,
-    vessel: str,
     progress: Callable[[int], None] | None,
     stage: Callable[[str], None],
+    *,
+    length: float,
+    vessel: str,
 ) -> IdentificationResult:
     """Return :func:`_fit`'s result, refitted with a thrust of fixed slope if need be.
 

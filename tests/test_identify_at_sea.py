@@ -149,9 +149,9 @@ def test_auto_with_a_speed_log_fits_the_current_alone(
     modes: list[str] = []
     fit = identify_module._fit_thrust_ruled
 
-    def counted(data: Any, settings: FitSettings, *args: Any) -> IdentificationResult:
+    def counted(data: Any, settings: FitSettings, *args: Any, **kwargs: Any) -> Any:
         modes.append(settings.current)
-        return fit(data, settings, *args)
+        return fit(data, settings, *args, **kwargs)
 
     monkeypatch.setattr(identify_module, "_fit_thrust_ruled", counted)
     auto = identify(logs, replace(SEED, current="auto"))
