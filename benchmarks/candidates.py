@@ -101,6 +101,8 @@ from fmu_model.variants import (
     RUDDER_INFLOW_SQUARED,
     SLIPSTREAM_K,
     SLIPSTREAM_SHARE,
+    SWAY_MASS,
+    YAW_INERTIA,
     ModelFamily,
     ShapeConstant,
     parse_family,
@@ -110,6 +112,7 @@ from fmu_model.variants import (
     rudder_lift_terms,
     rudder_normal_force,
     with_fixed_thrust,
+    with_prior,
     with_rudder_force,
 )
 
@@ -187,17 +190,6 @@ def mmg_inflow_squared() -> sp.Expr:
     return MMG_ETA * (u_p + MMG_KAPPA * (slipstream - u_p)) ** 2 + (1 - MMG_ETA) * u_p**2
 
 
-def _with_prior(terms: tuple[Term, ...], std: float) -> tuple[Term, ...]:
-    """``terms`` with a zero-mean prior of standard deviation ``std`` on each coefficient."""
-    return tuple(replace(t, prior_std=std) for t in terms)
-
-
-# Typical m' + m_y' and I_z' + J_z' (per ½ρL²d, ½ρL⁴d; KVLCC2 0.405, 0.022): the sway
-# and yaw coefficients of the prime structures are Y' and N' divided by them.
-SWAY_MASS = 0.4
-YAW_INERTIA = 0.022
-
-
 # X_un of a propeller's thrust is −κ·X_T (KVLCC2 X_T ≈ 2e-5, κ 20): a deviation of
 # 10·X_T is a slope κ ± 10, single-screw ships' 12–40 within two standard deviations.
 THRUST_SLOPE_DEVIATION_STD = 2e-4
@@ -272,8 +264,8 @@ def candidate_families() -> tuple[ModelFamily, ...]:
         *(
             _with_hull(
                 f"both-prior{round(100 * std):03d}",
-                modulus[0] + _with_prior(extra[0], std / SWAY_MASS),
-                modulus[1] + _with_prior(extra[1], std / YAW_INERTIA),
+                modulus[0] + with_prior(extra[0], std / SWAY_MASS),
+                modulus[1] + with_prior(extra[1], std / YAW_INERTIA),
             )
             for std in (0.02, 0.1)
         ),

@@ -8,7 +8,7 @@ callers find it by name (``get_model``) and need no change.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, replace
 from functools import cache
 
@@ -613,20 +613,33 @@ NEUTRAL_RUDDER_OFFSET = sp.Symbol("d0", real=True)
 # added mass, stays free and the zig-zag then determines it (KVLCC2: 2.0 ± 0.9, the
 # reference's 1.85). Measured the same at a bound of 0.1 (benchmarks/fidelity.md).
 SURGE_DRAG_PRIOR_X = 0.2
-SURGE_MASS = 0.24
 SURGE_DRAG_TERMS = ("X_vv", "X_rr")
+
+# A ship's typical m′ + m_x′, m′ + m_y′ and I_z′ + J_z′ (per ½ρL²d and ½ρL⁴d; KVLCC2
+# 0.240, 0.405, 0.022): the prime families' surge, sway and yaw coefficients are X′, Y′
+# and N′ divided by them, and so are the standard deviations of priors stated in X′, Y′, N′.
+SURGE_MASS = 0.24
+SWAY_MASS = 0.4
+YAW_INERTIA = 0.022
+
+
+def with_prior(
+    terms: tuple[Term, ...], std: float, coefficients: Collection[str] | None = None
+) -> tuple[Term, ...]:
+    """Return ``terms`` with a zero-mean prior of standard deviation ``std``.
+
+    On each coefficient, or on those named in ``coefficients`` only.
+    """
+    return tuple(
+        replace(t, prior_std=std) if coefficients is None or t.coefficient in coefficients else t
+        for t in terms
+    )
 
 
 def with_surge_drag_prior(base: ModelFamily) -> ModelFamily:
     """Return ``base`` with the zero-mean prior above on X_vv and X_rr."""
     std = SURGE_DRAG_PRIOR_X / SURGE_MASS
-    return replace(
-        base,
-        surge=tuple(
-            replace(t, prior_std=std) if t.coefficient in SURGE_DRAG_TERMS else t
-            for t in base.surge
-        ),
-    )
+    return replace(base, surge=with_prior(base.surge, std, SURGE_DRAG_TERMS))
 
 
 PRIME_RUDDER_OFFSET = register_family(
