@@ -290,9 +290,11 @@ def choose_current(track_rms_m: Mapping[str, float]) -> str:
     A current the logs show makes the still-water fit's prediction drift off (the KVLCC2
     zig-zags in 0.25–1.0 m/s: 3.5–6 times the distance of the fit with a current); a
     current the estimator invents in still water (a basin's runs: the structure's error,
-    0.01–0.04 m/s at 1.2 m/s) makes the fit with it predict worse (the HSVA 10/10 pair:
-    0.14 against 0.09 L, ``benchmarks/hsva.md``). Ties, and two diverging predictions,
-    keep the current.
+    0.03 m/s at 1.2 m/s) makes the fit with it predict worse (the HSVA 10/10 pair: 0.57 m
+    against 0.35 m, ``benchmarks/hsva.md``). Ties, and two diverging predictions, keep the
+    current. Where the two are near-equal (calm water: 0.94–1.22 over the KVLCC2 draws)
+    the choice is near chance and flips with small changes of the logs, which is why this
+    is not the default (:data:`DEFAULT_CURRENT`).
     """
     return "none" if track_rms_m["none"] < track_rms_m["constant"] else "constant"
 

@@ -254,7 +254,7 @@ class IdentificationResult:
     warnings: tuple[str, ...]
     settings: FitSettings
     refinement: RefinementResult | None = None  # both fits with method "output-error"
-    current: CurrentEstimate | None = None  # unless settings.current == "none"
+    current: CurrentEstimate | None = None  # None in still water ("none", or kept by "auto")
     current_choice: CurrentChoice | None = None  # with settings.current == "auto"
     notes: tuple[str, ...] = ()  # what was done to the data (glitches rejected)
 
@@ -888,7 +888,8 @@ def _fit_auto_current(
     ``fit(settings, progress, stage)`` fits ``data``. Logs with a speed log are fitted
     with a current (the log measures it). Otherwise both are fitted and the one whose
     open-loop predictions of the training logs stay closer to their tracks over the
-    ground is kept (``identifier.current.choose_current``).
+    ground is kept (``identifier.current.choose_current``); both results are held until
+    then, so a long log's EKF histories twice.
     """
     if any(log.stw_mps is not None for log in data.logs):
         reason = "the logs carry a speed log (stw_mps), which measures the current"
@@ -943,18 +944,23 @@ def _training_track_rms_m(result: IdentificationResult, data: _SmoothedLogs) -> 
 def _with_choice(
     result: IdentificationResult, settings: FitSettings, choice: CurrentChoice
 ) -> IdentificationResult:
-    """Return the kept mode's ``result``, recorded as ``settings`` asked it, with ``choice``."""
+    """Return the kept mode's ``result`` with ``choice``, its settings' current as asked.
+
+    The settings are the kept fit's (a thrust refit's model, say) but for ``current``,
+    which stays ``settings.current`` ("auto"); ``environment.current`` is the mode kept.
+    """
+    kept_settings = replace(result.settings, current=settings.current)
     identification = result.params.identification
     environment = {**identification["environment"], "current_choice": choice.as_dict()}
     params = replace(
         result.params,
         identification={
             **identification,
-            "settings": _json_safe(asdict(settings)),
+            "settings": _json_safe(asdict(kept_settings)),
             "environment": environment,
         },
     )
-    return replace(result, params=params, settings=settings, current_choice=choice)
+    return replace(result, params=params, settings=kept_settings, current_choice=choice)
 
 
 def _fit_thrust_ruled(

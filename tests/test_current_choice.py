@@ -83,7 +83,10 @@ def test_a_basins_runs_keep_still_water(basin: Basin) -> None:
     np.testing.assert_array_equal(auto.params.to_vector(), still.params.to_vector())
     env = auto.params.identification["environment"]
     assert env["current"] == "none" and env["current_choice"]["kept"] == "none"
-    assert auto.params.identification["settings"]["current"] == "auto"
+    settings = auto.params.identification["settings"]
+    assert settings["current"] == "auto"  # as asked; the rest the kept fit's (a thrust refit)
+    assert {**settings, "current": "none"} == still.params.identification["settings"]
+    assert auto.settings == replace(still.settings, current="auto")
     assert "in still water" in choice.reason
 
 
