@@ -35,7 +35,7 @@ compiles the smoother and the model family's EKF and replay, as the first fit on
 machine does; once with the caches one ``python -m scenarios warm-up`` filled (what
 ``make`` does after installing; timed and reported once), as every later fit.
 
-Last, the cost of ``--current auto`` (the default: two fits unless a speed log decides):
+Last, the cost of ``--current auto`` (two fits unless a speed log decides):
 ``identify`` with ``current`` "none", "constant" and "auto" side by side in this process
 (its caches warm from a first, untimed fit), on the three KVLCC2 logs at 1 Hz and on the
 HSVA 10/10 pair (model scale, 20 Hz), and the ratios auto / constant and auto / none

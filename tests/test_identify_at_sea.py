@@ -124,7 +124,7 @@ def test_coefficients_in_a_current_are_the_ships(
 def test_auto_keeps_a_current_the_logs_show(
     calm_logs: list[ManeuverLog], in_current: IdentificationResult
 ) -> None:
-    """--current auto (the default): the fit with the current predicts the training tracks
+    """--current auto: the fit with the current predicts the training tracks
     better than the still-water one, whose hull took the current in, and is kept as it is."""
     logs = [_with_current(log, CURRENT_NE) for log in calm_logs]
     auto = identify(logs, replace(SEED, current="auto"))
