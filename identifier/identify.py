@@ -107,7 +107,12 @@ from identifier.output_error import (
 from identifier.shape import ShapeSelection, select_shape
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
-from trials.conditions import EXECUTE_RUDDER_RAD, approach_helm_rad, execute_index
+from trials.conditions import (
+    EXECUTE_RUDDER_RAD,
+    MODEL_SCALE_MAX_LENGTH_M,
+    approach_helm_rad,
+    execute_index,
+)
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship
 
@@ -1213,6 +1218,12 @@ def _fit(
                 "speed (add a turning circle of 360 deg or more, or runs on other headings, "
                 "or a speed log's column stw_mps, or fit with --current none if the water "
                 "was still)"
+            )
+        if length < MODEL_SCALE_MAX_LENGTH_M and current.speed_log is None:
+            warnings.append(
+                f"L = {length:g} m, a model's size: in a basin's still water the current "
+                f"found here ({current.speed_mps:.3f} m/s) is the structure's error, and it "
+                "trades against the hull's coefficients; fit tank tests with --current none"
             )
     ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
     std = np.sqrt(np.diag(ekf.covariance))

@@ -123,3 +123,17 @@ def test_the_two_fits_are_named_in_the_stages_and_the_samples_counted_once(basin
         "in still water: EKF on every sample",
     ]
     assert sum(basin.counted) == 2 * sum(log.n_samples for log in basin.logs)
+
+
+def test_a_models_fit_with_a_current_is_warned_about(basin: Basin) -> None:
+    """The default (a constant current) on a 7 m model's runs says what the current found in
+    a basin is; still water says nothing (nor a ship at sea: test_identify_at_sea.py)."""
+    constant = identify(basin.logs, FitSettings(method="ekf"))
+    assert constant.current is not None
+    warned = [w for w in constant.warnings if "a model's size" in w]
+    assert warned == [
+        f"L = 7 m, a model's size: in a basin's still water the current found here "
+        f"({constant.current.speed_mps:.3f} m/s) is the structure's error, and it trades "
+        "against the hull's coefficients; fit tank tests with --current none"
+    ]
+    assert not any("a model's size" in w for w in basin.still.warnings)

@@ -96,6 +96,7 @@ def test_current_is_recovered_within_its_uncertainty(in_current: IdentificationR
     assert np.all(np.abs(c.vector - CURRENT_NE) <= np.maximum(3.0 * std, 0.01)), (c, std)
     assert abs(c.speed_mps - 0.3) < 0.02
     assert abs(math.degrees(c.to_rad) - 60.0) < 3.0
+    assert not any("a model's size" in w for w in in_current.warnings)  # a ship at sea
     env = in_current.params.identification["environment"]
     assert env["current"] == "constant"
     assert env["current_north_mps"] == pytest.approx(c.north_mps)

@@ -56,6 +56,10 @@ MIN_PARABOLA_SAMPLES = 6
 """Fewest approach samples for a parabola rather than a straight line."""
 DIVERGENCE_FACTOR = 5.0
 """A ship sailing a logged manoeuvre again diverges above 5 × the approach speed [-]."""
+MODEL_SCALE_MAX_LENGTH_M = 20.0
+"""Ships shorter than this [m] are taken for tank models (HSVA's KVLCC2 model: 7 m): warned
+about where a full-scale default does not fit them (the steering-gear rate of the
+scenarios, a current estimated in a basin's still water)."""
 
 _ZIGZAG_ANGLES = re.compile(r"zig[-_ ]?zag[-_ ]?(\d+(?:\.\d+)?)[-_/](\d+(?:\.\d+)?)", re.I)
 # ``identifier convert`` names its outputs <input stem>_<k>.csv (k = 1, 2, ...: the pieces

@@ -9,6 +9,7 @@ from contextlib import contextmanager
 from tqdm import tqdm
 
 from scenarios.demo import Bar, BarFactory
+from trials.conditions import MODEL_SCALE_MAX_LENGTH_M
 from trials.maneuvers import DEFAULT_RUDDER_RATE_DEG_S
 
 __all__ = [
@@ -28,8 +29,6 @@ EXIT_DATA_ERROR = 1
 EXIT_GATE_FAILED = 3
 
 
-MODEL_SCALE_MAX_LENGTH_M = 20.0
-"""Ships shorter than this [m] are taken for tank models (HSVA's KVLCC2 model: 7 m)."""
 STEERING_RATE_HELP = (
     f"steering-gear rate [deg/s] (default {DEFAULT_RUDDER_RATE_DEG_S}, a full-scale ship's; "
     f"a warning on a ship shorter than {MODEL_SCALE_MAX_LENGTH_M:g} m)"
