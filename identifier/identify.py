@@ -890,29 +890,25 @@ def _fit_auto_current(
 ) -> IdentificationResult:
     """:func:`identify`'s fit with ``current="auto"``: a constant current or none.
 
-    ``fit(settings, progress, stage)`` fits ``data``. Logs with a speed log are fitted
-    with a current (the log measures it). Otherwise both are fitted and the one whose
-    open-loop predictions of the training logs stay closer to their tracks over the
+    ``fit(settings, progress, stage)`` fits ``data``. Logs with a speed log the fit uses
+    are fitted with a current (the log measures it). Otherwise both are fitted and the one
+    whose open-loop predictions of the training logs stay closer to their tracks over the
     ground is kept (``identifier.current.choose_current``); both results are held until
     then, so a long log's EKF histories twice.
     """
-    if any(log.stw_mps is not None for log in data.logs):
-        reason = "the logs carry a speed log (stw_mps), which measures the current"
-        kept = fit(replace(settings, current="constant"), progress, stage)
-        return _with_choice(kept, settings, CurrentChoice("constant", {}, reason))
-    fits: dict[str, IdentificationResult] = {}
-    rms: dict[str, float] = {}
-    for mode in ("constant", "none"):
-        label = "with a current" if mode == "constant" else "in still water"
-        fits[mode] = fit(
-            replace(settings, current=mode),
-            progress if mode == "constant" else None,
-            _labelled(stage, label),
-        )
-        rms[mode] = _training_track_rms_m(fits[mode], data)
-    kept_mode = choose_current(rms)
+    logged = any(log.stw_mps is not None for log in data.logs)
+    label = "with a current" if not logged else None
+    fits = {
+        "constant": fit(replace(settings, current="constant"), progress, _labelled(stage, label))
+    }
     current = fits["constant"].current
     assert current is not None
+    if current.speed_log is not None:  # None also when the log was refused as broken
+        reason = "the logs carry a speed log (stw_mps), which measures the current"
+        return _with_choice(fits["constant"], settings, CurrentChoice("constant", {}, reason))
+    fits["none"] = fit(replace(settings, current="none"), None, _labelled(stage, "in still water"))
+    rms = {mode: _training_track_rms_m(result, data) for mode, result in fits.items()}
+    kept_mode = choose_current(rms)
     reason = (
         f"predicted open loop from execute, the training logs stay {rms['constant']:.3g} m "
         f"(RMS) from their tracks with a current of {current.speed_mps:.3f} m/s towards "
@@ -921,8 +917,10 @@ def _fit_auto_current(
     return _with_choice(fits[kept_mode], settings, CurrentChoice(kept_mode, rms, reason))
 
 
-def _labelled(stage: Callable[[str], None], label: str) -> Callable[[str], None]:
+def _labelled(stage: Callable[[str], None], label: str | None) -> Callable[[str], None]:
     """Return ``stage`` with ``label`` before every stage name (which fit of auto's)."""
+    if label is None:
+        return stage
 
     def labelled(name: str) -> None:
         stage(f"{label}: {name}")

@@ -143,7 +143,8 @@ def test_auto_keeps_a_current_the_logs_show(
 def test_auto_with_a_speed_log_fits_the_current_alone(
     calm_logs: list[ManeuverLog], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A speed log measures the current: auto fits with one, and no still-water fit."""
+    """A speed log measures the current: auto fits with one, and no still-water fit; a
+    speed log refused as broken does not decide."""
     logs = [
         _with_speed_log(_with_current(g, CURRENT_NE), g, 0.0, i) for i, g in enumerate(calm_logs)
     ]
@@ -160,6 +161,18 @@ def test_auto_with_a_speed_log_fits_the_current_alone(
     assert auto.current_choice is not None and auto.current_choice.track_rms_m == {}
     assert "speed log" in auto.current_choice.reason
     assert auto.current is not None and auto.current.speed_log_ekf is not None
+    # A speed log refused as broken (twice the speed: a scale error of +100 %) measures
+    # nothing: the two fits are compared as without one.
+    broken = [
+        _with_speed_log(_with_current(log, CURRENT_NE), log, 1.0, i)
+        for i, log in enumerate(calm_logs)
+    ]
+    modes.clear()
+    auto = identify(broken, replace(SEED, current="auto"))
+    assert modes == ["constant", "none"]
+    assert auto.current is not None and auto.current.speed_log_ignored is not None
+    assert auto.current_choice is not None
+    assert set(auto.current_choice.track_rms_m) == {"constant", "none"}
 
 
 def test_a_drifting_current_follows_a_change(calm_logs: list[ManeuverLog]) -> None:
