@@ -1,6 +1,7 @@
 """``--current auto``: a constant current or still water, whichever predicts the training
 logs' tracks better (``identifier.current.choose_current``). The fits of logs sailed in a
-current are in test_identify_at_sea.py; here the rule itself and a basin's runs."""
+current are in test_identify_at_sea.py; here the rule itself, a basin's runs, and the
+warning on a model fitted with a current."""
 
 from __future__ import annotations
 
