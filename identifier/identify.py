@@ -896,10 +896,10 @@ def _fit_auto_current(
     ground is kept (``identifier.current.choose_current``); both results are held until
     then, so a long log's EKF histories twice.
     """
-    logged = any(log.stw_mps is not None for log in data.logs)
-    label = "with a current" if not logged else None
     fits = {
-        "constant": fit(replace(settings, current="constant"), progress, _labelled(stage, label))
+        "constant": fit(
+            replace(settings, current="constant"), progress, _labelled(stage, "with a current")
+        )
     }
     current = fits["constant"].current
     assert current is not None
@@ -917,10 +917,8 @@ def _fit_auto_current(
     return _with_choice(fits[kept_mode], settings, CurrentChoice(kept_mode, rms, reason))
 
 
-def _labelled(stage: Callable[[str], None], label: str | None) -> Callable[[str], None]:
+def _labelled(stage: Callable[[str], None], label: str) -> Callable[[str], None]:
     """Return ``stage`` with ``label`` before every stage name (which fit of auto's)."""
-    if label is None:
-        return stage
 
     def labelled(name: str) -> None:
         stage(f"{label}: {name}")
