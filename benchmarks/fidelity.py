@@ -1,7 +1,7 @@
 """Model fidelity: which structure predicts manoeuvres it was not trained on (issue 8).
 
     python benchmarks/fidelity.py [--model NAME ...] [--out benchmarks/fidelity.md]
-        [--dt-s 0.2] [--vessel kvlcc2|mariner] [--draws N]
+        [--dt-s 0.2] [--vessel kvlcc2|mariner] [--draws N [--current MODE]]
 
 Data: full-scale trial logs from a reference ship (``scenarios.synthesize``, ``--vessel``:
 the KVLCC2 MMG model by default, or the Mariner's Abkowitz model, a ship of another
@@ -46,6 +46,7 @@ from report import fitted_label, write_block
 from fmu_model import DEFAULT_MODEL, ModelParameters
 from fmu_model.envelope import Envelope, trajectory_envelope
 from fmu_model.interface import logged_envelope
+from identifier.current import CURRENT_MODES
 from identifier.identify import FitSettings, identify
 from scenarios.records import Condition
 from scenarios.synthesize import (
@@ -234,12 +235,16 @@ def coverage(
     return Coverage(inside[0], inside[1], judged, ratio, (within[0], within[1]))
 
 
-def draws_table(models: Sequence[str], n_draws: int, dt_s: float, vessel: str) -> list[str]:
+def draws_table(
+    models: Sequence[str], n_draws: int, dt_s: float, vessel: str, current: str | None = None
+) -> list[str]:
     """Zig-zag-trained fits at ``n_draws`` noise draws: errors of both estimates per draw.
 
     Training logs of the reference ship ``vessel``: zig-zag 10/10 and 20/20 with noise
     seeds ``10·d + 1`` and ``10·d + 2`` for draw d; the turning circles are held out.
-    Rows: the EKF estimate (``--method ekf``) and the one the default ``identify`` keeps.
+    Rows: the EKF estimate (``--method ekf``) and the one the default ``identify`` keeps,
+    fitted with ``current`` (``FitSettings.current``; None: ``fit``'s default, a ship's
+    constant current); the row's draw names the mode a fit with "auto" kept.
     """
     ship = reference_ship(vessel, "full")
     truth = indices(ship.plant, ship, dt_s)
@@ -256,8 +261,10 @@ def draws_table(models: Sequence[str], n_draws: int, dt_s: float, vessel: str) -
                 for name in TRAINING["zig-zags"]
             ]
             start = time.perf_counter()
-            result = identify(logs, FitSettings(model=model))
+            result = identify(logs, FitSettings(model=model, current=current))
             seconds = time.perf_counter() - start
+            choice = result.current_choice
+            shown_draw = str(draw) if choice is None else f"{draw} (auto → {choice.kept})"
             r = result.refinement
             assert r is not None
             fits = {
@@ -268,7 +275,7 @@ def draws_table(models: Sequence[str], n_draws: int, dt_s: float, vessel: str) -
                 predicted = indices(ModelPlant(params), ship, dt_s, logged_envelope(params))
                 worst = worst_turning_error(predicted, truth)
                 shown = fitted_label(model, params.model)
-                row = [shown, str(draw), estimate, *errors(predicted, truth)]
+                row = [shown, shown_draw, estimate, *errors(predicted, truth)]
                 row += [f"{worst:.1%}" if math.isfinite(worst) else "n/a"]
                 row += [f"{seconds:.0f}" if estimate == "EKF" else ""]
                 if estimate == "default":
@@ -311,9 +318,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--draws", type=int, default=0, help="instead of the table: N noise draws, zig-zag-trained"
     )
+    parser.add_argument(
+        "--current",
+        choices=CURRENT_MODES,
+        help="with --draws: the fits' current (default: fit's, a constant one at a ship's size)",
+    )
     args = parser.parse_args(argv)
     if args.draws:
-        lines = draws_table(args.models or [MODELS[-1]], args.draws, args.dt_s, args.vessel)
+        models = args.models or [MODELS[-1]]
+        lines = draws_table(models, args.draws, args.dt_s, args.vessel, args.current)
         write_block(args.out, _block("fidelity.py draws", args.vessel), lines)
         return 0
 

@@ -19,9 +19,9 @@ second overshoot are compared with the run's, measured with the same definitions
 Two estimates of each fit: ``ekf`` (the seed paper's algorithm, ``--method ekf``) and
 ``default`` (what ``identifier fit`` keeps). Errors predicted − measured [deg]. The fits
 take the basin's water as still (``--current none``, the README's advice for tank tests);
-``--current constant`` fits as ``identifier fit`` does unless told so, ``--current auto``
-chooses between the two as ``fit --current auto`` does (the fold's cell says which it
-kept).
+``--current constant`` fits as ``identifier fit`` does a ship's logs unless told so,
+``--current auto`` chooses between the two as ``fit`` does a model's (L < 20 m) unless
+told so (the fold's cell says which it kept).
 
 The asymmetry row: the predicted second-overshoot difference port-first − starboard-first
 run of each pair, against the measured one (10/10: 17.83 − 20.54 = −2.71°).
@@ -256,7 +256,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         choices=("none", "constant", "auto"),
         default="none",
         help="the fits' current: none (a basin's still water, the default), constant "
-        "(identifier fit's default) or auto",
+        "(identifier fit's default for a ship) or auto (its default for a model, as here)",
     )
     parser.add_argument("--out", default=str(Path(__file__).with_name("hsva.md")))
     args = parser.parse_args(argv)

@@ -39,7 +39,9 @@ error one more state (``identifier.ekf.SpeedLogMeasurement``; noise from the log
 starts the alternation, says whether the log is plausible at all, and is reported.
 
 Whether to estimate a current at all: ``--current auto`` fits both and lets the training
-logs decide (:func:`choose_current`); a speed log decides for a current.
+logs decide (:func:`choose_current`); a speed log decides for a current. A fit that names
+no mode takes one by the ship's size (:func:`default_current`): a ship's logs a constant
+current, a model's auto.
 """
 
 from __future__ import annotations
@@ -55,19 +57,52 @@ from scipy.stats import median_abs_deviation
 
 from identifier.ekf import EkfSegment, body_current
 from identifier.smoothing import SmoothedTrack
-from trials.conditions import execute_index
+from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, execute_index
 from trials.logs import ManeuverLog
 
 CURRENT_MODES = ("constant", "none", "drifting", "auto")
-"""``--current``: a constant current (the default, :data:`DEFAULT_CURRENT`), none (still
-water), a drifting one (random walk), or auto (a constant one or none, whichever predicts
-the training logs better: :func:`choose_current`)."""
+"""``--current``: a constant current (a ship's default, :data:`DEFAULT_CURRENT`), none
+(still water), a drifting one (random walk), or auto (a constant one or none, whichever
+predicts the training logs better: :func:`choose_current`; a model's default,
+:data:`MODEL_SCALE_CURRENT`)."""
 
 DEFAULT_CURRENT = "constant"
-"""The default ``--current``. Not "auto": in calm water its choice between two near-equal
-fits flips with small changes of the logs (1 % GNSS jumps: 2.6 points on the turn), and
-it costs the Mariner's zig-zag-trained turns 10 points in sum (benchmarks/fidelity.md,
-"A current only where the logs show one")."""
+"""The default ``--current`` of a ship (:func:`default_current`). Not "auto": in calm water
+its choice between two near-equal fits flips with small changes of the logs (1 % GNSS
+jumps: 2.6 points on the turn), and it costs the Mariner's zig-zag-trained turns 10 points
+in sum (benchmarks/fidelity.md, "A current only where the logs show one")."""
+
+MODEL_SCALE_CURRENT = "auto"
+"""The default ``--current`` of a ship shorter than ``MODEL_SCALE_MAX_LENGTH_M`` (20 m):
+mostly a model in a basin's still water, where a current estimated is the structure's error
+(the HSVA runs: 0.03–0.04 m/s, and their held-out overshoots 17.4° off in sum over six
+folds against 15.8° with auto, benchmarks/hsva.md); auto rather than none for a small craft
+logged at sea, whose current the logs then show (:func:`choose_current`)."""
+
+
+def default_current(length_m: float, measurements: str = "track") -> str:
+    """Return the ``--current`` of a fit that names none, by the ship's length [m].
+
+    :data:`MODEL_SCALE_CURRENT` below ``MODEL_SCALE_MAX_LENGTH_M``, else
+    :data:`DEFAULT_CURRENT`; "none" when the EKF measures smoothed velocities (a current
+    needs ``measurements="track"``).
+    """
+    if measurements != "track":
+        return "none"
+    return MODEL_SCALE_CURRENT if length_m < MODEL_SCALE_MAX_LENGTH_M else DEFAULT_CURRENT
+
+
+CURRENT_EVIDENCE_RATIO = 2.0
+"""How many times closer to their tracks a fit with a current must predict the training
+logs than the still-water fit, for ``--current auto`` to keep the current
+(:func:`choose_current`). A current the logs show makes the still-water fit drift off:
+the KVLCC2 zig-zags in 0.25–1.0 m/s, 3.5–6 times the distance of the fit with it
+(benchmarks/environment.md, "Without a speed log, and `--current auto`"). A current the
+estimator invents in still water (the structure's error) does not halve it: the
+HSVA 10/10 pair 0.57 m against 0.35 m in still water (benchmarks/hsva.md), its
+three-run folds within 1 %, calm KVLCC2 and Mariner zig-zags 0.58–1.52 times, with 1 %
+GNSS jumps 0.95–1.24 (benchmarks/fidelity.md, "A current only where the logs show one").
+Between the two, a ratio of 2 tells them apart where a ratio of 1 flips with the noise."""
 
 CURRENT_PRIOR_STD_MPS = 1.0
 """Prior standard deviation of each current component [m/s]: 2 kn, an open-sea current
@@ -282,21 +317,18 @@ class CurrentChoice:
 
 
 def choose_current(track_rms_m: Mapping[str, float]) -> str:
-    """Return the mode of ``--current auto``: "none" or "constant", by the better prediction.
+    """Return the mode of ``--current auto``: "constant" where the logs show a current.
 
     ``track_rms_m`` holds, for "none" and "constant", how far the fit's open-loop
     predictions of its own training logs stay from the smoothed tracks over the ground
     [m] (a fit with a current predicts the track through the water and adds the current).
-    A current the logs show makes the still-water fit's prediction drift off (the KVLCC2
-    zig-zags in 0.25–1.0 m/s: 3.5–6 times the distance of the fit with a current); a
-    current the estimator invents in still water (a basin's runs: the structure's error,
-    0.03 m/s at 1.2 m/s) makes the fit with it predict worse (the HSVA 10/10 pair: 0.57 m
-    against 0.35 m, ``benchmarks/hsva.md``). Ties, and two diverging predictions, keep the
-    current. Where the two are near-equal (calm water: 0.94–1.22 over the KVLCC2 draws)
-    the choice is near chance and flips with small changes of the logs, which is why this
-    is not the default (:data:`DEFAULT_CURRENT`).
+    A current is kept where its fit's distance is at most 1 / :data:`CURRENT_EVIDENCE_RATIO`
+    of the still-water fit's, and finite; otherwise still water, ties and two diverging
+    predictions included: a current is one more hypothesis, and it must earn its place.
     """
-    return "none" if track_rms_m["none"] < track_rms_m["constant"] else "constant"
+    constant, none = track_rms_m["constant"], track_rms_m["none"]
+    shown = math.isfinite(constant) and CURRENT_EVIDENCE_RATIO * constant <= none
+    return "constant" if shown else "none"
 
 
 @dataclass(frozen=True)

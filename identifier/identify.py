@@ -68,9 +68,9 @@ from fmu_model.variants import (
 from identifier.current import (
     ALTERNATION_MAX_SAMPLES,
     ALTERNATION_WINDOWS,
+    CURRENT_EVIDENCE_RATIO,
     CURRENT_MODES,
     CURRENT_PRIOR_STD_MPS,
-    DEFAULT_CURRENT,
     DRIFTING_RANDOM_WALK_MPS,
     MAX_CURRENT_ITERATIONS,
     MIN_HEADING_SPAN_RAD,
@@ -82,6 +82,7 @@ from identifier.current import (
     choose_current,
     current_model_form,
     current_tolerance_mps,
+    default_current,
     heading_span_rad,
     initial_current,
     speed_log_current,
@@ -198,12 +199,15 @@ class FitSettings:
         (``identifier.output_error.refine_output_error``, default settings), starting from
         the equation-error estimate (the EKF's when that one's replay diverges), and
         keeping that start when the guards fire; "ekf": the EKF estimate (the paper).
-    current : {"constant", "none", "drifting", "auto"}
+    current : {"constant", "none", "drifting", "auto"}, optional
         Uniform current estimated with the coefficients (``identifier.current``):
-        constant over all logs (the default), none (still water, the paper's), a random
-        walk; "auto" fits a constant one and none and keeps the fit that predicts the
-        training logs' tracks better (``identifier.current.choose_current``; a constant
-        one straight away when the logs carry a speed log).
+        constant over all logs, none (still water, the paper's), a random walk; "auto"
+        fits a constant one and none and keeps the fit that predicts the training logs'
+        tracks better (``identifier.current.choose_current``; a constant one straight away
+        when the logs carry a speed log). None (the default): by the ship's size,
+        constant for a ship, auto below a model's 20 m
+        (``identifier.current.default_current``); :func:`identify`'s result carries the
+        mode taken.
     speed_log_scale_std : float
         Prior standard deviation of the speed log's scale error, a fraction of the speed
         (the EKF's, ``identifier.ekf.SpeedLogMeasurement``, and the separate fit's,
@@ -227,7 +231,7 @@ class FitSettings:
     max_relative_std: float = 0.5
     max_variance_inflation: float = 1e4
     method: str = "output-error"
-    current: str = DEFAULT_CURRENT
+    current: str | None = None
     speed_log_scale_std: float = SPEED_LOG_SCALE_STD
     windage: Windage | None = None
 
@@ -515,6 +519,7 @@ def _estimate_current(
         )
         if speed_log is not None and settings.current == "constant":
             model_form = current_model_form(ekf.current, speed_log)
+    assert settings.current is not None  # identify() took the ship's default
     estimate = CurrentEstimate(
         north_mps=float(ekf.current[0]),
         east_mps=float(ekf.current[1]),
@@ -783,6 +788,25 @@ def turn_surge_warning(
     )
 
 
+def model_current_warning(length_m: float, current: CurrentEstimate | None) -> str | None:
+    """Return a warning when a model's fit was asked for a current no speed log measures.
+
+    Below ``MODEL_SCALE_MAX_LENGTH_M`` the logs are mostly a model's in a basin, whose
+    water is still: a current estimated there is the structure's error (the HSVA runs:
+    0.03–0.04 m/s at 1.18 m/s), traded against the hull's coefficients. Not for
+    ``--current auto``, a model's default, which keeps a current only where the logs show
+    one (``identifier.current.choose_current``). None otherwise.
+    """
+    if length_m >= MODEL_SCALE_MAX_LENGTH_M or current is None or current.speed_log is not None:
+        return None
+    return (
+        f"L = {length_m:g} m, a model's size: in a basin's still water the current found "
+        f"here ({current.speed_mps:.3f} m/s) is the structure's error, and it trades against "
+        "the hull's coefficients; fit tank tests with --current none (or auto, the default "
+        "at this size)"
+    )
+
+
 def centripetal_warning(params: ModelParameters) -> str | None:
     """Return a warning when the estimate's surge v·r term has no ship's sign, else None.
 
@@ -854,12 +878,14 @@ def identify(
         )
     if settings.method not in METHODS:
         raise ValueError(f"unknown method {settings.method!r} (known: {', '.join(METHODS)})")
-    if settings.current not in CURRENT_MODES:
+    if settings.current is not None and settings.current not in CURRENT_MODES:
         known = ", ".join(CURRENT_MODES)
         raise ValueError(f"unknown current {settings.current!r} (known: {known})")
-    if settings.current != "none" and settings.measurements != "track":
+    if settings.current not in (None, "none") and settings.measurements != "track":
         raise ValueError('a current is estimated only with measurements="track"')
     length = vessel_length(logs, length_m)
+    if settings.current is None:
+        settings = replace(settings, current=default_current(length, settings.measurements))
     vessel = vessel_name(logs)
     # Every result below is checked (the smoothed track, the equation-error fit, the
     # EKF's states and covariance), so numpy's overflow and division warnings would only
@@ -876,7 +902,9 @@ def identify(
         fit = partial(_fit_thrust_ruled, data, length=length, vessel=vessel)
         if settings.current == "auto":
             return _fit_auto_current(data, settings, fit, progress, stage)
-        return fit(settings, progress, stage)
+        result = fit(settings, progress, stage)
+    warning = model_current_warning(length, result.current)
+    return result if warning is None else replace(result, warnings=(*result.warnings, warning))
 
 
 def _fit_auto_current(
@@ -912,7 +940,8 @@ def _fit_auto_current(
     reason = (
         f"predicted open loop from execute, the training logs stay {rms['constant']:.3g} m "
         f"(RMS) from their tracks with a current of {current.speed_mps:.3f} m/s towards "
-        f"{math.degrees(current.to_rad):.0f} deg, {rms['none']:.3g} m in still water"
+        f"{math.degrees(current.to_rad):.0f} deg, {rms['none']:.3g} m in still water (a "
+        f"current is kept where it divides the distance by {CURRENT_EVIDENCE_RATIO:g})"
     )
     return _with_choice(fits[kept_mode], settings, CurrentChoice(kept_mode, rms, reason))
 
@@ -1214,12 +1243,6 @@ def _fit(
                 "speed (add a turning circle of 360 deg or more, or runs on other headings, "
                 "or a speed log's column stw_mps, or fit with --current none if the water "
                 "was still)"
-            )
-        if length < MODEL_SCALE_MAX_LENGTH_M and current.speed_log is None:
-            warnings.append(
-                f"L = {length:g} m, a model's size: in a basin's still water the current "
-                f"found here ({current.speed_mps:.3f} m/s) is the structure's error, and it "
-                "trades against the hull's coefficients; fit tank tests with --current none"
             )
     ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
     std = np.sqrt(np.diag(ekf.covariance))

@@ -1,7 +1,8 @@
-"""``--current auto``: a constant current or still water, whichever predicts the training
-logs' tracks better (``identifier.current.choose_current``). The fits of logs sailed in a
-current are in test_identify_at_sea.py; here the rule itself, a basin's runs, and the
-warning on a model fitted with a current."""
+"""``--current auto``: a constant current where the logs show one (its fit predicts the
+training logs' tracks twice as close as still water's, ``identifier.current.choose_current``),
+and the default of a ship shorter than 20 m (``identifier.current.default_current``). The
+fits of logs sailed in a current are in test_identify_at_sea.py; here the rules, a basin's
+runs, and the warning on a model fitted with a current."""
 
 from __future__ import annotations
 
@@ -13,7 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from identifier.current import DEFAULT_CURRENT, CurrentChoice, choose_current
+from identifier.cli import main
+from identifier.current import (
+    CURRENT_EVIDENCE_RATIO,
+    CurrentChoice,
+    choose_current,
+    default_current,
+)
 from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.output_error import track_distance_m
 from trials.logs import ManeuverLog, read_log
@@ -26,16 +33,37 @@ HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
     [
         (1.36, 6.44, "constant"),  # a current the logs show: still water drifts off
         (0.57, 0.35, "none"),  # a current the estimator invents in a basin
-        (0.5, 0.5, "constant"),  # a tie keeps the current
+        (42.0, 64.0, "none"),  # better, but not twice: a calm Mariner draw's phantom drift
+        (1.0, 2.0, "constant"),  # halved: shown
+        (0.5, 0.5, "none"),  # a tie: still water
         (math.inf, 0.35, "none"),  # the fit with a current diverges
         (0.35, math.inf, "constant"),
-        (math.inf, math.inf, "constant"),
+        (math.inf, math.inf, "none"),
     ],
 )
-def test_the_better_prediction_of_the_training_tracks_is_kept(
+def test_a_current_is_kept_where_it_halves_the_training_tracks_distance(
     constant_m: float, none_m: float, kept: str
 ) -> None:
+    assert CURRENT_EVIDENCE_RATIO == 2.0
     assert choose_current({"constant": constant_m, "none": none_m}) == kept
+
+
+@pytest.mark.parametrize(
+    ("length_m", "measurements", "mode"),
+    [
+        (320.0, "track", "constant"),  # a ship
+        (20.0, "track", "constant"),
+        (19.99, "track", "auto"),  # a model (or a small craft): still water unless shown
+        (7.0, "track", "auto"),
+        (7.0, "velocities", "none"),  # a current needs the track
+        (320.0, "velocities", "none"),
+    ],
+)
+def test_a_fit_that_names_no_current_takes_one_by_the_ships_size(
+    length_m: float, measurements: str, mode: str
+) -> None:
+    assert FitSettings().current is None
+    assert default_current(length_m, measurements) == mode
 
 
 def test_the_choice_is_recorded_as_json() -> None:
@@ -47,13 +75,12 @@ def test_the_choice_is_recorded_as_json() -> None:
         "track_rms_m": {"constant": None, "none": 0.35},
         "reason": "why",
     }
-    assert FitSettings().current == DEFAULT_CURRENT == "constant"  # auto is asked for
 
 
 @dataclass(frozen=True)
 class Basin:
-    """The HSVA 10/10 pair fitted with --current auto (its stages and samples counted) and
-    with --current none."""
+    """The HSVA 10/10 pair fitted with the default current, a model's auto (its stages and
+    samples counted), and with --current none."""
 
     logs: list[ManeuverLog]
     auto: IdentificationResult
@@ -65,7 +92,7 @@ class Basin:
 @pytest.fixture(scope="module")
 def basin() -> Basin:
     logs = [read_log(HSVA / f"hsva_zz10_{side}.csv") for side in ("stbd", "port")]
-    settings = FitSettings(method="ekf", current="auto")
+    settings = FitSettings(method="ekf")  # no current named: a 7 m model's is auto
     stages: list[str] = []
     counted: list[int] = []
     auto = identify(logs, settings, progress=counted.append, stage=stages.append)
@@ -127,14 +154,36 @@ def test_the_two_fits_are_named_in_the_stages_and_the_samples_counted_once(basin
 
 
 def test_a_models_fit_with_a_current_is_warned_about(basin: Basin) -> None:
-    """The default (a constant current) on a 7 m model's runs says what the current found in
-    a basin is; still water says nothing (nor a ship at sea: test_identify_at_sea.py)."""
-    constant = identify(basin.logs, FitSettings(method="ekf"))
+    """A constant current asked for on a 7 m model's runs: the fit says what the current
+    found in a basin is; still water and auto (the default) say nothing, nor a ship at sea
+    (test_identify_at_sea.py)."""
+    constant = identify(basin.logs, FitSettings(method="ekf", current="constant"))
     assert constant.current is not None
     warned = [w for w in constant.warnings if "a model's size" in w]
     assert warned == [
         f"L = 7 m, a model's size: in a basin's still water the current found here "
         f"({constant.current.speed_mps:.3f} m/s) is the structure's error, and it trades "
-        "against the hull's coefficients; fit tank tests with --current none"
+        "against the hull's coefficients; fit tank tests with --current none (or auto, the "
+        "default at this size)"
     ]
-    assert not any("a model's size" in w for w in basin.still.warnings)
+    for quiet in (basin.still, basin.auto):
+        assert not any("a model's size" in w for w in quiet.warnings)
+
+
+def test_fit_says_the_models_size_chose_auto(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`fit` on a 7 m model's runs without --current: auto, said so, still water kept."""
+    logs = [str(HSVA / f"hsva_zz10_{side}.csv") for side in ("stbd", "port")]
+    out = tmp_path / "p.json"
+    assert main(["fit", *logs, "--method", "ekf", "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "current (auto → none): still water\n" in captured.out
+    assert (
+        "current choice (auto, the default below L = 20 m (a model's size)): none, as "
+        "predicted open loop from execute" in captured.out
+    )
+    assert "a model's size: in a basin's still water" not in captured.err
+    identification = json.loads(out.read_text(encoding="utf-8"))["identification"]
+    assert identification["settings"]["current"] == "auto"
+    assert identification["environment"]["current"] == "none"

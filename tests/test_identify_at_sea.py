@@ -829,7 +829,8 @@ def test_fit_cli_current_and_windage(
     assert re.search(
         r"current choice \(auto\): constant, as predicted open loop from execute, the training "
         r"logs stay [\d.]+ m \(RMS\) from their tracks with a current of 0\.[23]\d\d m/s towards "
-        r"(59|60|61) deg, [\d.]+ m in still water\n",
+        r"(59|60|61) deg, [\d.]+ m in still water \(a current is kept where it divides the "
+        r"distance by 2\)\n",
         summary,
     )
     assert float(shown.group(1)) == pytest.approx(0.3, abs=0.02)

@@ -42,9 +42,12 @@ DONE_VERSION = 1
 
 
 def settings_record(
-    model: str, method: str, length_m: float | None, build_fmu: bool, current: str = "constant"
+    model: str, method: str, length_m: float | None, build_fmu: bool, current: str | None = None
 ) -> dict[str, Any]:
-    """Return the ``settings`` of ``done.json``: model, method, current, length [m], FMU built."""
+    """Return the ``settings`` of ``done.json``: model, method, current, length [m], FMU built.
+
+    ``current`` None (JSON null): the mode the ship's size chose.
+    """
     return {
         "model": model,
         "method": method,

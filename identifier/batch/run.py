@@ -39,7 +39,7 @@ from identifier.batch.records import (
 )
 from identifier.batch.summary import BatchSummary, VesselResult, write_summary
 from identifier.batch.task import VesselJob, describe_error, identify_vessel, sha256_of
-from identifier.current import CURRENT_MODES, DEFAULT_CURRENT
+from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS
 from trials.cluster import cluster_client
 
@@ -111,7 +111,7 @@ def run_batch(
     model: str | None = None,
     method: str = METHODS[0],
     build_fmu: bool = True,
-    current: str = DEFAULT_CURRENT,
+    current: str | None = None,
     progress: Callable[[VesselResult, int, int], None] | None = None,
 ) -> BatchSummary:
     """Identify every vessel of a manifest or directory, one Dask task per vessel.
@@ -134,9 +134,10 @@ def run_batch(
         (default :data:`fmu_model.DEFAULT_MODEL`).
     method : str
         Identification procedure of every vessel (``identifier.identify.METHODS``).
-    current : str
+    current : str, optional
         Current estimated with every vessel's coefficients (``identifier.current``):
-        ``"constant"`` (default), ``"drifting"`` or ``"none"``.
+        ``"constant"``, ``"drifting"``, ``"none"`` or ``"auto"``; None (the default): by
+        each ship's size (``identifier.current.default_current``).
     build_fmu : bool
         Build ``<vessel>.fmu`` as well as ``params.json``.
     progress : callable, optional
@@ -163,7 +164,7 @@ def run_batch(
         raise ValueError(f"unknown model {default_model!r} (known: {', '.join(model_names())})")
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
-    if current not in CURRENT_MODES:
+    if current is not None and current not in CURRENT_MODES:
         raise ValueError(f"unknown current {current!r} (known: {', '.join(CURRENT_MODES)})")
     if n_workers < 1:
         raise ValueError(f"n_workers must be at least 1, got {n_workers}")

@@ -19,7 +19,6 @@ from pathlib import Path
 from fmu_model import ModelParameters, ParamsFormatError
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_native import build_native_fmu, osp_sidecar_path
-from identifier.current import DEFAULT_CURRENT
 from identifier.identify import FitSettings, IdentificationResult, identify
 from trials.errors import IdentificationError, LogFormatError, one_line
 from trials.logs import read_log
@@ -43,8 +42,9 @@ class VesselJob:
         Model structure.
     method : str
         Identification procedure (``identifier.identify.METHODS``).
-    current : str
-        Current estimated with the coefficients (``identifier.current.CURRENT_MODES``).
+    current : str, optional
+        Current estimated with the coefficients (``identifier.current.CURRENT_MODES``);
+        None: by the ship's size (``identifier.current.default_current``).
     build_fmu : bool
         Build the native FMU as well.
 
@@ -56,7 +56,7 @@ class VesselJob:
     model: str
     method: str
     build_fmu: bool
-    current: str = DEFAULT_CURRENT
+    current: str | None = None
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,9 @@ from fmu_model import DEFAULT_MODEL, argtypes, model_names
 from identifier.batch import ManifestError, VesselResult, format_failures, run_batch
 from identifier.batch.task import describe_error
 from identifier.cli.common import error
-from identifier.current import CURRENT_MODES, DEFAULT_CURRENT
+from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS
+from trials.conditions import MODEL_SCALE_MAX_LENGTH_M
 from trials.errors import one_line
 
 __all__ = ["add_parser", "run"]
@@ -51,10 +52,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     batch.add_argument(
         "--current",
         choices=CURRENT_MODES,
-        default=DEFAULT_CURRENT,
-        help="uniform current estimated with each vessel's coefficients: constant (default), "
-        "drifting, none (still water) or auto (constant or none, whichever predicts the "
-        "vessel's logs better)",
+        help="uniform current estimated with each vessel's coefficients: constant (a ship's "
+        "default), drifting, none (still water) or auto (constant or none, whichever predicts "
+        f"the vessel's logs better; the default below L = {MODEL_SCALE_MAX_LENGTH_M:g} m, a "
+        "model's size)",
     )
     batch.add_argument("--no-fmu", action="store_true", help="write params.json only")
     batch.add_argument("--quiet", action="store_true", help="no per-vessel lines on stdout")

@@ -15,7 +15,7 @@ from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, logged_envelope
 from fmu_model.kernels import numba_compilations
 from fmu_model.variants import family_name
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
-from identifier.current import CURRENT_MODES, DEFAULT_CURRENT, SPEED_LOG_SCALE_STD
+from identifier.current import CURRENT_MODES, SPEED_LOG_SCALE_STD
 from identifier.identify import (
     ALPHA_RANGE,
     HEADING_NOISE_RANGE_DEG,
@@ -29,6 +29,7 @@ from identifier.identify import (
     identify,
 )
 from identifier.wind import read_windage
+from trials.conditions import MODEL_SCALE_MAX_LENGTH_M
 from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]
@@ -111,10 +112,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     fit.add_argument(
         "--current",
         choices=CURRENT_MODES,
-        help="uniform current estimated with the coefficients: constant (default), drifting "
-        "(a random walk), none (still water; the default with --measurements velocities) or "
-        "auto (a constant one or none, whichever predicts the training logs' tracks better; "
-        "constant with a speed log)",
+        help="uniform current estimated with the coefficients: constant (a ship's default), "
+        "drifting (a random walk), none (still water; the default with --measurements "
+        "velocities) or auto (a constant one or none, whichever predicts the training logs' "
+        "tracks better; constant with a speed log; the default below L = "
+        f"{MODEL_SCALE_MAX_LENGTH_M:g} m, a model's size)",
     )
     low_pct, high_pct = (100.0 * f for f in SPEED_LOG_SCALE_STD_RANGE)
     fit.add_argument(
@@ -145,12 +147,13 @@ def run(args: argparse.Namespace) -> int:
         return error(os_error_text(exc))
 
 
-def _summary(result: IdentificationResult) -> str:
+def _summary(result: IdentificationResult, *, current_asked: bool = True) -> str:
     """Return the kept estimate (value, σ) per coefficient, nominal point, current, rates.
 
     The identifiable column is the EKF's judgement (``identifier.identify.CoefficientReport``:
     excitation, collinearity and the EKF posterior's σ against its estimate), the same
-    whichever estimate is kept; value and σ are the kept estimate's.
+    whichever estimate is kept; value and σ are the kept estimate's. ``current_asked``:
+    whether ``--current`` was given (else the ship's size chose it, and the summary says so).
     """
     p = result.params
     units = p.units()
@@ -206,7 +209,12 @@ def _summary(result: IdentificationResult) -> str:
                    if model_form else "")
             )  # fmt: skip
     if choice is not None:
-        lines.append(f"current choice (auto): {choice.kept}, as {choice.reason}")
+        defaulted = (
+            ""
+            if current_asked
+            else f", the default below L = {MODEL_SCALE_MAX_LENGTH_M:g} m (a model's size)"
+        )
+        lines.append(f"current choice (auto{defaulted}): {choice.kept}, as {choice.reason}")
     ls = result.equation_error
     rates = f"regression on {ls.rows:,} rows at {ls.sample_interval_s:g} s (about L/U/40"
     shape = p.identification.get("shape")
@@ -224,10 +232,9 @@ def _summary(result: IdentificationResult) -> str:
 
 
 def _fit(args: argparse.Namespace) -> int:
-    current = args.current or ("none" if args.measurements == "velocities" else DEFAULT_CURRENT)
-    if current != "none" and args.measurements == "velocities":
+    if args.current not in (None, "none") and args.measurements == "velocities":
         return error(
-            f"--current {current} needs --measurements track (the smoothed velocities of "
+            f"--current {args.current} needs --measurements track (the smoothed velocities of "
             "'velocities' are over the ground)",
             status=2,
         )
@@ -245,7 +252,7 @@ def _fit(args: argparse.Namespace) -> int:
             None if args.heading_noise_deg is None else math.radians(args.heading_noise_deg)
         ),
         method=args.method,
-        current=current,
+        current=args.current,
         speed_log_scale_std=args.speed_log_scale_std_pct / 100.0,
         windage=windage,
     )
@@ -281,7 +288,7 @@ def _fit(args: argparse.Namespace) -> int:
             if not args.quiet:
                 print(f"wrote {path}")
     if not args.quiet:
-        print(_summary(result))
+        print(_summary(result, current_asked=args.current is not None))
         if result.refinement is not None:
             r = result.refinement
             print(
