@@ -67,17 +67,19 @@ predicts the training logs better: :func:`choose_current`; a model's default,
 :data:`MODEL_SCALE_CURRENT`)."""
 
 DEFAULT_CURRENT = "constant"
-"""The default ``--current`` of a ship (:func:`default_current`). Not "auto": in calm water
-its choice between two near-equal fits flips with small changes of the logs (1 % GNSS
-jumps: 2.6 points on the turn), and it costs the Mariner's zig-zag-trained turns 10 points
-in sum (benchmarks/fidelity.md, "A current only where the logs show one")."""
+"""The default ``--current`` of a ship (:func:`default_current`). Not "auto", which keeps
+still water in calm logs: the Mariner's zig-zag-trained turns then come out 21 points
+worse in sum over ten draws (the phantom current of its constant fits takes up part of
+its structure's error), for 5.5 points better on the KVLCC2 reference
+(benchmarks/fidelity.md, "A current must halve the distance")."""
 
 MODEL_SCALE_CURRENT = "auto"
 """The default ``--current`` of a ship shorter than ``MODEL_SCALE_MAX_LENGTH_M`` (20 m):
 mostly a model in a basin's still water, where a current estimated is the structure's error
 (the HSVA runs: 0.03–0.04 m/s, and their held-out overshoots 17.4° off in sum over six
-folds against 15.8° with auto, benchmarks/hsva.md); auto rather than none for a small craft
-logged at sea, whose current the logs then show (:func:`choose_current`)."""
+folds against 15.9° with auto, which keeps still water in every fold, benchmarks/hsva.md);
+auto rather than none for a small craft logged at sea, whose current the logs then show
+(:func:`choose_current`)."""
 
 
 def default_current(length_m: float, measurements: str = "track") -> str:

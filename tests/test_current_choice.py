@@ -180,7 +180,7 @@ def test_fit_says_the_models_size_chose_auto(
     captured = capsys.readouterr()
     assert "current (auto → none): still water\n" in captured.out
     assert (
-        "current choice (auto, the default below L = 20 m (a model's size)): none, as "
+        "current choice (auto, a model's default: L < 20 m): none, as "
         "predicted open loop from execute" in captured.out
     )
     assert "a model's size: in a basin's still water" not in captured.err

@@ -210,9 +210,7 @@ def _summary(result: IdentificationResult, *, current_asked: bool = True) -> str
             )  # fmt: skip
     if choice is not None:
         defaulted = (
-            ""
-            if current_asked
-            else f", the default below L = {MODEL_SCALE_MAX_LENGTH_M:g} m (a model's size)"
+            "" if current_asked else f", a model's default: L < {MODEL_SCALE_MAX_LENGTH_M:g} m"
         )
         lines.append(f"current choice (auto{defaulted}): {choice.kept}, as {choice.reason}")
     ls = result.equation_error
