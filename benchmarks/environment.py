@@ -30,8 +30,8 @@ not; with ``--current-mps 0 --wind-mps 0`` the condition is calm water itself, s
 rows compare the glitched logs with the clean ones (issue 14's glitch bar). Two fits:
 
 * ``default``: ``identify`` with the default settings (the current estimated, constant;
-  with ``--current auto`` a constant one or none, whichever predicts the training logs
-  better, a constant one with a speed log; the table says which each fit kept; the
+  with ``--current auto`` a constant one where the training logs show it, else none, a
+  constant one with a speed log; the table says which each fit kept; the
   model family ``--model``, by default the default one; the procedure ``--method``, by
   default output error, ``ekf`` the seed paper's EKF estimate) and
   the ship's windage (``--windage``), so the measured wind's load is taken out;

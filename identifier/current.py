@@ -62,8 +62,8 @@ from trials.logs import ManeuverLog
 
 CURRENT_MODES = ("constant", "none", "drifting", "auto")
 """``--current``: a constant current (a ship's default, :data:`DEFAULT_CURRENT`), none
-(still water), a drifting one (random walk), or auto (a constant one or none, whichever
-predicts the training logs better: :func:`choose_current`; a model's default,
+(still water), a drifting one (random walk), or auto (a constant one where the training
+logs show it, else none: :func:`choose_current`; a model's default,
 :data:`MODEL_SCALE_CURRENT`)."""
 
 DEFAULT_CURRENT = "constant"

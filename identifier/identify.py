@@ -202,10 +202,10 @@ class FitSettings:
     current : {"constant", "none", "drifting", "auto"}, optional
         Uniform current estimated with the coefficients (``identifier.current``):
         constant over all logs, none (still water, the paper's), a random walk; "auto"
-        fits a constant one and none and keeps the fit that predicts the training logs'
-        tracks better (``identifier.current.choose_current``; a constant one straight away
-        when the logs carry a speed log). None (the default): by the ship's size,
-        constant for a ship, auto below a model's 20 m
+        fits a constant one and none and keeps the current where its fit predicts the
+        training logs' tracks twice as close (``identifier.current.choose_current``; a
+        constant one straight away when the logs carry a speed log). None (the default):
+        by the ship's size, constant for a ship, auto below a model's 20 m
         (``identifier.current.default_current``); :func:`identify`'s result carries the
         mode taken.
     speed_log_scale_std : float

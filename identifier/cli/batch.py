@@ -53,9 +53,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--current",
         choices=CURRENT_MODES,
         help="uniform current estimated with each vessel's coefficients: constant (a ship's "
-        "default), drifting, none (still water) or auto (constant or none, whichever predicts "
-        f"the vessel's logs better; the default below L = {MODEL_SCALE_MAX_LENGTH_M:g} m, a "
-        "model's size)",
+        "default), drifting, none (still water) or auto (constant where its fit predicts the "
+        "vessel's logs twice as close as still water's, else none; the default below L = "
+        f"{MODEL_SCALE_MAX_LENGTH_M:g} m, a model's size)",
     )
     batch.add_argument("--no-fmu", action="store_true", help="write params.json only")
     batch.add_argument("--quiet", action="store_true", help="no per-vessel lines on stdout")

@@ -114,8 +114,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         choices=CURRENT_MODES,
         help="uniform current estimated with the coefficients: constant (a ship's default), "
         "drifting (a random walk), none (still water; the default with --measurements "
-        "velocities) or auto (a constant one or none, whichever predicts the training logs' "
-        "tracks better; constant with a speed log; the default below L = "
+        "velocities) or auto (a constant one where its fit predicts the training logs' tracks "
+        "twice as close as still water's, else none; constant with a speed log; the default "
+        "below L = "
         f"{MODEL_SCALE_MAX_LENGTH_M:g} m, a model's size)",
     )
     low_pct, high_pct = (100.0 * f for f in SPEED_LOG_SCALE_STD_RANGE)
