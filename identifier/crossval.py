@@ -12,6 +12,10 @@ approach (``identifier.output_error.execute_state``; nothing after execute is us
   track and the prediction: advance, transfer and tactical diameter of a turning
   circle, first and second overshoot of a zig-zag (``trials.metrics``).
 
+Where the training fit estimated a uniform current, the held-out logs are taken as sailed
+in the same one: the model sails through the water, and the current's drift is added to
+its predicted track before it is compared with the logged one over the ground.
+
 The metric definitions (pure functions of a trajectory) exist once, in
 ``trials.metrics``. Nothing here knows about FMI, and nothing here prints: the
 command line is ``python -m identifier crossval`` (:mod:`identifier.cli.crossval`).
@@ -28,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from fmu_model import ModelParameters
+from identifier.current import water_frame
 from identifier.identify import FitSettings, identify
 from identifier.output_error import predict_log, smooth_log
 from identifier.smoothing import SmoothedTrack
@@ -216,6 +221,7 @@ def held_out_errors(
     track: SmoothedTrack | None = None,
     *,
     name: str | None = None,
+    current_ne: np.ndarray | None = None,
 ) -> HeldOut:
     """Predict a log and compare: position RMS and the manoeuvre's indices.
 
@@ -229,6 +235,12 @@ def held_out_errors(
         Its smoothed track; smoothed here when omitted.
     name : str, optional
         Name in the result; the log's path by default.
+    current_ne : numpy.ndarray, optional
+        A uniform current (North, East) [m/s] the log was sailed in (the training fit's,
+        :func:`cross_validate`): the model sails through the water from the state fitted
+        to the approach in the water frame (``identifier.current.water_frame``), and the
+        current's drift is added to its track, which is then compared with the logged
+        one over the ground. None: still water.
 
     Returns
     -------
@@ -239,9 +251,20 @@ def held_out_errors(
     log = at_midship(log)
     track = track or smooth_log(log)
     name = name or log.path or "log"
-    k, states = predict_log(params, log, track)
-    finite = np.all(np.isfinite(states), axis=1)
     notes: list[str] = []
+    if current_ne is None:
+        k, states = predict_log(params, log, track)
+    else:
+        k, states = predict_log(params, *water_frame(log, track, current_ne))
+        elapsed = log.time_s[k:] - log.time_s[0]
+        states[:, 3] += current_ne[0] * elapsed
+        states[:, 4] += current_ne[1] * elapsed
+        speed = math.hypot(current_ne[0], current_ne[1])
+        towards = math.degrees(math.atan2(current_ne[1], current_ne[0])) % 360.0
+        notes.append(
+            f"predicted in the training fit's current, {speed:.3f} m/s towards {towards:.0f} deg"
+        )
+    finite = np.all(np.isfinite(states), axis=1)
     if finite.all():
         sq = np.square(states[:, 3] - log.x_m[k:]) + np.square(states[:, 4] - log.y_m[k:])
         rms = math.sqrt(float(np.mean(sq)))
@@ -331,6 +354,9 @@ def cross_validate(
 ) -> Fold:
     """Identify on ``train`` and predict every log of ``test``.
 
+    The held-out logs are predicted in the current the training fit found, if any
+    (:func:`held_out_errors`).
+
     Parameters
     ----------
     train, test : sequence of ManeuverLog
@@ -351,8 +377,10 @@ def cross_validate(
     if not test:
         raise IdentificationError("no held-out logs to predict")
     result = identify(list(train), settings or FitSettings(), length_m=length_m)
+    current_ne = None if result.current is None else result.current.vector
     held = tuple(
-        held_out_errors(result.params, log, name=_name(log, i)) for i, log in enumerate(test)
+        held_out_errors(result.params, log, name=_name(log, i), current_ne=current_ne)
+        for i, log in enumerate(test)
     )
     return Fold(
         train=tuple(_name(log, i) for i, log in enumerate(train)),

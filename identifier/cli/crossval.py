@@ -18,7 +18,9 @@ from fmu_model.atomic import write_atomic
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
 from identifier.crossval import KINDS, format_table, run_cross_validation
+from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS, FitSettings
+from trials.conditions import MODEL_SCALE_MAX_LENGTH_M
 from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]
@@ -60,6 +62,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="identification procedure (default: output-error; ekf: the seed paper)",
     )
     cv.add_argument(
+        "--current",
+        choices=CURRENT_MODES,
+        help="uniform current estimated with the training logs' coefficients, and the "
+        "held-out logs predicted in it (fit's --current; default: constant for a ship, "
+        f"auto below L = {MODEL_SCALE_MAX_LENGTH_M:g} m)",
+    )
+    cv.add_argument(
         "--length-m",
         type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
         help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} (default: from logs)",
@@ -85,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         logs = [read_log(p) for p in paths]
         cv = run_cross_validation(
             logs,
-            FitSettings(model=args.model, method=args.method),
+            FitSettings(model=args.model, method=args.method, current=args.current),
             train=args.train,
             test=args.test,
             leave_one_out_=args.leave_one_out,
