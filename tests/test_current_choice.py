@@ -23,6 +23,7 @@ from identifier.current import (
 )
 from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.output_error import track_distance_m
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from trials.logs import ManeuverLog, read_log
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
@@ -187,3 +188,41 @@ def test_fit_says_the_models_size_chose_auto(
     identification = json.loads(out.read_text(encoding="utf-8"))["identification"]
     assert identification["settings"]["current"] == "auto"
     assert identification["environment"]["current"] == "none"
+
+
+@pytest.fixture(scope="module")
+def model_zigzags() -> list[ManeuverLog]:
+    """The KVLCC2 reference's 7 m model: zig-zags 10/10 and 20/20 at 5 Hz, 1 cm, 0.05°."""
+    ship = reference_ship("kvlcc2", "model")
+    return [
+        synthesize_log(
+            ship, MANEUVERS[name](), rate_hz=5.0, position_noise_m=0.01, heading_noise_deg=0.05,
+            seed=seed,
+        )
+        for seed, name in enumerate(("zigzag-10", "zigzag-20"))
+    ]  # fmt: skip
+
+
+def test_a_models_default_keeps_a_current_its_logs_show(model_zigzags: list[ManeuverLog]) -> None:
+    """A 7 m model, or a small craft, in 0.03 m/s towards 045 (2.5 % of its 1.18 m/s; the
+    track moved by c·t, exactly what a uniform current does) without a speed log: the
+    default (auto at this size) keeps the current, the still-water fit predicting its
+    tracks many times worse; the same runs in still water keep still water."""
+    current_ne = np.full(2, 0.03 / math.sqrt(2.0))
+    drifted = [
+        replace(
+            log,
+            x_m=log.x_m + current_ne[0] * (log.time_s - log.time_s[0]),
+            y_m=log.y_m + current_ne[1] * (log.time_s - log.time_s[0]),
+        )
+        for log in model_zigzags
+    ]
+    still, at_sea = (identify(logs, FitSettings(method="ekf")) for logs in (model_zigzags, drifted))
+    assert still.settings.current == at_sea.settings.current == "auto"
+    assert still.current_choice is not None and still.current_choice.kept == "none"
+    assert at_sea.current_choice is not None and at_sea.current_choice.kept == "constant"
+    rms = at_sea.current_choice.track_rms_m
+    assert rms["none"] > 5.0 * CURRENT_EVIDENCE_RATIO * rms["constant"], rms
+    assert at_sea.current is not None
+    np.testing.assert_allclose(at_sea.current.vector, current_ne, atol=0.005)
+    assert not any("a model's size" in w for w in at_sea.warnings)
