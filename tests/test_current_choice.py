@@ -24,6 +24,7 @@ from identifier.current import (
 from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.output_error import track_distance_m
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from tests.test_identify_at_sea import _with_current
 from trials.logs import ManeuverLog, read_log
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
@@ -209,14 +210,7 @@ def test_a_models_default_keeps_a_current_its_logs_show(model_zigzags: list[Mane
     default (auto at this size) keeps the current, the still-water fit predicting its
     tracks many times worse; the same runs in still water keep still water."""
     current_ne = np.full(2, 0.03 / math.sqrt(2.0))
-    drifted = [
-        replace(
-            log,
-            x_m=log.x_m + current_ne[0] * (log.time_s - log.time_s[0]),
-            y_m=log.y_m + current_ne[1] * (log.time_s - log.time_s[0]),
-        )
-        for log in model_zigzags
-    ]
+    drifted = [_with_current(log, current_ne) for log in model_zigzags]
     still, at_sea = (identify(logs, FitSettings(method="ekf")) for logs in (model_zigzags, drifted))
     assert still.settings.current == at_sea.settings.current == "auto"
     assert still.current_choice is not None and still.current_choice.kept == "none"
