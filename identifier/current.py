@@ -295,7 +295,8 @@ class CurrentChoice:
     track_rms_m : dict of str to float
         Per mode fitted, the RMS distance of the training logs' predictions (open loop
         from execute, every sample after it) from their smoothed tracks over the ground
-        [m]; ``math.inf`` where a prediction diverges. Empty when a speed log decided.
+        [m]; ``math.inf`` where a prediction diverges. Empty when a speed log decided, or
+        when one of the two fits failed.
     reason : str
         One sentence for the fit summary.
 

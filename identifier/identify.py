@@ -919,22 +919,32 @@ def _fit_auto_current(
     """:func:`identify`'s fit with ``current="auto"``: a constant current or none.
 
     ``fit(settings, progress, stage)`` fits ``data``. Logs with a speed log the fit uses
-    are fitted with a current (the log measures it). Otherwise both are fitted and the one
-    whose open-loop predictions of the training logs stay closer to their tracks over the
-    ground is kept (``identifier.current.choose_current``); both results are held until
-    then, so a long log's EKF histories twice.
+    are fitted with a current (the log measures it). Otherwise both are fitted and the
+    current is kept where the logs show it (``identifier.current.choose_current``); both
+    results are held until then, so a long log's EKF histories twice. Where one of the two
+    fits fails (``IdentificationError``) the other is kept, and the reason says so; where
+    both fail, the second's error is raised.
     """
-    fits = {
-        "constant": fit(
+    still_water = replace(settings, current="none")
+    try:
+        with_current = fit(
             replace(settings, current="constant"), progress, _labelled(stage, "with a current")
         )
-    }
-    current = fits["constant"].current
+    except IdentificationError as exc:
+        still = fit(still_water, progress, _labelled(stage, "in still water"))
+        reason = f"the fit with a current failed ({exc})"
+        return _with_choice(still, settings, CurrentChoice("none", {}, reason))
+    current = with_current.current
     assert current is not None
     if current.speed_log is not None:  # None also when the log was refused as broken
         reason = "the logs carry a speed log (stw_mps), which measures the current"
-        return _with_choice(fits["constant"], settings, CurrentChoice("constant", {}, reason))
-    fits["none"] = fit(replace(settings, current="none"), None, _labelled(stage, "in still water"))
+        return _with_choice(with_current, settings, CurrentChoice("constant", {}, reason))
+    try:
+        still = fit(still_water, None, _labelled(stage, "in still water"))
+    except IdentificationError as exc:
+        reason = f"the still-water fit failed ({exc})"
+        return _with_choice(with_current, settings, CurrentChoice("constant", {}, reason))
+    fits = {"constant": with_current, "none": still}
     rms = {mode: _training_track_rms_m(result, data) for mode, result in fits.items()}
     kept_mode = choose_current(rms)
     reason = (

@@ -10,10 +10,12 @@ import json
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from identifier import identify as identify_module
 from identifier.cli import main
 from identifier.current import (
     CURRENT_EVIDENCE_RATIO,
@@ -25,6 +27,7 @@ from identifier.identify import FitSettings, IdentificationResult, identify
 from identifier.output_error import track_distance_m
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from tests.test_identify_at_sea import _with_current
+from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
@@ -220,3 +223,27 @@ def test_a_models_default_keeps_a_current_its_logs_show(model_zigzags: list[Mane
     assert at_sea.current is not None
     np.testing.assert_allclose(at_sea.current.vector, current_ne, atol=0.005)
     assert not any("a model's size" in w for w in at_sea.warnings)
+
+
+@pytest.mark.parametrize("failing", ["constant", "none"])
+def test_auto_keeps_the_fit_that_did_not_fail(
+    model_zigzags: list[ManeuverLog], monkeypatch: pytest.MonkeyPatch, failing: str
+) -> None:
+    """A model's default fits twice; where one fit fails (here made to), the other is
+    kept, and the choice says why, where a ship's default would have failed outright."""
+    fit_as_given = identify_module._fit_thrust_ruled
+
+    def fit_or_fail(data: Any, settings: FitSettings, *args: Any, **kwargs: Any) -> Any:
+        if settings.current == failing:
+            raise IdentificationError("the EKF diverges (made to, for this test)")
+        return fit_as_given(data, settings, *args, **kwargs)
+
+    monkeypatch.setattr(identify_module, "_fit_thrust_ruled", fit_or_fail)
+    result = identify(model_zigzags, FitSettings(method="ekf"))
+    kept = "none" if failing == "constant" else "constant"
+    choice = result.current_choice
+    assert choice is not None and choice.kept == kept and choice.track_rms_m == {}
+    what = "the fit with a current" if failing == "constant" else "the still-water fit"
+    assert choice.reason == f"{what} failed (the EKF diverges (made to, for this test))"
+    assert (result.current is None) == (kept == "none")
+    assert result.params.identification["environment"]["current"] == kept
