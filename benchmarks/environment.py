@@ -231,7 +231,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--current",
         default=DEFAULT_CURRENT,
         choices=("constant", "auto"),
-        help="the current of the default fits (default: constant, the default of fit)",
+        help="the current of the default fits (default: constant, fit's default for a ship)",
     )
     parser.add_argument(
         "--same-noise",
