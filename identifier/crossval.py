@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from fmu_model import ModelParameters
-from identifier.current import water_frame
+from identifier.current import CurrentEstimate, water_frame
 from identifier.identify import FitSettings, identify
 from identifier.output_error import predict_log, smooth_log
 from identifier.smoothing import SmoothedTrack
@@ -221,7 +221,7 @@ def held_out_errors(
     track: SmoothedTrack | None = None,
     *,
     name: str | None = None,
-    current_ne: np.ndarray | None = None,
+    current: CurrentEstimate | None = None,
 ) -> HeldOut:
     """Predict a log and compare: position RMS and the manoeuvre's indices.
 
@@ -235,8 +235,8 @@ def held_out_errors(
         Its smoothed track; smoothed here when omitted.
     name : str, optional
         Name in the result; the log's path by default.
-    current_ne : numpy.ndarray, optional
-        A uniform current (North, East) [m/s] the log was sailed in (the training fit's,
+    current : CurrentEstimate, optional
+        A uniform current the log was sailed in (the training fit's,
         :func:`cross_validate`): the model sails through the water from the state fitted
         to the approach in the water frame (``identifier.current.water_frame``), and the
         current's drift is added to its track, which is then compared with the logged
@@ -252,17 +252,16 @@ def held_out_errors(
     track = track or smooth_log(log)
     name = name or log.path or "log"
     notes: list[str] = []
-    if current_ne is None:
+    if current is None:
         k, states = predict_log(params, log, track)
     else:
-        k, states = predict_log(params, *water_frame(log, track, current_ne))
+        k, states = predict_log(params, *water_frame(log, track, current.vector))
         elapsed = log.time_s[k:] - log.time_s[0]
-        states[:, 3] += current_ne[0] * elapsed
-        states[:, 4] += current_ne[1] * elapsed
-        speed = math.hypot(current_ne[0], current_ne[1])
-        towards = math.degrees(math.atan2(current_ne[1], current_ne[0])) % 360.0
+        states[:, 3] += current.north_mps * elapsed
+        states[:, 4] += current.east_mps * elapsed
         notes.append(
-            f"predicted in the training fit's current, {speed:.3f} m/s towards {towards:.0f} deg"
+            f"predicted in the training fit's current, {current.speed_mps:.3f} m/s towards "
+            f"{math.degrees(current.to_rad):.0f} deg"
         )
     finite = np.all(np.isfinite(states), axis=1)
     if finite.all():
@@ -377,9 +376,8 @@ def cross_validate(
     if not test:
         raise IdentificationError("no held-out logs to predict")
     result = identify(list(train), settings or FitSettings(), length_m=length_m)
-    current_ne = None if result.current is None else result.current.vector
     held = tuple(
-        held_out_errors(result.params, log, name=_name(log, i), current_ne=current_ne)
+        held_out_errors(result.params, log, name=_name(log, i), current=result.current)
         for i, log in enumerate(test)
     )
     return Fold(

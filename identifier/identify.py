@@ -28,13 +28,14 @@ ship lose its thrust as it slows in a hard turn (benchmarks/hsva.md, "The propel
 thrust is why"). The result says so (a note, ``identification.thrust``); fits of other
 families with such a thrust are warned about.
 
-By default a constant current is estimated with the coefficients (``identifier.current``).
-With ``current="auto"`` the whole fit is made twice, with a constant current and in still
-water, and the one whose open-loop predictions of its own training logs stay closer to
-their tracks over the ground is kept (``identifier.current.choose_current``): a basin's
-runs keep still water where the current the estimator would find there is the
-structure's error. Logs with a speed log are fitted with the current alone (the log
-measures it).
+A uniform current is estimated with the coefficients (``identifier.current``): by default
+a constant one for a ship, and for a model (L < 20 m) ``current="auto"``
+(``identifier.current.default_current``). With "auto" the whole fit is made twice, with a
+constant current and in still water, and the current is kept only where its fit's
+open-loop predictions of the training logs stay at most half as far from their tracks
+over the ground (``identifier.current.choose_current``): a basin's runs keep still water
+where the current the estimator would find there is the structure's error. Logs with a
+speed log are fitted with the current alone (the log measures it).
 """
 
 from __future__ import annotations

@@ -896,7 +896,10 @@ def test_a_held_out_log_in_a_current_is_predicted_in_it(calm_logs: list[Maneuver
     calm, at_sea = calm_logs[0], _with_current(calm_logs[0], CURRENT_NE)
     assert maneuver_kind(calm) == "turning"
     still = held_out_errors(_truth(), calm)
-    carried = held_out_errors(_truth(), at_sea, current_ne=CURRENT_NE)
+    true_current = CurrentEstimate(
+        *CURRENT_NE, covariance=np.zeros((2, 2)), mode="constant", iterations=0
+    )
+    carried = held_out_errors(_truth(), at_sea, current=true_current)
     ignored = held_out_errors(_truth(), at_sea)
     assert carried.position_rms_m == pytest.approx(still.position_rms_m, rel=1e-6)
     assert carried.position_rms_m < 2.0 and ignored.position_rms_m > 20.0 * carried.position_rms_m
