@@ -14,7 +14,9 @@ approach (``identifier.output_error.execute_state``; nothing after execute is us
 
 Where the training fit estimated a uniform current, the held-out logs are taken as sailed
 in the same one: the model sails through the water, and the current's drift is added to
-its predicted track before it is compared with the logged one over the ground.
+its predicted track before it is compared with the logged one over the ground. With a
+current per training log (``--current per-log``), a held-out log is taken in its own, as
+its speed log shows it, or without one in the training logs' mean.
 
 The metric definitions (pure functions of a trajectory) exist once, in
 ``trials.metrics``. Nothing here knows about FMI, and nothing here prints: the
@@ -32,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from fmu_model import ModelParameters
-from identifier.current import CurrentEstimate, water_frame
+from identifier.current import CurrentEstimate, speed_log_current, water_frame
 from identifier.identify import FitSettings, identify
 from identifier.output_error import predict_log, smooth_log
 from identifier.smoothing import SmoothedTrack
@@ -240,7 +242,9 @@ def held_out_errors(
         :func:`cross_validate`): the model sails through the water from the state fitted
         to the approach in the water frame (``identifier.current.water_frame``), and the
         current's drift is added to its track, which is then compared with the logged
-        one over the ground. None: still water.
+        one over the ground. A current per training log (``current.logs``): the log's
+        own as its speed log shows it (``identifier.current.speed_log_current``), else
+        their mean. None: still water.
 
     Returns
     -------
@@ -255,12 +259,28 @@ def held_out_errors(
     if current is None:
         k, states = predict_log(params, log, track)
     else:
+        whose = "the training fit's current"
+        if current.logs:
+            own = speed_log_current([log], [track])
+            if own is not None and own.implausible() is None:
+                whose = "its own current, as its speed log shows it"
+                current = CurrentEstimate(
+                    north_mps=float(own.current_ne[0]),
+                    east_mps=float(own.current_ne[1]),
+                    covariance=own.covariance,
+                    mode=current.mode,
+                    iterations=0,
+                    speed_log=own,
+                    log=name,
+                )
+            else:
+                whose = "the training logs' mean current (no speed log shows its own)"
         k, states = predict_log(params, *water_frame(log, track, current.vector))
         elapsed = log.time_s[k:] - log.time_s[0]
         states[:, 3] += current.north_mps * elapsed
         states[:, 4] += current.east_mps * elapsed
         notes.append(
-            f"predicted in the training fit's current, {current.speed_mps:.3f} m/s towards "
+            f"predicted in {whose}, {current.speed_mps:.3f} m/s towards "
             f"{math.degrees(current.to_rad):.0f} deg"
         )
     finite = np.all(np.isfinite(states), axis=1)

@@ -60,11 +60,19 @@ from identifier.smoothing import SmoothedTrack
 from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, execute_index
 from trials.logs import ManeuverLog
 
-CURRENT_MODES = ("constant", "none", "drifting", "auto")
+CURRENT_MODES = ("constant", "none", "drifting", "per-log", "auto")
 """``--current``: a constant current (a ship's default, :data:`DEFAULT_CURRENT`), none
-(still water), a drifting one (random walk), or auto (a constant one where the training
-logs show it, else none: :func:`choose_current`; a model's default,
-:data:`MODEL_SCALE_CURRENT`)."""
+(still water), a drifting one (random walk), one constant current per log (:data:`PER_LOG`),
+or auto (a constant one where the training logs show it, else none:
+:func:`choose_current`; a model's default, :data:`MODEL_SCALE_CURRENT`)."""
+
+PER_LOG = "per-log"
+"""``--current per-log``: each log has a constant current of its own, independent of the
+others': runs sailed hours apart, at another time of the tide. One current for all of
+them takes their difference into the hull: two KVLCC2 zig-zags in 0.5 m/s setting to 45°
+and to 225° give a calm-water 35° turn 13–18 points off the calm logs' fit with a speed
+log, 48–70 without (benchmarks/environment.md, "Runs in another tide"). What it costs:
+each current is told from its own log's manoeuvres only."""
 
 DEFAULT_CURRENT = "constant"
 """The default ``--current`` of a ship (:func:`default_current`). Not "auto", which keeps
@@ -184,6 +192,13 @@ SHAPE_PASSES = 2
 _CHUNK_SAMPLES = 65_536
 """Samples per block of the per-sample arithmetic on whole logs (bounded temporaries)."""
 
+CURRENT_DISAGREEMENT_MPS = 0.1
+"""Logs whose currents, as their approaches or speed logs show them, differ by more than
+this [m/s] (0.2 kn) were sailed in different currents (:func:`current_disagreement`)."""
+
+CURRENT_DISAGREEMENT_SIGMAS = 4.0
+"""... and, for a speed log's current, by more than this many of its σ."""
+
 MIN_HEADING_SPAN_RAD = math.radians(90.0)
 """Below this range of headings over all logs the along-course current is barely told
 apart from the ship's own speed (warning)."""
@@ -192,10 +207,11 @@ apart from the ship's own speed (warning)."""
 def current_tolerance_mps(covariance: np.ndarray) -> float:
     """Return the change of the current [m/s] below which the alternation has settled.
 
-    :data:`CURRENT_TOLERANCE_MPS`, or :data:`CURRENT_TOLERANCE_SIGMAS` of the larger
-    standard deviation of the estimate (``covariance``, (2, 2) [m²/s²]) when that is more.
+    :data:`CURRENT_TOLERANCE_MPS`, or :data:`CURRENT_TOLERANCE_SIGMAS` of the largest
+    standard deviation of the estimate (``covariance``, (2, 2) [m²/s²], or (logs, 2, 2)
+    with a current per log) when that is more.
     """
-    std = float(np.sqrt(np.max(np.diag(covariance))))
+    std = float(np.sqrt(np.max(np.diagonal(covariance, axis1=-2, axis2=-1))))
     return max(CURRENT_TOLERANCE_MPS, CURRENT_TOLERANCE_SIGMAS * std)
 
 
@@ -207,11 +223,12 @@ class CurrentEstimate:
     ----------
     north_mps, east_mps : float
         Current velocity (it sets towards) [m/s]; for a drifting current, at the end of
-        the last log.
+        the last log; with a current per log, their mean weighted by their covariances
+        (each log's own in ``logs``).
     covariance : numpy.ndarray
         Its covariance (2, 2) [m²/s²] from the EKF: identification noise only.
     mode : str
-        ``"constant"`` or ``"drifting"``.
+        ``"constant"``, ``"drifting"`` or ``"per-log"``.
     iterations : int
         EKF passes of the alternation.
     speed_log : SpeedLogFit, optional
@@ -223,6 +240,11 @@ class CurrentEstimate:
     model_form : numpy.ndarray
         The model-form term of the covariance (2, 2) [m²/s²] (:func:`current_model_form`);
         zeros when the logs carry no speed log the EKF measured.
+    logs : tuple of CurrentEstimate
+        With ``mode`` "per-log", each log's current in the order fitted (its ``log`` the
+        log's name, its ``speed_log`` what that log's speed log shows alone); else empty.
+    log : str, optional
+        The log this current is of, in ``logs``; None for the current of every log.
 
     """
 
@@ -235,6 +257,20 @@ class CurrentEstimate:
     speed_log_ignored: str | None = None
     speed_log_ekf: SpeedLogInEkf | None = None
     model_form: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
+    logs: tuple[CurrentEstimate, ...] = ()
+    log: str | None = None
+
+    def vectors(self, count: int) -> np.ndarray:
+        """Return the current (c_N, c_E) of each of ``count`` logs (count, 2) [m/s].
+
+        Each log's own with a current per log (``count`` must be their number), else
+        :attr:`vector` for every one.
+        """
+        if self.logs:
+            if count != len(self.logs):
+                raise ValueError(f"a current for {len(self.logs)} logs, asked for {count}")
+            return np.array([c.vector for c in self.logs])
+        return np.tile(self.vector, (count, 1))
 
     @property
     def total_covariance(self) -> np.ndarray:
@@ -281,6 +317,8 @@ class CurrentEstimate:
             if self.speed_log is None or self.speed_log_ekf is None
             else {**self.speed_log_ekf.as_dict(), "alone": self.speed_log.as_dict()},
             "speed_log_ignored": self.speed_log_ignored,
+            **({"log": self.log} if self.log is not None else {}),
+            **({"logs": [c.as_dict() for c in self.logs]} if self.logs else {}),
         }
 
 
@@ -388,16 +426,81 @@ def initial_current(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]
     the minimum-norm solution leaves it 0 for the EKF to find. Without an approach:
     (0, 0). (A speed log shows the along component too: :func:`speed_log_current`.)
     """
-    rows, rhs = [], []
-    for log, track in zip(logs, tracks, strict=True):
-        end = execute_index(log)
-        heading = np.asarray(track.heading_rad)[:end]
-        rows.append(np.column_stack([-np.sin(heading), np.cos(heading)]))
-        rhs.append(np.asarray(track.v_mps)[:end])
-    a, b = np.concatenate(rows), np.concatenate(rhs)
+    parts = [_approach_rows(log, track) for log, track in zip(logs, tracks, strict=True)]
+    a, b = np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts])
     if b.size < 2:
         return np.zeros(2)
     return np.linalg.lstsq(a, b, rcond=math.sin(MIN_APPROACH_SPREAD_RAD))[0]
+
+
+def _approach_rows(log: ManeuverLog, track: SmoothedTrack) -> tuple[np.ndarray, np.ndarray]:
+    """Return A, v_g of the approach (before execute): A c is the current's cross component."""
+    end = execute_index(log)
+    heading = np.asarray(track.heading_rad)[:end]
+    return np.column_stack([-np.sin(heading), np.cos(heading)]), np.asarray(track.v_mps)[:end]
+
+
+def current_disagreement(
+    logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack], names: Sequence[str]
+) -> str | None:
+    """Say when the logs show currents that differ by :data:`CURRENT_DISAGREEMENT_MPS`.
+
+    Two views need no hull model: a straight approach drifts across its heading with the
+    current's cross component (:func:`initial_current`), and a log's speed log shows its
+    current whole (:func:`speed_log_current`, each log alone). A log whose approach drifts
+    that much off what all the approaches show together, or whose speed log's current is
+    that far (and :data:`CURRENT_DISAGREEMENT_SIGMAS` of its σ) from the logs' weighted
+    mean, was sailed in another current: a run at another time of the tide, for
+    ``--current per-log``. On the KVLCC2 reference's logs in one current the approaches
+    agree within 0.008 m/s and the speed logs within 2σ; in currents of 0.5 m/s setting
+    to 45° and to 225° the approaches are 0.35 m/s off (benchmarks/environment.md, "Runs
+    in another tide"). None when they agree, or with one log.
+    """
+    if len(logs) < 2:
+        return None
+    common = initial_current(logs, tracks)
+    found = []
+    for log, track, name in zip(logs, tracks, names, strict=True):
+        a, v_g = _approach_rows(log, track)
+        if v_g.size >= 2:
+            drift = float(np.mean(v_g - a @ common))
+            if abs(drift) > CURRENT_DISAGREEMENT_MPS:
+                found.append(f"{name}'s approach drifts {drift:+.2f} m/s across its heading")
+    alone = [
+        (name, fit)
+        for log, track, name in zip(logs, tracks, names, strict=True)
+        if (fit := speed_log_current([log], [track])) is not None and fit.implausible() is None
+    ]
+    if len(alone) >= 2:
+        mean, _ = weighted_mean_current(
+            np.array([f.current_ne for _, f in alone]), np.array([f.covariance for _, f in alone])
+        )
+        for name, fit in alone:
+            d = fit.current_ne - mean
+            sigma = math.sqrt(float(d @ fit.covariance @ d) / float(d @ d)) if d.any() else 0.0
+            distance = float(np.hypot(*d))
+            if distance > max(CURRENT_DISAGREEMENT_MPS, CURRENT_DISAGREEMENT_SIGMAS * sigma):
+                found.append(f"{name}'s speed log shows a current {distance:.2f} m/s off the mean")
+    if not found:
+        return None
+    return (
+        "the logs were sailed in different currents (" + "; ".join(found) + "): one current "
+        "for all of them puts the difference into the hull; fit runs of other times of the "
+        "tide with --current per-log"
+    )
+
+
+def weighted_mean_current(
+    currents: np.ndarray, covariances: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return the mean (2,) of currents (logs, 2) [m/s] weighted by their covariances, and its.
+
+    c̄ = C̄ Σ C_i⁻¹ c_i with C̄ = (Σ C_i⁻¹)⁻¹ (covariances (logs, 2, 2) [m²/s²]): the one
+    current that all the logs' estimates show together, were it one.
+    """
+    information = np.linalg.inv(covariances)
+    covariance = np.linalg.inv(information.sum(axis=0))
+    return covariance @ np.einsum("kij,kj->i", information, currents), covariance
 
 
 @dataclass(frozen=True)
@@ -718,14 +821,16 @@ def water_segments(
 
     u_w = u − c_u(ψ), v_w = v − c_v(ψ) with the current's body components at the smoothed
     heading ψ of every sample; r, the logged track and the inputs are unchanged.
+    ``current_ne`` (North, East) [m/s] is (2,) for every segment or (segments, 2), one each.
     """
+    currents = np.broadcast_to(current_ne, (len(segments), 2))
     out = []
-    for seg, track in zip(segments, tracks, strict=True):
+    for seg, track, current in zip(segments, tracks, currents, strict=True):
         heading = np.asarray(track.heading_rad)
         velocities = seg.velocities.copy()
         for start in range(0, heading.size, _CHUNK_SAMPLES):  # bounded temporaries
             part = slice(start, start + _CHUNK_SAMPLES)
-            c_u, c_v = body_current(current_ne, heading[part])
+            c_u, c_v = body_current(current, heading[part])
             velocities[part, 0] -= c_u
             velocities[part, 1] -= c_v
         out.append(replace(seg, velocities=velocities))

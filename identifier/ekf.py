@@ -172,18 +172,19 @@ class EkfSegment:
 
 def sample_windows(
     segments: Sequence[EkfSegment], max_samples: int, windows: int
-) -> list[EkfSegment]:
+) -> list[tuple[int, EkfSegment]]:
     """Return at most about ``max_samples`` samples of ``segments`` in evenly spread windows.
 
     The segments as they are when they hold no more; else ``windows`` windows of equal
     length, their starts spread evenly over all the samples (each within one segment),
-    so that a long log's every part has its say. For work that only has to settle a
-    start (``identifier.identify``: the current's alternation), not for the estimate.
+    so that a long log's every part has its say. Each with the index of the segment it
+    is of. For work that only has to settle a start (``identifier.identify``: the
+    current's alternation), not for the estimate.
     """
     sizes = [seg.time_s.size for seg in segments]
     total = sum(sizes)
     if total <= max_samples:
-        return list(segments)
+        return list(enumerate(segments))
     length = max(max_samples // windows, 2)
     ends = np.cumsum(sizes)
     result = []
@@ -191,7 +192,7 @@ def sample_windows(
         i = int(np.searchsorted(ends, start, side="right"))
         local = int(start - (ends[i] - sizes[i]))
         local = min(local, max(sizes[i] - length, 0))
-        result.append(segments[i].window(local, min(local + length, sizes[i])))
+        result.append((i, segments[i].window(local, min(local + length, sizes[i]))))
     return result
 
 
@@ -296,8 +297,8 @@ class EkfResult:
     filtered: tuple[np.ndarray, ...]
     history_stride: int
     track_rms: tuple[tuple[float, float], ...]
-    current: np.ndarray | None = None
-    current_covariance: np.ndarray | None = None
+    current: np.ndarray | None = None  # (2,), or (segments, 2) with a current per segment
+    current_covariance: np.ndarray | None = None  # (2, 2), or (segments, 2, 2)
     speed_log_scale_error: float | None = None
     speed_log_scale_error_std: float | None = None
     speed_log_samples: tuple[int, int] = (0, 0)  # (taken, rejected)
@@ -321,9 +322,13 @@ def ekf_identify(
     With ``current0`` the state is augmented further by a uniform current c = (c_N, c_E)
     [m/s] that moves the ship over the ground (ẋ = u cos ψ − v sin ψ + c_N, ẏ = u sin ψ +
     v cos ψ + c_E), constant or a random walk (``settings.current_random_walk_mps``); u, v
-    and the coefficients are then through the water. Like θ it carries over between the
-    logs (one sea area, one current). Only with ``measurements="track"``: the smoothed
-    velocities of ``"velocities"`` are over the ground.
+    and the coefficients are then through the water. Given as one (2,), it carries over
+    between the logs like θ (one sea area, one current); given one row per segment
+    ((segments, 2)), each segment has a current of its own, independent of the others
+    (runs sailed at other times of the tide): c restarts at each segment from its row and
+    ``current_covariance0``, uncorrelated with θ, and its estimate is kept at the
+    segment's end. Only with ``measurements="track"``: the smoothed velocities of
+    ``"velocities"`` are over the ground.
 
     Parameters
     ----------
@@ -342,9 +347,10 @@ def ekf_identify(
     progress : callable, optional
         Called with the number of samples processed since the last call.
     current0 : numpy.ndarray, optional
-        Initial current (North, East) [m/s]; None estimates no current.
+        Initial current (North, East) [m/s], (2,) for all segments or (segments, 2) one
+        per segment; None estimates no current.
     current_covariance0 : numpy.ndarray, optional
-        Its covariance (2, 2) [m²/s²]; required with ``current0``.
+        Its covariance (2, 2) [m²/s²] (of each segment's); required with ``current0``.
     speed_log : SpeedLogMeasurement, optional
         Measure the segments' ``speed_log_mps`` (those that have one; and their
         ``speed_log_transverse_mps``) with the scale error k as one more state after the
@@ -379,8 +385,12 @@ def ekf_identify(
             raise ValueError('a current is estimated only with measurements="track"')
         if current_covariance0 is None or np.shape(current_covariance0) != (2, 2):
             raise ValueError("current_covariance0 must have shape (2, 2)")
+        current_rows = np.asarray(current0, dtype=float)
+        per_segment = current_rows.ndim == 2
+        if current_rows.shape not in ((2,), (len(segments), 2)):
+            raise ValueError(f"current0 must have shape (2,) or ({len(segments)}, 2)")
         # θ and c are one augmented block: they carry over together, correlations too.
-        theta = np.concatenate([theta, np.asarray(current0, dtype=float)])
+        theta = np.concatenate([theta, current_rows[0] if per_segment else current_rows])
         P_theta = np.block(
             [[P_theta, np.zeros((p, 2))], [np.zeros((2, p)), np.asarray(current_covariance0)]]
         )
@@ -390,6 +400,8 @@ def ekf_identify(
         variance_limit = np.concatenate(
             [variance_limit, settings.divergence_factor * np.diag(P_theta)[p:]]
         )
+    else:
+        per_segment = False
     speed_log_var = np.zeros(2)  # of the two axes
     if speed_log is not None:
         if not estimated_current:
@@ -421,9 +433,15 @@ def ekf_identify(
     ends: list[int] = []
     filtered: list[np.ndarray] = []
     track_rms: list[tuple[float, float]] = []
+    segment_currents: list[tuple[np.ndarray, np.ndarray]] = []  # per segment: c, its P
     row = 0
-    for seg in segments:
+    for index, seg in enumerate(segments):
         n = seg.time_s.size
+        if per_segment:  # this run's own current, from its prior, uncorrelated with θ and k
+            P_theta[p : p + 2, :] = 0.0
+            P_theta[:, p : p + 2] = 0.0
+            P_theta[p : p + 2, p : p + 2] = current_covariance0
+            theta[p : p + 2] = current_rows[index]
         # Motion states restart at the segment's first smoothed sample (through the water:
         # less the current's body components); θ (and c, k) carry over.
         velocities0 = seg.velocities[0].copy()
@@ -496,11 +514,19 @@ def ekf_identify(
                 log=seg.name,
                 sample=n - 1,
             ) from None
+        if estimated_current:
+            segment_currents.append((theta[p : p + 2].copy(), P_theta[p : p + 2, p : p + 2].copy()))
         row += states.shape[0]
         ends.append(row)
         filtered.append(states)
         track_rms.append((float(np.sqrt(square_sums[0] / n)), float(np.sqrt(square_sums[1] / n))))
     scale = p + 2  # k's index in θ's augmented block, with a speed log
+    current = current_covariance = None
+    if per_segment:
+        current = np.array([c for c, _ in segment_currents])
+        current_covariance = np.array([cov for _, cov in segment_currents])
+    elif estimated_current:
+        current, current_covariance = theta[p : p + 2], P_theta[p : p + 2, p : p + 2]
     return EkfResult(
         theta=theta[:p],
         covariance=P_theta[:p, :p],
@@ -510,8 +536,8 @@ def ekf_identify(
         filtered=tuple(filtered),
         history_stride=stride,
         track_rms=tuple(track_rms),
-        current=theta[p : p + 2] if estimated_current else None,
-        current_covariance=P_theta[p : p + 2, p : p + 2] if estimated_current else None,
+        current=current,
+        current_covariance=current_covariance,
         speed_log_scale_error=None if speed_log is None else float(theta[scale]),
         speed_log_scale_error_std=None
         if speed_log is None

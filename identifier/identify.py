@@ -75,12 +75,15 @@ from identifier.current import (
     DRIFTING_RANDOM_WALK_MPS,
     MAX_CURRENT_ITERATIONS,
     MIN_HEADING_SPAN_RAD,
+    PER_LOG,
     SHAPE_PASSES,
     SPEED_LOG_SCALE_STD,
     CurrentChoice,
     CurrentEstimate,
+    SpeedLogFit,
     SpeedLogInEkf,
     choose_current,
+    current_disagreement,
     current_model_form,
     current_tolerance_mps,
     default_current,
@@ -90,6 +93,7 @@ from identifier.current import (
     speed_log_noise_mps,
     water_frame,
     water_segments,
+    weighted_mean_current,
 )
 from identifier.ekf import (
     EkfResult,
@@ -371,7 +375,8 @@ def _run_ekf(
     """Run the augmented-state EKF from the start ``settings.initial`` (and a current).
 
     ``current_ne``: the current's prior mean (North, East) [m/s] at the first sample, of
-    σ :data:`CURRENT_PRIOR_STD_MPS`; None estimates no current. ``speed_log``: measure the
+    σ :data:`CURRENT_PRIOR_STD_MPS`, (2,) or one row per segment (a current each,
+    ``identifier.ekf.ekf_identify``); None estimates no current. ``speed_log``: measure the
     segments' speed logs (with a current only).
     """
     if settings.initial == "equation-error":
@@ -431,12 +436,25 @@ def _estimate_current(
     the alternation stops and the last pass starts where the last pass that converged
     started.
     """
-    speed_log = speed_log_current(logs, tracks, settings.speed_log_scale_std)
-    ignored = None if speed_log is None else speed_log.implausible()
-    measurement = None
+    per_log = settings.current == PER_LOG
+    # What the speed log shows alone: of all the logs' one current, or of each log's own.
+    if per_log:
+        alone = [
+            speed_log_current([log], [track], settings.speed_log_scale_std)
+            for log, track in zip(logs, tracks, strict=True)
+        ]
+        labels = [f"{seg.name}: " for seg in segments]
+    else:
+        alone, labels = [speed_log_current(logs, tracks, settings.speed_log_scale_std)], [""]
+    ignored = next(
+        (label + why for label, fit in zip(labels, alone, strict=True)
+         if fit is not None and (why := fit.implausible()) is not None),
+        None,
+    )  # fmt: skip
     if ignored is not None:
-        speed_log = None  # a broken log: the track alone, as without one
-    elif speed_log is not None:
+        alone = [None] * len(alone)  # a broken log: the track alone, as without one
+    measurement = None
+    if any(fit is not None for fit in alone):
         noise_mps = speed_log_noise_mps(logs)
         assert noise_mps is not None  # a log carries stw_mps
         measurement = SpeedLogMeasurement(
@@ -453,9 +471,16 @@ def _estimate_current(
             )
             for seg, log in zip(segments, logs, strict=True)
         ]
-    current = initial_current(logs, tracks) if speed_log is None else speed_log.current_ne
+    if per_log:  # (logs, 2): each log's own start, as below for one
+        current = np.array([
+            initial_current([log], [track]) if fit is None else fit.current_ne
+            for log, track, fit in zip(logs, tracks, alone, strict=True)
+        ])  # fmt: skip
+    else:
+        current = initial_current(logs, tracks) if alone[0] is None else alone[0].current_ne
     iterations = 0
     settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
+    sources = [source for source, _ in settling]
     settled = None  # (shape, structure, start, current) of the last pass that converged
     diverged = False
     for _ in range(SHAPE_PASSES):
@@ -471,10 +496,10 @@ def _estimate_current(
                     settings,
                     structure,
                     ls,
-                    settling,
+                    [window for _, window in settling],
                     length_m,
                     None,
-                    current,
+                    current[sources] if per_log else current,
                     speed_log=measurement,
                 )
             except IdentificationError:
@@ -484,8 +509,12 @@ def _estimate_current(
                 break
             assert ekf.current is not None and ekf.current_covariance is not None
             settled = (shape, structure, ls, current)
-            change = float(np.max(np.abs(ekf.current - current)))
-            current = ekf.current
+            found = ekf.current
+            if per_log:  # each log's from its last window (a log without one keeps its own)
+                found = current.copy()
+                found[sources] = ekf.current
+            change = float(np.max(np.abs(found - current)))
+            current = found
             iterations += 1
             ls = equation_error_fit(
                 structure,
@@ -505,7 +534,7 @@ def _estimate_current(
         settings, structure, ls, segments, length_m, progress, current, walk, measurement
     )
     assert ekf.current is not None and ekf.current_covariance is not None
-    in_ekf, model_form = None, np.zeros((2, 2))
+    in_ekf = None
     if measurement is not None:
         assert ekf.speed_log_scale_error is not None and ekf.speed_log_scale_error_std is not None
         in_ekf = SpeedLogInEkf(
@@ -518,21 +547,72 @@ def _estimate_current(
             transverse_samples=ekf.speed_log_transverse_samples[0],
             transverse_rejected=ekf.speed_log_transverse_samples[1],
         )
-        if speed_log is not None and settings.current == "constant":
-            model_form = current_model_form(ekf.current, speed_log)
     assert settings.current is not None  # identify() took the ship's default
-    estimate = CurrentEstimate(
-        north_mps=float(ekf.current[0]),
-        east_mps=float(ekf.current[1]),
-        covariance=ekf.current_covariance,
-        mode=settings.current,
+    if per_log:
+        estimate = _per_log_estimate(ekf, alone, segments, iterations, ignored, in_ekf)
+    else:
+        model_form = np.zeros((2, 2))
+        if alone[0] is not None and in_ekf is not None and settings.current == "constant":
+            model_form = current_model_form(ekf.current, alone[0])
+        estimate = CurrentEstimate(
+            north_mps=float(ekf.current[0]),
+            east_mps=float(ekf.current[1]),
+            covariance=ekf.current_covariance,
+            mode=settings.current,
+            iterations=iterations,
+            speed_log=alone[0],
+            speed_log_ignored=ignored,
+            speed_log_ekf=in_ekf,
+            model_form=model_form,
+        )
+    return shape, structure, ls, ekf, estimate
+
+
+def _per_log_estimate(
+    ekf: EkfResult,
+    alone: Sequence[SpeedLogFit | None],
+    segments: Sequence[EkfSegment],
+    iterations: int,
+    ignored: str | None,
+    in_ekf: SpeedLogInEkf | None,
+) -> CurrentEstimate:
+    """Return the current of ``--current per-log``: each log's, and their weighted mean.
+
+    Each log's current carries what its own speed log showed alone and, with the EKF
+    measuring the logs, the model-form term of their distance (``current_model_form``);
+    the mean's covariance is of the mean, those terms included.
+    """
+    assert ekf.current is not None and ekf.current_covariance is not None
+    logs = tuple(
+        CurrentEstimate(
+            north_mps=float(c[0]),
+            east_mps=float(c[1]),
+            covariance=covariance,
+            mode=PER_LOG,
+            iterations=iterations,
+            speed_log=fit,
+            model_form=np.zeros((2, 2))
+            if fit is None or in_ekf is None
+            else current_model_form(c, fit),
+            log=seg.name,
+        )
+        for c, covariance, fit, seg in zip(
+            ekf.current, ekf.current_covariance, alone, segments, strict=True
+        )
+    )
+    mean, covariance = weighted_mean_current(
+        ekf.current, np.array([c.total_covariance for c in logs])
+    )
+    return CurrentEstimate(
+        north_mps=float(mean[0]),
+        east_mps=float(mean[1]),
+        covariance=covariance,
+        mode=PER_LOG,
         iterations=iterations,
-        speed_log=speed_log,
         speed_log_ignored=ignored,
         speed_log_ekf=in_ekf,
-        model_form=model_form,
+        logs=logs,
     )
-    return shape, structure, ls, ekf, estimate
 
 
 def _check_sampling(log: ManeuverLog, name: str) -> None:
@@ -974,9 +1054,10 @@ def _training_track_rms_m(result: IdentificationResult, data: _SmoothedLogs) -> 
     current's drift. ``math.inf`` when a prediction diverges.
     """
     distances = []
-    for log, track in zip(data.logs, data.tracks, strict=True):
-        if result.current is not None:
-            log, track = water_frame(log, track, result.current.vector)
+    currents = None if result.current is None else result.current.vectors(len(data.logs))
+    for i, (log, track) in enumerate(zip(data.logs, data.tracks, strict=True)):
+        if currents is not None:
+            log, track = water_frame(log, track, currents[i])
         distances.append(track_distance_m(result.params, log, track))
     pooled = np.concatenate(distances)
     return math.sqrt(float(np.mean(pooled**2))) if np.all(np.isfinite(pooled)) else math.inf
@@ -1240,12 +1321,15 @@ def _fit(
         shape, structure, ls, ekf, current = _estimate_current(
             settings, segments, tracks, logs, length, progress, stage
         )
-        water = water_segments(segments, tracks, current.vector)
+        water = water_segments(segments, tracks, current.vectors(len(segments)))
         nominal_speed_mps, nominal_n_rps = _nominal(logs, water)
         envelope = _envelope(logs, water, length)
         del water  # a copy of every velocity: not held through the refinement
         if current.speed_log_ignored is not None:
             warnings.append(f"the speed log (stw_mps) was not used: {current.speed_log_ignored}")
+        disagreement = None if current.logs else current_disagreement(logs, tracks, data.names)
+        if disagreement is not None:
+            warnings.append(disagreement)
         span_rad = math.inf if current.speed_log is not None else heading_span_rad(tracks)
         if span_rad < MIN_HEADING_SPAN_RAD:
             warnings.append(
@@ -1330,7 +1414,10 @@ def _fit(
         equation_error = params.with_vector(ls.theta, ls_prior)
         water_logs, water_tracks = list(logs), list(tracks)
         if current is not None:  # the refinement sees a ship in still water
-            moved = [water_frame(g, t, current.vector) for g, t in zip(logs, tracks, strict=True)]
+            moved = [
+                water_frame(g, t, c)
+                for g, t, c in zip(logs, tracks, current.vectors(len(logs)), strict=True)
+            ]
             water_logs, water_tracks = [m[0] for m in moved], [m[1] for m in moved]
         stage("output-error refinement")
         refinement = refine_output_error(

@@ -337,9 +337,13 @@ def test_sample_windows_are_spread_over_every_log_and_start_on_the_logged_track(
     whole = _segment(_seed_log())
     n = whole.time_s.size
     first, second = whole.window(0, n // 3), whole.window(n // 3, n)
-    assert sample_windows([first, second], n, 4) == [first, second]  # fits: as it is
-    windows = sample_windows([first, second], 100, 5)
+    assert sample_windows([first, second], n, 4) == [(0, first), (1, second)]  # fits: as it is
+    sourced = sample_windows([first, second], 100, 5)
+    windows = [w for _, w in sourced]
     assert [w.time_s.size for w in windows] == [20] * 5
+    for source, w in sourced:  # each window's segment named
+        part = (first, second)[source]
+        assert part.time_s[0] <= w.time_s[0] and w.time_s[-1] <= part.time_s[-1]
     starts = [float(w.time_s[0]) for w in windows]
     assert starts[0] == whole.time_s[0] and starts == sorted(starts)
     assert float(windows[-1].time_s[-1]) == whole.time_s[-1]  # the last one ends the data

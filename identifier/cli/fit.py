@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -15,7 +16,7 @@ from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, logged_envelope
 from fmu_model.kernels import numba_compilations
 from fmu_model.variants import family_name
 from identifier.cli.common import DATA_ERRORS, error, os_error_text
-from identifier.current import CURRENT_MODES, SPEED_LOG_SCALE_STD
+from identifier.current import CURRENT_MODES, SPEED_LOG_SCALE_STD, CurrentEstimate
 from identifier.identify import (
     ALPHA_RANGE,
     HEADING_NOISE_RANGE_DEG,
@@ -113,7 +114,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--current",
         choices=CURRENT_MODES,
         help="uniform current estimated with the coefficients: constant (a ship's default), "
-        "drifting (a random walk), none (still water; the default with --measurements "
+        "drifting (a random walk), per-log (one constant current per log: runs sailed at "
+        "other times of the tide), none (still water; the default with --measurements "
         "velocities) or auto (a constant one where its fit predicts the training logs' tracks "
         "twice as close as still water's, else none; constant with a speed log; the default "
         "below L = "
@@ -175,40 +177,7 @@ def _summary(result: IdentificationResult, *, current_asked: bool = True) -> str
     if cur is None and choice is not None:
         lines.append("current (auto → none): still water")
     if cur is not None:
-        std_n, std_e = cur.std_mps
-        model_form = bool(np.any(cur.model_form))
-        identification_only = (
-            ""
-            if model_form
-            else "; the ± are the identification noise only"
-            + ("" if cur.speed_log is not None else ", no speed log measures the hull's share")
-        )
-        lines.append(
-            f"current ({cur.mode if choice is None else 'auto → ' + cur.mode}): "
-            f"{cur.speed_mps:.3f} m/s towards "
-            f"{math.degrees(cur.to_rad):.1f} deg (North {cur.north_mps:+.3f} ± {std_n:.3f}, "
-            f"East {cur.east_mps:+.3f} ± {std_e:.3f} m/s){identification_only}"
-        )
-        alone, log = cur.speed_log, cur.speed_log_ekf
-        if alone is not None and log is not None:
-            alone_n, alone_e = np.sqrt(np.diag(alone.covariance))
-            measured = (
-                f"{log.samples:,} samples measured ({log.rejected:,} rejected), "
-                f"noise {log.noise_mps:.3f} m/s"
-            )
-            if log.transverse_noise_mps is not None:
-                measured += (
-                    f"; transverse axis {log.transverse_samples:,} ({log.transverse_rejected:,} "
-                    f"rejected), noise {log.transverse_noise_mps:.3f} m/s"
-                )
-            lines.append(
-                f"speed log: {measured}, scale error {100.0 * log.scale_error:+.2f} "
-                f"± {100.0 * log.scale_error_std:.2f} %; alone it shows North "
-                f"{alone.current_ne[0]:+.3f} ± {alone_n:.3f}, East "
-                f"{alone.current_ne[1]:+.3f} ± {alone_e:.3f} m/s"
-                + ("; the current's ± include the two estimates' distance (model form)"
-                   if model_form else "")
-            )  # fmt: skip
+        lines.extend(_current_lines(cur, cur.mode if choice is None else "auto → " + cur.mode))
     if choice is not None:
         defaulted = (
             "" if current_asked else f", a model's default: L < {MODEL_SCALE_MAX_LENGTH_M:g} m"
@@ -228,6 +197,49 @@ def _summary(result: IdentificationResult, *, current_asked: bool = True) -> str
             "validate --params says which)"
         )
     return "\n".join(lines)
+
+
+def _current_lines(cur: CurrentEstimate, mode: str) -> list[str]:
+    """Return the summary's lines of the current: it (each log's too), and its speed log."""
+    each = (cur, *cur.logs)
+    model_form = any(np.any(c.model_form) for c in each)
+    alone = [c.speed_log for c in each if c.speed_log is not None]
+    lines = []
+    for c in each:
+        std_n, std_e = c.std_mps
+        label = mode if c.log is None else f"{mode}, {Path(c.log).name}"
+        lines.append(
+            f"current ({label}{', their mean' if c.logs else ''}): {c.speed_mps:.3f} m/s "
+            f"towards {math.degrees(c.to_rad):.1f} deg (North {c.north_mps:+.3f} ± "
+            f"{std_n:.3f}, East {c.east_mps:+.3f} ± {std_e:.3f} m/s)"
+        )
+    if not model_form:
+        lines[0] += "; the ± are the identification noise only" + (
+            "" if alone else ", no speed log measures the hull's share"
+        )
+    log = cur.speed_log_ekf
+    if log is not None and alone:
+        measured = (
+            f"{log.samples:,} samples measured ({log.rejected:,} rejected), "
+            f"noise {log.noise_mps:.3f} m/s"
+        )
+        if log.transverse_noise_mps is not None:
+            measured += (
+                f"; transverse axis {log.transverse_samples:,} ({log.transverse_rejected:,} "
+                f"rejected), noise {log.transverse_noise_mps:.3f} m/s"
+            )
+        shows = "; ".join(
+            f"North {f.current_ne[0]:+.3f} ± {math.sqrt(f.covariance[0, 0]):.3f}, East "
+            f"{f.current_ne[1]:+.3f} ± {math.sqrt(f.covariance[1, 1]):.3f} m/s"
+            for f in alone
+        )
+        lines.append(
+            f"speed log: {measured}, scale error {100.0 * log.scale_error:+.2f} "
+            f"± {100.0 * log.scale_error_std:.2f} %; alone it shows {shows}"
+            + ("; the current's ± include the two estimates' distance (model form)"
+               if model_form else "")
+        )  # fmt: skip
+    return lines
 
 
 def _fit(args: argparse.Namespace) -> int:
