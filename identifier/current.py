@@ -42,6 +42,13 @@ Whether to estimate a current at all: ``--current auto`` fits both and lets the 
 logs decide (:func:`choose_current`); a speed log decides for a current. A fit that names
 no mode takes one by the ship's size (:func:`default_current`): a ship's logs a constant
 current, a model's auto.
+
+One current for every log, or one each: runs sailed hours apart meet another tide.
+``--current per-log`` (:data:`PER_LOG`) gives every log a constant current of its own,
+its own start (its speed log's, else its approach's) and its own states in the EKF,
+restarted at each log (``identifier.ekf.ekf_identify``); the water frame then moves each
+log by its own. With one current for all, :func:`current_disagreement` says when the
+logs' approaches or speed logs show different ones.
 """
 
 from __future__ import annotations

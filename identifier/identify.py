@@ -35,7 +35,10 @@ constant current and in still water, and the current is kept only where its fit'
 open-loop predictions of the training logs stay at most half as far from their tracks
 over the ground (``identifier.current.choose_current``): a basin's runs keep still water
 where the current the estimator would find there is the structure's error. Logs with a
-speed log are fitted with the current alone (the log measures it).
+speed log are fitted with the current alone (the log measures it). ``current="per-log"``
+gives each log a current of its own (runs at other times of the tide); with one current
+for all, the fit warns when the logs' approaches or speed logs show different ones
+(``identifier.current.current_disagreement``).
 """
 
 from __future__ import annotations
@@ -204,9 +207,10 @@ class FitSettings:
         (``identifier.output_error.refine_output_error``, default settings), starting from
         the equation-error estimate (the EKF's when that one's replay diverges), and
         keeping that start when the guards fire; "ekf": the EKF estimate (the paper).
-    current : {"constant", "none", "drifting", "auto"}, optional
+    current : {"constant", "none", "drifting", "per-log", "auto"}, optional
         Uniform current estimated with the coefficients (``identifier.current``):
-        constant over all logs, none (still water, the paper's), a random walk; "auto"
+        constant over all logs, none (still water, the paper's), a random walk, a
+        constant one of each log's own (runs at other times of the tide); "auto"
         fits a constant one and none and keeps the current where its fit predicts the
         training logs' tracks twice as close (``identifier.current.choose_current``; a
         constant one straight away when the logs carry a speed log). None (the default):
