@@ -449,8 +449,8 @@ def _approach_rows(log: ManeuverLog, track: SmoothedTrack) -> tuple[np.ndarray, 
 
 def current_disagreement(
     logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack], names: Sequence[str]
-) -> str | None:
-    """Say when the logs show currents that differ by :data:`CURRENT_DISAGREEMENT_MPS`.
+) -> list[str]:
+    """Say which logs show a current :data:`CURRENT_DISAGREEMENT_MPS` off the others'.
 
     Two views need no hull model: a straight approach drifts across its heading with the
     current's cross component (:func:`initial_current`), and a log's speed log shows its
@@ -461,10 +461,12 @@ def current_disagreement(
     ``--current per-log``. On the KVLCC2 reference's logs in one current the approaches
     agree within 0.008 m/s and the speed logs within 2σ; in currents of 0.5 m/s setting
     to 45° and to 225° the approaches are 0.35 m/s off (benchmarks/environment.md, "Runs
-    in another tide"). None when they agree, or with one log.
+    in another tide"). A strong wind's leeway also drifts approaches that differ in
+    heading. One phrase per finding ("<name>'s approach drifts +0.35 m/s across its
+    heading"); none when the logs agree, or for one log.
     """
     if len(logs) < 2:
-        return None
+        return []
     common = initial_current(logs, tracks)
     found = []
     for log, track, name in zip(logs, tracks, names, strict=True):
@@ -488,13 +490,7 @@ def current_disagreement(
             distance = float(np.hypot(*d))
             if distance > max(CURRENT_DISAGREEMENT_MPS, CURRENT_DISAGREEMENT_SIGMAS * sigma):
                 found.append(f"{name}'s speed log shows a current {distance:.2f} m/s off the mean")
-    if not found:
-        return None
-    return (
-        "the logs were sailed in different currents (" + "; ".join(found) + "): one current "
-        "for all of them puts the difference into the hull; fit runs of other times of the "
-        "tide with --current per-log"
-    )
+    return found
 
 
 def weighted_mean_current(

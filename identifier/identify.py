@@ -75,6 +75,7 @@ from identifier.current import (
     CURRENT_EVIDENCE_RATIO,
     CURRENT_MODES,
     CURRENT_PRIOR_STD_MPS,
+    DEFAULT_CURRENT,
     DRIFTING_RANDOM_WALK_MPS,
     MAX_CURRENT_ITERATIONS,
     MIN_HEADING_SPAN_RAD,
@@ -969,7 +970,8 @@ def identify(
     if settings.current not in (None, "none") and settings.measurements != "track":
         raise ValueError('a current is estimated only with measurements="track"')
     length = vessel_length(logs, length_m)
-    if settings.current is None:
+    by_default = settings.current is None
+    if by_default:
         settings = replace(settings, current=default_current(length, settings.measurements))
     vessel = vessel_name(logs)
     # Every result below is checked (the smoothed track, the equation-error fit, the
@@ -981,6 +983,8 @@ def identify(
         helm_note = _neutral_helm_note(data, settings.model)
         if helm_note is not None:
             data = replace(data, notes=(*data.notes, helm_note))
+        if by_default and settings.current == DEFAULT_CURRENT:
+            settings, data = _per_log_where_shown(settings, data)
         if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):
             unused = "the speed log (stw_mps) is measured with a current only: not used here"
             data = replace(data, notes=(*data.notes, f"{unused} (--current none)"))
@@ -990,6 +994,29 @@ def identify(
         result = fit(settings, progress, stage)
     warning = model_current_warning(length, result.current)
     return result if warning is None else replace(result, warnings=(*result.warnings, warning))
+
+
+def _per_log_where_shown(
+    settings: FitSettings, data: _SmoothedLogs
+) -> tuple[FitSettings, _SmoothedLogs]:
+    """Take a ship's default current per log where the logs show different ones.
+
+    Where the logs' approaches or speed logs show different currents
+    (``identifier.current.current_disagreement``, no hull model in it), each log is
+    fitted in its own (``current="per-log"``), and a note says why; else ``settings`` as
+    they are. One current for runs in two tides takes their difference into the hull:
+    10–18 points of the calm-water 35° turn on the KVLCC2 reference (ebb after flood,
+    0.5 m/s), per log 0.6–3.8 (benchmarks/environment.md, "Runs in another tide").
+    """
+    found = current_disagreement(data.logs, data.tracks, data.names)
+    if not found:
+        return settings, data
+    note = (
+        f"the logs were sailed in different currents ({'; '.join(found)}): each is fitted in "
+        "its own (--current per-log, the default where the logs show that; --current "
+        "constant for one)"
+    )
+    return replace(settings, current=PER_LOG), replace(data, notes=(*data.notes, note))
 
 
 def _fit_auto_current(
@@ -1331,9 +1358,14 @@ def _fit(
         del water  # a copy of every velocity: not held through the refinement
         if current.speed_log_ignored is not None:
             warnings.append(f"the speed log (stw_mps) was not used: {current.speed_log_ignored}")
-        disagreement = None if current.logs else current_disagreement(logs, tracks, data.names)
-        if disagreement is not None:
-            warnings.append(disagreement)
+        found = [] if current.logs else current_disagreement(logs, tracks, data.names)
+        if found:
+            warnings.append(
+                f"the logs were sailed in different currents ({'; '.join(found)}): one current "
+                "for all of them puts the difference into the hull; fit runs of other times "
+                "of the tide with --current per-log (a strong wind's leeway drifts approaches "
+                "on other headings too)"
+            )
         span_rad = math.inf if current.speed_log is not None else heading_span_rad(tracks)
         if span_rad < MIN_HEADING_SPAN_RAD:
             warnings.append(

@@ -53,7 +53,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--current",
         choices=CURRENT_MODES,
         help="uniform current estimated with each vessel's coefficients: constant (a ship's "
-        "default), drifting, per-log (one per log), none (still water) or auto (constant where its fit predicts the "
+        "default; per-log where the logs show different currents), drifting, per-log (one "
+        "per log), none (still water) or auto (constant where its fit predicts the "
         "vessel's logs twice as close as still water's, else none; the default below L = "
         f"{MODEL_SCALE_MAX_LENGTH_M:g} m, a model's size)",
     )

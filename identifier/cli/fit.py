@@ -113,7 +113,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     fit.add_argument(
         "--current",
         choices=CURRENT_MODES,
-        help="uniform current estimated with the coefficients: constant (a ship's default), "
+        help="uniform current estimated with the coefficients: constant (a ship's default; "
+        "per-log where the logs' approaches or speed logs show different currents), "
         "drifting (a random walk), per-log (one constant current per log: runs sailed at "
         "other times of the tide), none (still water; the default with --measurements "
         "velocities) or auto (a constant one where its fit predicts the training logs' tracks "
