@@ -280,6 +280,11 @@ class CurrentEstimate:
         return np.tile(self.vector, (count, 1))
 
     @property
+    def measured(self) -> bool:
+        """Whether a speed log measured the current (with a current per log, every log's)."""
+        return all(c.speed_log is not None for c in self.logs or (self,))
+
+    @property
     def total_covariance(self) -> np.ndarray:
         """Covariance (2, 2) [m²/s²] with the model-form term: identification and structure."""
         return self.covariance + self.model_form

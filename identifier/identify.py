@@ -883,7 +883,7 @@ def model_current_warning(length_m: float, current: CurrentEstimate | None) -> s
     ``--current auto``, a model's default, which keeps a current only where the logs show
     one (``identifier.current.choose_current``). None otherwise.
     """
-    if length_m >= MODEL_SCALE_MAX_LENGTH_M or current is None or current.speed_log is not None:
+    if length_m >= MODEL_SCALE_MAX_LENGTH_M or current is None or current.measured:
         return None
     return (
         f"L = {length_m:g} m, a model's size: in a basin's still water the current found "
@@ -1048,7 +1048,7 @@ def _fit_auto_current(
         return _with_choice(still, settings, CurrentChoice("none", {}, reason))
     current = with_current.current
     assert current is not None
-    if current.speed_log is not None:  # None also when the log was refused as broken
+    if current.measured:  # not when the log was refused as broken
         reason = "the logs carry a speed log (stw_mps), which measures the current"
         return _with_choice(with_current, settings, CurrentChoice("constant", {}, reason))
     try:
@@ -1366,10 +1366,18 @@ def _fit(
                 "of the tide with --current per-log (a strong wind's leeway drifts approaches "
                 "on other headings too)"
             )
-        span_rad = math.inf if current.speed_log is not None else heading_span_rad(tracks)
+        if current.logs:  # each current is told from its own log alone
+            span_rad = min(
+                (heading_span_rad([t]) for c, t in zip(current.logs, tracks, strict=True)
+                 if not c.measured),
+                default=math.inf,
+            )  # fmt: skip
+        else:
+            span_rad = math.inf if current.measured else heading_span_rad(tracks)
         if span_rad < MIN_HEADING_SPAN_RAD:
+            whose = "a log's" if current.logs else "the logs'"
             warnings.append(
-                f"the logs' headings span {math.degrees(span_rad):.0f} deg: "
+                f"{whose} headings span {math.degrees(span_rad):.0f} deg: "
                 "the current along the course is barely told apart from the ship's own "
                 "speed (add a turning circle of 360 deg or more, or runs on other headings, "
                 "or a speed log's column stw_mps, or fit with --current none if the water "

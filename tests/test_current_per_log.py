@@ -90,6 +90,8 @@ def test_each_log_keeps_its_own_current(per_log: IdentificationResult) -> None:
     assert env["current"] == PER_LOG and [e["log"] for e in env["logs"]] == [e.log for e in c.logs]
     assert env["logs"][0]["current_north_mps"] == c.logs[0].north_mps
     assert not any("different currents" in w for w in per_log.warnings)
+    # Each current is told from its own log: the zig-zags' ±20° say little along the course.
+    assert any(w.startswith("a log's headings span") for w in per_log.warnings)
 
 
 def test_per_log_coefficients_are_the_ships_where_one_current_is_not(
@@ -108,6 +110,7 @@ def test_per_log_coefficients_are_the_ships_where_one_current_is_not(
     assert off, "one current for logs in three should bias the hull"
     warning = [w for w in one_current.warnings if "different currents" in w]
     assert len(warning) == 1 and "--current per-log" in warning[0]
+    assert not any("headings span" in w for w in one_current.warnings)  # the turn among them
 
 
 def test_the_summary_lists_every_logs_current(per_log: IdentificationResult) -> None:
