@@ -68,7 +68,7 @@ from report import write_block
 from sensitivity import BASELINE, LogQuality
 
 from fmu_model import DEFAULT_MODEL, model_names
-from identifier.current import DEFAULT_CURRENT, PER_LOG, CurrentEstimate
+from identifier.current import DEFAULT_CURRENT, PER_LOG, CurrentEstimate, kept_current
 from identifier.identify import FitSettings, IdentificationResult, identify
 from scenarios.kvlcc2 import kvlcc2_windage
 from scenarios.sea import SeaEnvironment
@@ -233,11 +233,6 @@ def current_consistency(
     )
 
 
-def kept_current(result: IdentificationResult) -> str:
-    """Return the current mode a fit kept ("none", "constant", "drifting")."""
-    return str(result.params.identification["environment"]["current"])
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the grid; print and write the table."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
@@ -371,7 +366,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             settings,
         )
         calm[draw] = (indices(ModelPlant(calm_fit.params), ship, args.dt_s),
-                      time.perf_counter() - start, kept_current(calm_fit))  # fmt: skip
+                      time.perf_counter() - start, kept_current(calm_fit.params))  # fmt: skip
     for condition in conditions:
         for draw in range(args.draws):
             logs = training_logs(
@@ -410,7 +405,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "" if math.isnan(angle_err) else f"{angle_err:+.1f}",
                 f"{identification_only:.2f} / {with_model_form:.2f}",
                 f"{seconds:.0f}",
-                f"{calm[draw][2]} / {kept_current(sea)}",
+                f"{calm[draw][2]} / {kept_current(sea.params)}",
                 f"{still_turn:.1f}",
                 f"{still_os:.2f}",
             ]

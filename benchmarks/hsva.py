@@ -63,6 +63,7 @@ from report import fitted_label, write_block
 from fmu_model import DEFAULT_MODEL, ModelParameters
 from fmu_model.envelope import trajectory_envelope
 from fmu_model.interface import logged_envelope
+from identifier.current import kept_current
 from identifier.identify import FitSettings, identify
 from identifier.output_error.guards import virtual_turns
 from scenarios.records import Condition
@@ -281,7 +282,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             start = time.perf_counter()
             fits = estimates(logs, model, train, args.current)
             seconds = time.perf_counter() - start
-            kept = fits["default"].identification["environment"]["current"]
+            kept = kept_current(fits["default"])
             label = fold if args.current != "auto" else f"{fold} (auto → {kept})"
             for name, params in fits.items():
                 errors = sail_all(params, logs, train)

@@ -65,6 +65,7 @@ from hsva import DATA, RUNS
 
 from fmu_model import get_model
 from fmu_model.kernels import CACHE_ENV
+from identifier.current import kept_current
 from identifier.ekf import EkfSegment, EkfSettings, SpeedLogMeasurement, ekf_identify
 from identifier.equation_error import equation_error_fit
 from identifier.identify import FitSettings, identify
@@ -402,7 +403,7 @@ def current_modes(method: str | None) -> None:
             start = time.perf_counter()
             result = identify(logs, replace(settings, current=current))
             seconds[current] = time.perf_counter() - start
-            kept = result.params.identification["environment"]["current"]
+            kept = kept_current(result.params)
             print(f"  {label}, --current {current}: {seconds[current]:.1f} s (kept {kept})")
         print(
             f"  {label}: auto / constant {seconds['auto'] / seconds['constant']:.2f}, "

@@ -62,6 +62,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import median_abs_deviation
 
+from fmu_model import ModelParameters
 from identifier.ekf import EkfSegment, body_current
 from identifier.smoothing import SmoothedTrack
 from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, execute_index
@@ -95,6 +96,11 @@ mostly a model in a basin's still water, where a current estimated is the struct
 folds against 15.9° with auto, which keeps still water in every fold, benchmarks/hsva.md);
 auto rather than none for a small craft logged at sea, whose current the logs then show
 (:func:`choose_current`)."""
+
+
+def kept_current(params: ModelParameters) -> str:
+    """Return the current mode a fit kept, as its params.json records it ("none", "per-log", …)."""
+    return str(params.identification["environment"]["current"])
 
 
 def default_current(length_m: float, measurements: str = "track") -> str:

@@ -23,6 +23,7 @@ from identifier.current import (
     PER_LOG,
     CurrentEstimate,
     current_disagreement,
+    kept_current,
     water_segments,
     weighted_mean_current,
 )
@@ -87,7 +88,7 @@ def test_each_log_keeps_its_own_current(per_log: IdentificationResult) -> None:
     assert sorted(_given(own.log) for own in c.logs) == [0, 1, 2]
     np.testing.assert_allclose(c.vectors(3), [e.vector for e in c.logs])
     env = per_log.params.identification["environment"]
-    assert env["current"] == PER_LOG and [e["log"] for e in env["logs"]] == [e.log for e in c.logs]
+    assert kept_current(per_log.params) == PER_LOG and [e["log"] for e in env["logs"]] == [e.log for e in c.logs]
     assert env["logs"][0]["current_north_mps"] == c.logs[0].north_mps
     assert not any("different currents" in w for w in per_log.warnings)
     # Each current is told from its own log: the zig-zags' ±20° say little along the course.
