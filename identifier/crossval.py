@@ -16,7 +16,8 @@ Where the training fit estimated a uniform current, the held-out logs are taken 
 in the same one: the model sails through the water, and the current's drift is added to
 its predicted track before it is compared with the logged one over the ground. With a
 current per training log (``--current per-log``), a held-out log is taken in its own, as
-its speed log shows it, or without one in the training logs' mean.
+its speed log shows it, or without one in the training logs' mean with the component
+across its approach as the approach shows it.
 
 The metric definitions (pure functions of a trajectory) exist once, in
 ``trials.metrics``. Nothing here knows about FMI, and nothing here prints: the
@@ -27,14 +28,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from fmu_model import ModelParameters
-from identifier.current import CurrentEstimate, speed_log_current, water_frame
+from identifier.current import (
+    CurrentEstimate,
+    speed_log_current,
+    water_frame,
+    with_approach_cross,
+)
 from identifier.identify import FitSettings, identify
 from identifier.output_error import predict_log, smooth_log
 from identifier.smoothing import SmoothedTrack
@@ -244,7 +250,8 @@ def held_out_errors(
         current's drift is added to its track, which is then compared with the logged
         one over the ground. A current per training log (``current.logs``): the log's
         own as its speed log shows it (``identifier.current.speed_log_current``), else
-        their mean. None: still water.
+        their mean with its component across the log's approach as the approach shows it
+        (``identifier.current.with_approach_cross``). None: still water.
 
     Returns
     -------
@@ -274,7 +281,12 @@ def held_out_errors(
                     log=name,
                 )
             else:
-                whose = "the training logs' mean current (no speed log shows its own)"
+                whose = (
+                    "the training logs' mean current, its component across the approach "
+                    "as the approach shows it (no speed log shows its own)"
+                )
+                north, east = with_approach_cross(current.vector, log, track)
+                current = replace(current, north_mps=float(north), east_mps=float(east), log=name)
         k, states = predict_log(params, *water_frame(log, track, current.vector))
         elapsed = log.time_s[k:] - log.time_s[0]
         states[:, 3] += current.north_mps * elapsed

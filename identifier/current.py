@@ -458,6 +458,24 @@ def _approach_rows(log: ManeuverLog, track: SmoothedTrack) -> tuple[np.ndarray, 
     return np.column_stack([-np.sin(heading), np.cos(heading)]), np.asarray(track.v_mps)[:end]
 
 
+def with_approach_cross(
+    current_ne: np.ndarray, log: ManeuverLog, track: SmoothedTrack
+) -> np.ndarray:
+    """Return ``current_ne`` [m/s] with its component across the log's approach as shown there.
+
+    The straight approach (before execute) drifts across its heading with the current's
+    cross component (:func:`initial_current`); along it, a log without a speed log shows
+    nothing without a hull model, so that component stays ``current_ne``'s. Without an
+    approach, ``current_ne`` itself.
+    """
+    a, v_g = _approach_rows(log, track)
+    if v_g.size < 2:
+        return np.asarray(current_ne, dtype=float)
+    across = a.mean(axis=0)
+    across /= np.hypot(*across)
+    return current_ne + across * (float(np.mean(v_g)) - float(across @ current_ne))
+
+
 def current_disagreement(
     logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack], names: Sequence[str]
 ) -> list[str]:

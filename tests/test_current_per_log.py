@@ -16,7 +16,7 @@ import pytest
 
 from fmu_model import get_model
 from identifier.cli.fit import _summary
-from identifier.crossval import cross_validate
+from identifier.crossval import cross_validate, held_out_errors
 from identifier.current import (
     CURRENT_DISAGREEMENT_MPS,
     CURRENT_MODES,
@@ -26,6 +26,7 @@ from identifier.current import (
     kept_current,
     water_segments,
     weighted_mean_current,
+    with_approach_cross,
 )
 from identifier.ekf import ekf_identify
 from identifier.identify import IdentificationResult, identify
@@ -35,6 +36,7 @@ from tests.conftest import SEED_COEFFICIENTS
 from tests.test_identify import SEED, TRAINING, _ship
 from tests.test_identify_at_sea import _with_current, _with_speed_log
 from tests.test_streaming import _segment
+from trials.conditions import execute_index
 from trials.logs import ManeuverLog
 
 # turning-35, zigzag-10, zigzag-20 (tests.test_identify.TRAINING), each in its own current:
@@ -88,7 +90,9 @@ def test_each_log_keeps_its_own_current(per_log: IdentificationResult) -> None:
     assert sorted(_given(own.log) for own in c.logs) == [0, 1, 2]
     np.testing.assert_allclose(c.vectors(3), [e.vector for e in c.logs])
     env = per_log.params.identification["environment"]
-    assert kept_current(per_log.params) == PER_LOG and [e["log"] for e in env["logs"]] == [e.log for e in c.logs]
+    assert kept_current(per_log.params) == PER_LOG and [e["log"] for e in env["logs"]] == [
+        e.log for e in c.logs
+    ]
     assert env["logs"][0]["current_north_mps"] == c.logs[0].north_mps
     assert not any("different currents" in w for w in per_log.warnings)
     # Each current is told from its own log: the zig-zags' ±20° say little along the course.
@@ -186,8 +190,32 @@ def test_crossval_predicts_a_held_out_log_in_its_own_current(
     assert match, own.notes
     assert float(match[1]) == pytest.approx(float(np.hypot(*TIDES[0])), abs=0.03)
     assert float(match[2]) == pytest.approx(60.0, abs=5.0)
-    assert mean.notes[0].startswith("predicted in the training logs' mean current")
+    assert mean.notes[0].startswith(
+        "predicted in the training logs' mean current, its component across the approach"
+    )
     assert own.position_rms_m < 0.5 * mean.position_rms_m
+    # The mean as it is, without what the approach shows across it: further off.
+    fitted = identify(tidal_logs[1:], settings).current
+    assert fitted is not None
+    plain = replace(fitted, logs=())
+    as_fitted = held_out_errors(fold.params, tidal_logs[0], current=plain)
+    assert mean.position_rms_m < 0.75 * as_fitted.position_rms_m  # measured: 37 m against 70 m
+
+
+def test_an_approach_shows_the_current_across_it(calm_logs: list[ManeuverLog]) -> None:
+    log = _with_current(calm_logs[1], TIDES[0])
+    (track,) = _tracks([log])
+    guess = np.array([0.5, -0.5])
+    shown = with_approach_cross(guess, log, track)
+    end = execute_index(log)
+    heading = math.atan2(
+        float(np.mean(np.sin(track.heading_rad[:end]))),
+        float(np.mean(np.cos(track.heading_rad[:end]))),
+    )
+    along = np.array([math.cos(heading), math.sin(heading)])
+    across = np.array([-math.sin(heading), math.cos(heading)])
+    assert shown @ along == pytest.approx(guess @ along, abs=1e-3)  # the guess's, kept
+    assert shown @ across == pytest.approx(TIDES[0] @ across, abs=0.02)  # the approach's
 
 
 def test_the_weighted_mean_of_two_currents_by_hand() -> None:
