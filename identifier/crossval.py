@@ -271,14 +271,8 @@ def held_out_errors(
             own = speed_log_current([log], [track])
             if own is not None and own.implausible() is None:
                 whose = "its own current, as its speed log shows it"
-                current = CurrentEstimate(
-                    north_mps=float(own.current_ne[0]),
-                    east_mps=float(own.current_ne[1]),
-                    covariance=own.covariance,
-                    mode=current.mode,
-                    iterations=0,
-                    speed_log=own,
-                    log=name,
+                current = CurrentEstimate.of(
+                    own.current_ne, own.covariance, current.mode, speed_log=own, log=name
                 )
             else:
                 whose = (

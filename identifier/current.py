@@ -273,6 +273,28 @@ class CurrentEstimate:
     logs: tuple[CurrentEstimate, ...] = ()
     log: str | None = None
 
+    @classmethod
+    def of(
+        cls,
+        current_ne: np.ndarray,
+        covariance: np.ndarray,
+        mode: str,
+        iterations: int = 0,
+        **rest: Any,
+    ) -> CurrentEstimate:
+        """Return the estimate of a current (North, East) [m/s] and its covariance (2, 2).
+
+        ``rest``: the other fields by name.
+        """
+        return cls(
+            north_mps=float(current_ne[0]),
+            east_mps=float(current_ne[1]),
+            covariance=np.asarray(covariance, dtype=float),
+            mode=mode,
+            iterations=iterations,
+            **rest,
+        )
+
     def vectors(self, count: int) -> np.ndarray:
         """Return the current (c_N, c_E) of each of ``count`` logs (count, 2) [m/s].
 

@@ -559,11 +559,10 @@ def _estimate_current(
         model_form = np.zeros((2, 2))
         if alone[0] is not None and in_ekf is not None and settings.current == "constant":
             model_form = current_model_form(ekf.current, alone[0])
-        estimate = CurrentEstimate(
-            north_mps=float(ekf.current[0]),
-            east_mps=float(ekf.current[1]),
-            covariance=ekf.current_covariance,
-            mode=settings.current,
+        estimate = CurrentEstimate.of(
+            ekf.current,
+            ekf.current_covariance,
+            settings.current,
             iterations=iterations,
             speed_log=alone[0],
             speed_log_ignored=ignored,
@@ -589,11 +588,10 @@ def _per_log_estimate(
     """
     assert ekf.current is not None and ekf.current_covariance is not None
     logs = tuple(
-        CurrentEstimate(
-            north_mps=float(c[0]),
-            east_mps=float(c[1]),
-            covariance=covariance,
-            mode=PER_LOG,
+        CurrentEstimate.of(
+            c,
+            covariance,
+            PER_LOG,
             iterations=iterations,
             speed_log=fit,
             model_form=np.zeros((2, 2))
@@ -608,11 +606,10 @@ def _per_log_estimate(
     mean, covariance = weighted_mean_current(
         ekf.current, np.array([c.total_covariance for c in logs])
     )
-    return CurrentEstimate(
-        north_mps=float(mean[0]),
-        east_mps=float(mean[1]),
-        covariance=covariance,
-        mode=PER_LOG,
+    return CurrentEstimate.of(
+        mean,
+        covariance,
+        PER_LOG,
         iterations=iterations,
         speed_log_ignored=ignored,
         speed_log_ekf=in_ekf,
