@@ -78,9 +78,12 @@ PER_LOG = "per-log"
 """``--current per-log``: each log has a constant current of its own, independent of the
 others': runs sailed hours apart, at another time of the tide. One current for all of
 them takes their difference into the hull: two KVLCC2 zig-zags in 0.5 m/s setting to 45°
-and to 225° give a calm-water 35° turn 13–18 points off the calm logs' fit with a speed
-log, 48–70 without (benchmarks/environment.md, "Runs in another tide"). What it costs:
-each current is told from its own log's manoeuvres only."""
+and to 225° put the calm-water 35° turn 10–18 points off the calm logs' fit with a speed
+log, 47–68 without; per log 0.6–3.8 and 0.2–4.9 (benchmarks/environment.md, "Runs in
+another tide"). What it costs: each current is told from its own log's manoeuvres only,
+and in calm water each log's phantom current (the structure's error) is its own
+(benchmarks/fidelity.md, "A current per log for every fit"): a ship's default takes it
+only where the logs show different currents (``identifier.identify``)."""
 
 DEFAULT_CURRENT = "constant"
 """The default ``--current`` of a ship (:func:`default_current`). Not "auto", which keeps
@@ -491,9 +494,9 @@ def with_approach_cross(
     approach, ``current_ne`` itself.
     """
     a, v_g = _approach_rows(log, track)
-    if v_g.size < 2:
+    across = a.mean(axis=0) if v_g.size >= 2 else np.zeros(2)
+    if np.hypot(*across) < 0.5:  # no approach, or not a straight one
         return np.asarray(current_ne, dtype=float)
-    across = a.mean(axis=0)
     across /= np.hypot(*across)
     return current_ne + across * (float(np.mean(v_g)) - float(across @ current_ne))
 
@@ -547,7 +550,7 @@ def current_disagreement(
 def weighted_mean_current(
     currents: np.ndarray, covariances: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Return the mean (2,) of currents (logs, 2) [m/s] weighted by their covariances, and its.
+    """Return the covariance-weighted mean (2,) of currents (logs, 2) [m/s], and its covariance.
 
     c̄ = C̄ Σ C_i⁻¹ c_i with C̄ = (Σ C_i⁻¹)⁻¹ (covariances (logs, 2, 2) [m²/s²]): the one
     current that all the logs' estimates show together, were it one.

@@ -517,7 +517,8 @@ def _estimate_current(
             found = ekf.current
             if per_log:  # each log's from its last window (a log without one keeps its own)
                 found = current.copy()
-                found[sources] = ekf.current
+                for window, source in enumerate(sources):
+                    found[source] = ekf.current[window]
             change = float(np.max(np.abs(found - current)))
             current = found
             iterations += 1
