@@ -208,7 +208,7 @@ def test_an_approach_shows_the_current_across_it(calm_logs: list[ManeuverLog]) -
     across = np.array([-math.sin(heading), math.cos(heading)])
     assert shown @ along == pytest.approx(guess @ along, abs=1e-3)  # the guess's, kept
     assert shown @ across == pytest.approx(TIDES[0] @ across, abs=0.02)  # the approach's
-    at_once = replace(log, metadata={**log.metadata, "execute_time_s": repr(log.time_s[0])})
+    at_once = replace(log, metadata={**log.metadata, "execute_time_s": repr(float(log.time_s[0]))})
     np.testing.assert_array_equal(with_approach_cross(guess, at_once, track), guess)  # none
 
 
