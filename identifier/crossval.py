@@ -223,6 +223,30 @@ def _trajectory(
     return traj
 
 
+def _held_out_current(
+    current: CurrentEstimate, log: ManeuverLog, track: SmoothedTrack, name: str
+) -> tuple[CurrentEstimate, str]:
+    """Return the current a held-out log is predicted in, and whose it is (for its note).
+
+    The training fit's; with a current per training log, the log's own as its speed log
+    shows it, or their mean with the component across its approach as that shows it.
+    """
+    if not current.logs:
+        return current, "the training fit's current"
+    own = speed_log_current([log], [track])
+    if own is not None and own.implausible() is None:
+        mine = CurrentEstimate.of(
+            own.current_ne, own.covariance, current.mode, speed_log=own, log=name
+        )
+        return mine, "its own current, as its speed log shows it"
+    north, east = with_approach_cross(current.vector, log, track)
+    return (
+        replace(current, north_mps=float(north), east_mps=float(east), log=name, logs=()),
+        "the training logs' mean current, its component across the approach as the "
+        "approach shows it (no speed log shows its own)",
+    )
+
+
 def held_out_errors(
     params: ModelParameters,
     log: ManeuverLog,
@@ -266,21 +290,7 @@ def held_out_errors(
     if current is None:
         k, states = predict_log(params, log, track)
     else:
-        whose = "the training fit's current"
-        if current.logs:
-            own = speed_log_current([log], [track])
-            if own is not None and own.implausible() is None:
-                whose = "its own current, as its speed log shows it"
-                current = CurrentEstimate.of(
-                    own.current_ne, own.covariance, current.mode, speed_log=own, log=name
-                )
-            else:
-                whose = (
-                    "the training logs' mean current, its component across the approach "
-                    "as the approach shows it (no speed log shows its own)"
-                )
-                north, east = with_approach_cross(current.vector, log, track)
-                current = replace(current, north_mps=float(north), east_mps=float(east), log=name)
+        current, whose = _held_out_current(current, log, track, name)
         k, states = predict_log(params, *water_frame(log, track, current.vector))
         elapsed = log.time_s[k:] - log.time_s[0]
         states[:, 3] += current.north_mps * elapsed
