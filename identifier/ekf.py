@@ -102,6 +102,9 @@ class EkfSegment:
         [m/s], shape (N,) (a two-axis log; measured with ``speed_log_mps``); None: none.
     speed_log_x_m : float
         The log's position forward of midship [m], where it measures v + x_L r.
+    current_gap_s : float
+        Time since the previous segment's last sample [s], over which a drifting current
+        walks before this one (``EkfSettings.current_random_walk_mps``); 0: none known.
 
     """
 
@@ -118,6 +121,7 @@ class EkfSegment:
     speed_log_mps: np.ndarray | None = None
     speed_log_transverse_mps: np.ndarray | None = None
     speed_log_x_m: float = 0.0
+    current_gap_s: float = 0.0
 
     def known_acceleration_or_zero(self) -> np.ndarray:
         """Return the known accelerations (N, 3), or one row of zeros (1, 3) for none.
@@ -442,6 +446,9 @@ def ekf_identify(
             P_theta[:, p : p + 2] = 0.0
             P_theta[p : p + 2, p : p + 2] = current_covariance0
             theta[p : p + 2] = current_rows[index]
+        elif estimated_current:  # a drifting current walks between the runs too
+            walk = settings.current_random_walk_mps**2 * seg.current_gap_s / 3600.0
+            P_theta[p : p + 2, p : p + 2] += walk * np.eye(2)
         # Motion states restart at the segment's first smoothed sample (through the water:
         # less the current's body components); θ (and c, k) carry over.
         velocities0 = seg.velocities[0].copy()

@@ -16,7 +16,9 @@ reference/model_structures.md §6–§7 pass, else the better-replaying start. T
 the procedure that predicts held-out manoeuvres best (benchmarks/fidelity.md,
 benchmarks/hsva.md); ``method="ekf"`` keeps the EKF estimate, the paper's algorithm.
 The EKF runs through several logs in :func:`ekf_order` (by their largest rudder angle),
-so the logs given in any order give one model; a drifting current keeps the order given.
+so the logs given in any order give one model; a drifting current runs through them in the
+order sailed (:func:`sailed_order`: by their time origins, else as given), and walks through
+the time between them too.
 
 A ``prime-rudder`` estimate whose free thrust X_nn·n²L + X_un·u·n is not a propeller's
 (:func:`thrust_warning`: no thrust at bollard, or one that grows with the speed; logs at
@@ -45,6 +47,7 @@ from __future__ import annotations
 
 import datetime as dt
 import hashlib
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
@@ -798,6 +801,28 @@ def ekf_order(logs: Sequence[ManeuverLog]) -> list[int]:
     return sorted(range(len(logs)), key=keys.__getitem__)
 
 
+def sailed_order(logs: Sequence[ManeuverLog]) -> tuple[list[int], list[float]]:
+    """Return the order the logs were sailed in, and each one's time since the one before [s].
+
+    By their ``time_origin_utc`` (``identifier convert`` writes it) when every log has one,
+    the gaps between one's last sample and the next one's first (the first log's 0, an
+    overlap's 0); else the order given, no gaps known (all 0). A drifting current walks
+    through the runs and the time between them (``identifier.ekf.EkfSegment.current_gap_s``).
+    """
+    origins = [log.time_origin_utc for log in logs]
+    if any(origin is None for origin in origins):
+        return list(range(len(logs))), [0.0] * len(logs)
+    first = min(o for o in origins if o is not None)
+    spans = [
+        ((o - first).total_seconds() + float(log.time_s[0]),
+         (o - first).total_seconds() + float(log.time_s[-1]))
+        for o, log in zip(origins, logs, strict=True) if o is not None
+    ]  # fmt: skip
+    order = sorted(range(len(logs)), key=lambda i: spans[i][0])
+    gaps = [0.0] + [max(spans[b][0] - spans[a][1], 0.0) for a, b in itertools.pairwise(order)]
+    return order, gaps
+
+
 def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
     """Reject logs in which the rudder never leaves midship (nothing to identify)."""
     if any(np.max(np.abs(log.rudder_rad)) > EXECUTE_RUDDER_RAD for log in logs):
@@ -927,7 +952,7 @@ def identify(
     ----------
     logs : sequence of ManeuverLog
         One manoeuvre each, in any order: the EKF runs through them in :func:`ekf_order`
-        (with ``settings.current == "drifting"`` in the order given, the order sailed);
+        (with ``settings.current == "drifting"`` in the order sailed, :func:`sailed_order`);
         the result's logs, tracks and EKF histories are in that order.
     settings : FitSettings, optional
         Defaults when omitted.
@@ -1187,7 +1212,7 @@ class _SmoothedLogs:
     """The logs as given, deglitched, smoothed and as EKF segments: what every fit starts from.
 
     Every tuple is in the order the EKF runs through the logs (:func:`ekf_order`, or the
-    order given with a drifting current); ``names`` keep the places given ("log 2").
+    order sailed with a drifting current); ``names`` keep the places given ("log 2").
 
     Smoothing depends on the logs and the noise settings only, not on the model, so a
     refit (``identify``'s thrust rule) starts from the same.
@@ -1285,9 +1310,16 @@ def _smooth(
             "given: its load stays in the coefficients (give --windage FILE.json)"
         )
     # A drifting current's random walk runs through the logs in the order they were sailed.
-    order = list(range(len(logs))) if settings.current == "drifting" else ekf_order(cleaned)
-    if order != sorted(order):
-        names = ", ".join(Path(segments[i].name).name for i in order)
+    if settings.current == "drifting":
+        order, gaps = sailed_order(cleaned)
+        for i, gap in zip(order, gaps, strict=True):
+            segments[i] = replace(segments[i], current_gap_s=gap)
+    else:
+        order = ekf_order(cleaned)
+    names = ", ".join(Path(segments[i].name).name for i in order)
+    if settings.current == "drifting" and order != sorted(order):
+        notes.append(f"the EKF runs through the logs in the order sailed (their times): {names}")
+    elif order != sorted(order):
         notes.append(
             f"the EKF runs through the logs by their largest rudder angle, smallest first "
             f"(its estimate weighs the last most): {names}"

@@ -522,6 +522,22 @@ BAD_LOGS: list[tuple[str, Callable[[], str], int | None, str | None, str]] = [
         r"within ±500 m, got 'bow'$",
     ),
     (
+        "time_origin_utc not a time",
+        lambda: _with_line(3, "# time_origin_utc: yesterday noon"),
+        3,
+        None,
+        r"metadata 'time_origin_utc': expected an ISO 8601 UTC time such as "
+        r"2024-05-17T23:58:30\.000Z, got 'yesterday noon'$",
+    ),
+    (
+        "time_origin_utc without its offset",
+        lambda: _with_line(3, "# time_origin_utc: 2024-05-17T23:58:30"),
+        3,
+        None,
+        r"metadata 'time_origin_utc': expected an ISO 8601 UTC time such as "
+        r"2024-05-17T23:58:30\.000Z, got '2024-05-17T23:58:30'$",
+    ),
+    (
         "length_m with a unit",
         lambda: _with_line(2, "# length_m: 320 m"),
         2,

@@ -79,6 +79,7 @@ radians; degrees and rpm exist only in the file.
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 import os
 import re
@@ -338,6 +339,21 @@ class ManeuverLog:
         if text is None:
             return None
         return _parse_length_m(text, path=self.path, line=None)
+
+    @property
+    def time_origin_utc(self) -> dt.datetime | None:
+        """The UTC time of ``time_s`` = 0 from the ``time_origin_utc`` metadata, or None.
+
+        ``identifier convert`` writes it (ISO 8601, e.g. ``2024-05-17T23:58:30.000Z``).
+
+        Raises
+        ------
+        LogFormatError
+            If it is present but not an ISO 8601 time with its UTC offset.
+
+        """
+        text = self.metadata.get("time_origin_utc")
+        return None if text is None else _parse_time_origin(text, self.path, None)
 
     def on_board_m(self, key: str) -> float | None:
         """Return a position on board from the metadata [m] (:data:`ON_BOARD_KEYS`).
@@ -623,6 +639,23 @@ def _parse_length_m(text: str, path: str | None, line: int | None) -> float:
     return value
 
 
+def _parse_time_origin(text: str, path: str | None, line: int | None) -> dt.datetime:
+    """Return the ``time_origin_utc`` metadata value (aware, UTC), or raise LogFormatError."""
+    try:
+        value = dt.datetime.fromisoformat(text)
+    except ValueError:
+        value = None
+    if value is None or value.utcoffset() is None:
+        what = "an ISO 8601 UTC time such as 2024-05-17T23:58:30.000Z"
+        raise LogFormatError(
+            f"metadata 'time_origin_utc': expected {what}, got {show(text)}",
+            path=path,
+            line=line,
+            expected=what,
+        )
+    return value.astimezone(dt.UTC)
+
+
 def _parse_on_board(key: str, text: str, path: str | None, line: int | None) -> float:
     """Return a position-on-board metadata value [m] (:data:`ON_BOARD_KEYS`), or raise."""
     value = float(text) if NUMBER.fullmatch(text) else math.nan
@@ -714,6 +747,8 @@ class _Parser:
             _parse_length_m(value, path=self.path, line=number)
         if key in ON_BOARD_KEYS:
             _parse_on_board(key, value, path=self.path, line=number)
+        if key == "time_origin_utc":
+            _parse_time_origin(value, path=self.path, line=number)
         problem = text_problem(value) if key == "vessel" else None
         if problem is not None:  # the name of the FMU: XML and a C string
             raise self.error(f"metadata 'vessel': {problem}", number, expected="printable text")

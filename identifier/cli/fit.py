@@ -45,7 +45,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         metavar="LOG.csv",
         help="trial logs (DESIGN.md format), in any order: the EKF runs through them by "
         "their largest rudder angle, smallest first (its estimate weighs the last most); "
-        "with --current drifting in the order given: the order they were sailed",
+        "with --current drifting in the order they were sailed (their time_origin_utc, "
+        "else the order given), the current walking through the time between them too",
     )
     fit.add_argument("-o", "--output", required=True, metavar="params.json")
     fit.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
