@@ -35,11 +35,11 @@ compiles the smoother and the model family's EKF and replay, as the first fit on
 machine does; once with the caches one ``python -m scenarios warm-up`` filled (what
 ``make`` does after installing; timed and reported once), as every later fit.
 
-Last, the cost of ``--current auto`` (two fits unless a speed log decides):
-``identify`` with ``current`` "none", "constant" and "auto" side by side in this process
+Last, the cost of the current modes: ``identify`` with ``current`` "none", "constant",
+"per-log" and "auto" (two fits unless a speed log decides) side by side in this process
 (its caches warm from a first, untimed fit), on the three KVLCC2 logs at 1 Hz and on the
-HSVA 10/10 pair (model scale, 20 Hz), and the ratios auto / constant and auto / none
-(``--current-modes-only`` runs this part alone).
+HSVA 10/10 pair (model scale, 20 Hz), and the ratios auto / constant, auto / none and
+per-log / constant (``--current-modes-only`` runs this part alone).
 
 ``--method`` picks the procedure of the end-to-end runs (default: the ``FitSettings``
 default); a run not finished after ``--timeout-s`` is stopped and reported as such.
@@ -65,7 +65,7 @@ from hsva import DATA, RUNS
 
 from fmu_model import get_model
 from fmu_model.kernels import CACHE_ENV
-from identifier.current import kept_current
+from identifier.current import PER_LOG, kept_current
 from identifier.ekf import EkfSegment, EkfSettings, SpeedLogMeasurement, ekf_identify
 from identifier.equation_error import equation_error_fit
 from identifier.identify import FitSettings, identify
@@ -392,14 +392,14 @@ def throughput(rate_hz: float) -> float | None:
 
 
 def current_modes(method: str | None) -> None:
-    """Print ``identify``'s seconds per current mode side by side, and auto's ratios."""
+    """Print ``identify``'s seconds per current mode side by side, and their ratios."""
     hsva = [read_log(DATA / f"{run}.csv") for run in RUNS[:2]]
     for label, logs in (("KVLCC2, three logs at 1 Hz", reference_logs(1.0)),
                         ("HSVA 10/10 pair, model scale, 20 Hz", hsva)):  # fmt: skip
         settings = FitSettings() if method is None else FitSettings(method=method)
         identify(logs, replace(settings, current="none"))  # caches warm, untimed
         seconds = {}
-        for current in ("none", "constant", "auto"):
+        for current in ("none", "constant", PER_LOG, "auto"):
             start = time.perf_counter()
             result = identify(logs, replace(settings, current=current))
             seconds[current] = time.perf_counter() - start
@@ -407,7 +407,8 @@ def current_modes(method: str | None) -> None:
             print(f"  {label}, --current {current}: {seconds[current]:.1f} s (kept {kept})")
         print(
             f"  {label}: auto / constant {seconds['auto'] / seconds['constant']:.2f}, "
-            f"auto / none {seconds['auto'] / seconds['none']:.2f}"
+            f"auto / none {seconds['auto'] / seconds['none']:.2f}, "
+            f"per-log / constant {seconds[PER_LOG] / seconds['constant']:.2f}"
         )
 
 
