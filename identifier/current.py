@@ -47,8 +47,10 @@ One current for every log, or one each: runs sailed hours apart meet another tid
 ``--current per-log`` (:data:`PER_LOG`) gives every log a constant current of its own,
 its own start (its speed log's, else its approach's) and its own states in the EKF,
 restarted at each log (``identifier.ekf.ekf_identify``); the water frame then moves each
-log by its own. With one current for all, :func:`current_disagreement` says when the
-logs' approaches or speed logs show different ones.
+log by its own. :func:`current_disagreement` says when the logs' approaches or speed logs
+show different currents; a ship's default then takes one per log (a note), a current
+asked for as one warns. A drifting current walks through the time between the runs too,
+where the logs carry their time origins (``identifier.identify.sailed_order``).
 """
 
 from __future__ import annotations
