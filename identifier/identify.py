@@ -1006,7 +1006,7 @@ def identify(
         helm_note = _neutral_helm_note(data, settings.model)
         if helm_note is not None:
             data = replace(data, notes=(*data.notes, helm_note))
-        if by_default and settings.current == DEFAULT_CURRENT:
+        if settings.current == "auto" or (by_default and settings.current == DEFAULT_CURRENT):
             settings, data = _per_log_where_shown(settings, data)
         if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):
             unused = "the speed log (stw_mps) is measured with a current only: not used here"
@@ -1022,22 +1022,24 @@ def identify(
 def _per_log_where_shown(
     settings: FitSettings, data: _SmoothedLogs
 ) -> tuple[FitSettings, _SmoothedLogs]:
-    """Take a ship's default current per log where the logs show different ones.
+    """Take a ship's default current, or auto's, per log where the logs show different ones.
 
     Where the logs' approaches or speed logs show different currents
     (``identifier.current.current_disagreement``, no hull model in it), each log is
     fitted in its own (``current="per-log"``), and a note says why; else ``settings`` as
-    they are. One current for runs in two tides takes their difference into the hull:
-    10–18 points of the calm-water 35° turn on the KVLCC2 reference (ebb after flood,
-    0.5 m/s), per log 0.6–3.8 (benchmarks/environment.md, "Runs in another tide").
+    they are. For ``auto`` (a model's default) the same finding is the evidence of a
+    current it asks for: currents that differ are not all still water. One current for
+    runs in two tides takes their difference into the hull: 10–18 points of the
+    calm-water 35° turn on the KVLCC2 reference (ebb after flood, 0.5 m/s), per log
+    0.6–3.8 (benchmarks/environment.md, "Runs in another tide").
     """
     found = current_disagreement(data.logs, data.tracks, data.names)
     if not found:
         return settings, data
     note = (
         f"the logs were sailed in different currents ({'; '.join(found)}): each is fitted in "
-        "its own (--current per-log, the default where the logs show that; --current "
-        "constant for one)"
+        "its own (--current per-log, what the default and auto take where the logs show "
+        "that; --current constant for one)"
     )
     return replace(settings, current=PER_LOG), replace(data, notes=(*data.notes, note))
 

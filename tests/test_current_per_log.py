@@ -32,7 +32,7 @@ from identifier.current import (
 from identifier.ekf import ekf_identify
 from identifier.identify import IdentificationResult, identify, sailed_order
 from identifier.smoothing import SmoothedTrack, smooth_track
-from scenarios.synthesize import MANEUVERS, synthesize_log
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from tests.test_identify import SEED, TRAINING, _ship
 from tests.test_identify_at_sea import _beyond_three_sigma, _with_current, _with_speed_log
 from tests.test_streaming import _segment
@@ -141,7 +141,7 @@ def test_a_ships_default_takes_a_current_per_log_where_the_logs_show_it(
     assert default.current is not None and default.current.mode == PER_LOG
     assert default.settings.current == PER_LOG
     note = [n for n in default.notes if n.startswith("the logs were sailed in different")]
-    assert len(note) == 1 and "the default where the logs show that" in note[0]
+    assert len(note) == 1 and "what the default and auto take where the logs show" in note[0]
     np.testing.assert_array_equal(default.params.coefficients, per_log.params.coefficients)
     assert not any("different currents" in w for w in default.warnings)
 
@@ -298,3 +298,24 @@ def test_a_drifting_current_walks_through_the_hours_between_the_runs(
     assert any(
         n.startswith("the EKF runs through the logs in the order sailed") for n in shuffled.notes
     )
+
+
+def test_a_models_auto_takes_a_current_per_log_where_the_logs_show_it() -> None:
+    """A 7 m model (or a small craft) at 5 Hz, its two zig-zags in 0.2 m/s setting to 045
+    and to 225: auto (its default) fits per log, not one current nor still water, and
+    finds each log's."""
+    ship = reference_ship("kvlcc2", "model")
+    tides = 0.2 * np.array([[1.0, 1.0], [-1.0, -1.0]]) / math.sqrt(2.0)
+    logs = [
+        _with_current(
+            synthesize_log(ship, MANEUVERS[name](), rate_hz=5.0, position_noise_m=0.01,
+                           heading_noise_deg=0.05, seed=seed),
+            tide,
+        )
+        for seed, (name, tide) in enumerate(zip(("zigzag-10", "zigzag-20"), tides, strict=True))
+    ]  # fmt: skip
+    result = identify(logs, replace(SEED, model="prime-rudder-offset", current=None))
+    assert result.settings.current == PER_LOG and result.current is not None
+    assert result.current_choice is None  # no comparison with still water was needed
+    for own in result.current.logs:
+        np.testing.assert_allclose(own.vector, tides[_given(own.log)], atol=0.01)
