@@ -587,8 +587,9 @@ def _per_log_estimate(
     """Return the current of ``--current per-log``: each log's, and their weighted mean.
 
     Each log's current carries what its own speed log showed alone and, with the EKF
-    measuring the logs, the model-form term of their distance (``current_model_form``);
-    the mean's covariance is of the mean, those terms included.
+    measuring the logs, what the EKF made of them (one log, one calibration) and the
+    model-form term of the two estimates' distance (``current_model_form``); the mean's
+    covariance is of the mean, those terms included.
     """
     assert ekf.current is not None and ekf.current_covariance is not None
     logs = tuple(
@@ -598,6 +599,7 @@ def _per_log_estimate(
             PER_LOG,
             iterations=iterations,
             speed_log=fit,
+            speed_log_ekf=None if fit is None else in_ekf,
             model_form=np.zeros((2, 2))
             if fit is None or in_ekf is None
             else current_model_form(c, fit),

@@ -166,6 +166,22 @@ def test_the_speed_logs_show_a_current_along_the_approach(calm_logs: list[Maneuv
     assert sum(float(x) for x in off) == pytest.approx(0.6, abs=0.05)
 
 
+def test_each_logs_record_keeps_what_its_speed_log_showed(
+    tidal_logs: list[ManeuverLog], calm_logs: list[ManeuverLog]
+) -> None:
+    """Per log with a speed log on one of them: that log's record holds the log alone and
+    the EKF's view of it, the other's none."""
+    logs = [_with_speed_log(tidal_logs[0], calm_logs[0]), tidal_logs[1]]
+    result = identify(logs, replace(SEED, current=PER_LOG))
+    assert result.current is not None
+    records = {e["log"]: e for e in result.params.identification["environment"]["logs"]}
+    with_log, without = records["log 1"], records["log 2"]
+    assert with_log["speed_log"]["alone"]["samples"] == logs[0].n_samples
+    assert with_log["speed_log"]["samples"] > 0  # the EKF measured it
+    assert without["speed_log"] is None
+    assert with_log["current_model_form_covariance_m2ps2"] != [[0.0, 0.0], [0.0, 0.0]]
+
+
 def test_crossval_predicts_a_held_out_log_in_its_own_current(
     tidal_logs: list[ManeuverLog], calm_logs: list[ManeuverLog]
 ) -> None:
