@@ -207,9 +207,10 @@ def current_error(
     if result.current is None:
         return math.nan, math.nan
     speed, estimate, truth = max(
-        (float(np.hypot(*(c.vector - current_vector(t)))), c, t)
-        for c, t in _log_currents(result, logs, truths)
-    )
+        ((float(np.hypot(*(c.vector - current_vector(t)))), c, t)
+         for c, t in _log_currents(result, logs, truths)),
+        key=lambda item: item[0],
+    )  # fmt: skip
     if truth.current_mps == 0.0:
         return speed, math.nan
     angle = math.degrees(estimate.to_rad) - truth.current_to_deg
