@@ -38,9 +38,9 @@ open-loop predictions of the training logs stay at most half as far from their t
 over the ground (``identifier.current.choose_current``): a basin's runs keep still water
 where the current the estimator would find there is the structure's error. Logs with a
 speed log are fitted with the current alone (the log measures it). ``current="per-log"``
-gives each log a current of its own (runs at other times of the tide); with one current
-for all, the fit warns when the logs' approaches or speed logs show different ones
-(``identifier.current.current_disagreement``).
+gives each log a current of its own (runs at other times of the tide); where the logs'
+approaches or speed logs show different currents (``identifier.current.current_disagreement``)
+a ship's default and "auto" take it, and a current asked for as one warns.
 """
 
 from __future__ import annotations
@@ -1008,8 +1008,8 @@ def identify(
         helm_note = _neutral_helm_note(data, settings.model)
         if helm_note is not None:
             data = replace(data, notes=(*data.notes, helm_note))
-        if settings.current == "auto" or (by_default and settings.current == DEFAULT_CURRENT):
-            settings, data = _per_log_where_shown(settings, data)
+        if settings.current in (DEFAULT_CURRENT, "drifting", "auto"):  # one current for all
+            settings, data = _one_current_or_per_log(settings, data, by_default=by_default)
         if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):
             unused = "the speed log (stw_mps) is measured with a current only: not used here"
             data = replace(data, notes=(*data.notes, f"{unused} (--current none)"))
@@ -1021,29 +1021,38 @@ def identify(
     return result if warning is None else replace(result, warnings=(*result.warnings, warning))
 
 
-def _per_log_where_shown(
-    settings: FitSettings, data: _SmoothedLogs
+def _one_current_or_per_log(
+    settings: FitSettings, data: _SmoothedLogs, *, by_default: bool
 ) -> tuple[FitSettings, _SmoothedLogs]:
-    """Take a ship's default current, or auto's, per log where the logs show different ones.
+    """Check a fit of one current for all the logs against what the logs show, once.
 
     Where the logs' approaches or speed logs show different currents
-    (``identifier.current.current_disagreement``, no hull model in it), each log is
-    fitted in its own (``current="per-log"``), and a note says why; else ``settings`` as
-    they are. For ``auto`` (a model's default) the same finding is the evidence of a
-    current it asks for: currents that differ are not all still water. One current for
-    runs in two tides takes their difference into the hull: 10–18 points of the
-    calm-water 35° turn on the KVLCC2 reference (ebb after flood, 0.5 m/s), per log
-    0.6–3.8 (benchmarks/environment.md, "Runs in another tide").
+    (``identifier.current.current_disagreement``, no hull model in it), a ship's default
+    and ``auto`` fit each log in its own (``current="per-log"``) and a note says why; a
+    current asked for as one (``constant``, ``drifting``) is fitted as asked, with a
+    warning. For ``auto`` (a model's default) the finding is the evidence of a current it
+    asks for: currents that differ are not all still water. One current for runs in two
+    tides takes their difference into the hull: 10–18 points of the calm-water 35° turn
+    on the KVLCC2 reference (ebb after flood, 0.5 m/s), per log 0.6–3.8
+    (benchmarks/environment.md, "Runs in another tide"). ``settings`` and ``data`` as
+    they are where the logs agree.
     """
     found = current_disagreement(data.logs, data.tracks, data.names)
     if not found:
         return settings, data
-    note = (
-        f"the logs were sailed in different currents ({'; '.join(found)}): each is fitted in "
-        "its own (--current per-log, what the default and auto take where the logs show "
-        "that; --current constant for one)"
+    shown = f"the logs were sailed in different currents ({'; '.join(found)})"
+    if by_default or settings.current == "auto":
+        note = (
+            f"{shown}: each is fitted in its own (--current per-log, what the default and "
+            "auto take where the logs show that; --current constant for one)"
+        )
+        return replace(settings, current=PER_LOG), replace(data, notes=(*data.notes, note))
+    warning = (
+        f"{shown}: one current for all of them puts the difference into the hull; fit runs "
+        "of other times of the tide with --current per-log (a strong wind's leeway drifts "
+        "approaches on other headings too)"
     )
-    return replace(settings, current=PER_LOG), replace(data, notes=(*data.notes, note))
+    return settings, replace(data, warnings=(*data.warnings, warning))
 
 
 def _fit_auto_current(
@@ -1392,14 +1401,6 @@ def _fit(
         del water  # a copy of every velocity: not held through the refinement
         if current.speed_log_ignored is not None:
             warnings.append(f"the speed log (stw_mps) was not used: {current.speed_log_ignored}")
-        found = [] if current.logs else current_disagreement(logs, tracks, data.names)
-        if found:
-            warnings.append(
-                f"the logs were sailed in different currents ({'; '.join(found)}): one current "
-                "for all of them puts the difference into the hull; fit runs of other times "
-                "of the tide with --current per-log (a strong wind's leeway drifts approaches "
-                "on other headings too)"
-            )
         if current.logs:  # each current is told from its own log alone
             span_rad = min(
                 (heading_span_rad([t]) for c, t in zip(current.logs, tracks, strict=True)

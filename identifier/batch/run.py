@@ -136,8 +136,8 @@ def run_batch(
         Identification procedure of every vessel (``identifier.identify.METHODS``).
     current : str, optional
         Current estimated with every vessel's coefficients (``identifier.current``):
-        ``"constant"``, ``"drifting"``, ``"none"`` or ``"auto"``; None (the default): by
-        each ship's size (``identifier.current.default_current``).
+        ``"constant"``, ``"drifting"``, ``"per-log"``, ``"none"`` or ``"auto"``; None (the
+        default): by each ship's size (``identifier.current.default_current``).
     build_fmu : bool
         Build ``<vessel>.fmu`` as well as ``params.json``.
     progress : callable, optional

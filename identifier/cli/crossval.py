@@ -67,7 +67,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="uniform current estimated with the training logs' coefficients, and the "
         "held-out logs predicted in it (fit's --current; default: constant for a ship, "
         f"auto below L = {MODEL_SCALE_MAX_LENGTH_M:g} m; with per-log, each held-out log in "
-        "the current its own speed log shows, else in the training logs' mean)",
+        "the current its own speed log shows, else in the training logs' mean with the "
+        "component across its approach as the approach shows it)",
     )
     cv.add_argument(
         "--length-m",
