@@ -50,7 +50,7 @@ restarted at each log (``identifier.ekf.ekf_identify``); the water frame then mo
 log by its own. :func:`current_disagreement` says when the logs' approaches or speed logs
 show different currents; a ship's default then takes one per log (a note), a current
 asked for as one warns. A drifting current walks through the time between the runs too,
-where the logs carry their time origins (``identifier.identify.sailed_order``).
+where the logs carry their time origins (``identifier.preparation.sailed_order``).
 """
 
 from __future__ import annotations

@@ -15,20 +15,22 @@ guarded: the refined estimate is kept only when the guards of
 reference/model_structures.md §6–§7 pass, else the better-replaying start. That is
 the procedure that predicts held-out manoeuvres best (benchmarks/fidelity.md,
 benchmarks/hsva.md); ``method="ekf"`` keeps the EKF estimate, the paper's algorithm.
-The EKF runs through several logs in :func:`ekf_order` (by their largest rudder angle),
-so the logs given in any order give one model; a drifting current runs through them in the
-order sailed (:func:`sailed_order`: by their time origins, else as given), and walks through
-the time between them too.
+The EKF runs through several logs by their largest rudder angle
+(``identifier.preparation.ekf_order``), so the logs given in any order give one model; a
+drifting current runs through them in the order sailed (``sailed_order`` there: by their
+time origins, else as given), and walks through the time between them too. The logs are
+made ready for every fit alike by ``identifier.preparation`` (checked, smoothed,
+deglitched), and what an estimate leaves in doubt is said by ``identifier.diagnostics``.
 
 A ``prime-rudder`` estimate whose free thrust X_nn·n²L + X_un·u·n is not a propeller's
-(:func:`thrust_warning`: no thrust at bollard, or one that grows with the speed; logs at
-one rpm fix the thrust at the approach only) is refitted as ``prime-rudder-thrust``, a
-thrust of fixed open-water slope, with the same settings (a ``prime-rudder-offset`` one as
-``prime-rudder-offset-thrust``, a ``prime-crossflow`` one as ``prime-crossflow-thrust``):
-the free split would make the
-ship lose its thrust as it slows in a hard turn (benchmarks/hsva.md, "The propeller
-thrust is why"). The result says so (a note, ``identification.thrust``); fits of other
-families with such a thrust are warned about.
+(``identifier.diagnostics.thrust_warning``: no thrust at bollard, or one that grows with
+the speed; logs at one rpm fix the thrust at the approach only) is refitted as
+``prime-rudder-thrust``, a thrust of fixed open-water slope, with the same settings (a
+``prime-rudder-offset`` one as ``prime-rudder-offset-thrust``, a ``prime-crossflow`` one
+as ``prime-crossflow-thrust``): the free split would make the ship lose its thrust as it
+slows in a hard turn (benchmarks/hsva.md, "The propeller thrust is why"). The result says
+so (a note, ``identification.thrust``); fits of other families with such a thrust are
+warned about.
 
 A uniform current is estimated with the coefficients (``identifier.current``): by default
 a constant one for a ship, and for a model (L < 20 m) ``current="auto"``
@@ -47,7 +49,6 @@ from __future__ import annotations
 
 import datetime as dt
 import hashlib
-import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
@@ -59,10 +60,7 @@ import numpy as np
 from fmu_model import DEFAULT_MODEL, ModelParameters, ModelStructure, get_model
 from fmu_model.envelope import Envelope, envelope_of, union
 from fmu_model.environment import Windage
-from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
-from fmu_model.params import text_problem
 from fmu_model.variants import (
-    NEUTRAL_RUDDER_OFFSET,
     PRIME_CROSSFLOW,
     PRIME_CROSSFLOW_THRUST,
     PRIME_RUDDER,
@@ -102,6 +100,13 @@ from identifier.current import (
     water_segments,
     weighted_mean_current,
 )
+from identifier.diagnostics import (
+    centripetal_warning,
+    model_current_warning,
+    neutral_helm_note,
+    thrust_warning,
+    turn_surge_warning,
+)
 from identifier.ekf import (
     EkfResult,
     EkfSegment,
@@ -117,31 +122,14 @@ from identifier.output_error import (
     refine_output_error,
     track_distance_m,
 )
+from identifier.preparation import SmoothedLogs, smooth_logs, vessel_length, vessel_name
 from identifier.shape import ShapeSelection, select_shape
-from identifier.smoothing import SmoothedTrack, smooth_track
-from identifier.wind import has_wind, known_acceleration
+from identifier.smoothing import SmoothedTrack
 from trials.conditions import (
-    EXECUTE_RUDDER_RAD,
-    MODEL_SCALE_MAX_LENGTH_M,
-    approach_helm_rad,
     execute_index,
 )
 from trials.errors import IdentificationError
-from trials.logs import ManeuverLog, at_midship
-
-# Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
-MAX_SAMPLE_INTERVAL_S = 5.0
-# A sample interval below this fraction of the median one is a wrong time stamp (the
-# constant-acceleration model's T² and T⁵ underflow or dwarf everything else).
-MIN_SAMPLE_INTERVAL_FRACTION = 1e-6
-# Plausibility of the track. No ship sails faster than this over ground [m/s] (about 97
-# kn; the fastest high-speed craft make 30-40 m/s): a faster track has wrong units of
-# time or position.
-MAX_SPEED_OVER_GROUND_MPS = 50.0
-# A log whose median smoothed speed over ground is within this many of its standard
-# deviations of zero (or below the FMU's least start speed) shows a ship that does not
-# move; the speed-scaled models divide by the speed.
-STILL_SPEED_SIGMAS = 3.0
+from trials.logs import ManeuverLog
 
 # Ranges of the numeric settings, the command line's usage errors (README, "Plausibility
 # bounds"). α of the paper's start, P(0) = α I: prior standard deviations from 1e-6 to
@@ -160,12 +148,6 @@ MAX_SUBSTEP_RANGE_S = (1e-3, math.inf)
 # Prior σ of a speed log's scale error, a fraction of the speed: from 1e-6 (a log taken as
 # exact) to 0.5 (a log that says little of the speed).
 SPEED_LOG_SCALE_STD_RANGE = (1e-6, 0.5)
-# Above these estimated noise levels the logger is suspect (warning) [m], [rad].
-MAX_POSITION_NOISE_M = 20.0
-MAX_HEADING_NOISE_RAD = math.radians(3.0)
-NEUTRAL_HELM_NOTE_RAD = math.radians(0.5)
-"""An approach helm [rad] beyond which ``identify`` notes the neutral-rudder family: above a
-rudder indicator's resolution, below the Mariner's 1.1° (the HSVA runs approach within 0.02°)."""
 METHODS = ("output-error", "ekf")
 """Identification procedures: guarded output-error refinement (default), the paper's EKF."""
 MAX_REFINE_STEPS = 5_000
@@ -284,10 +266,6 @@ class IdentificationResult:
     def not_identifiable(self) -> tuple[str, ...]:
         """Names of the coefficients the logs do not determine."""
         return tuple(c.name for c in self.coefficients if not c.identifiable)
-
-
-def _log_name(log: ManeuverLog, index: int) -> str:
-    return log.path or f"log {index + 1}"
 
 
 def _sha256(log: ManeuverLog) -> str | None:
@@ -623,321 +601,8 @@ def _per_log_estimate(
     )
 
 
-def _check_sampling(log: ManeuverLog, name: str) -> None:
-    steps = np.diff(log.time_s)
-    interval = float(np.median(steps))
-    if interval > MAX_SAMPLE_INTERVAL_S:
-        raise IdentificationError(
-            f"median sampling interval {interval:g} s is too coarse to resolve manoeuvring "
-            f"(expected at most {MAX_SAMPLE_INTERVAL_S:g} s)",
-            log=name,
-        )
-    k = int(np.argmin(steps))
-    if steps[k] < MIN_SAMPLE_INTERVAL_FRACTION * interval:
-        raise IdentificationError(
-            f"samples {k} and {k + 1} are {float(steps[k]):.3g} s apart, expected at least "
-            f"{MIN_SAMPLE_INTERVAL_FRACTION:g} of the median interval ({interval:g} s): a "
-            "wrong time stamp (the smoother's motion model cannot span it)",
-            log=name,
-            sample=k + 1,
-        )
-
-
-def vessel_length(logs: Sequence[ManeuverLog], length_m: float | None) -> float:
-    """Return the ship length: given, or from the logs' ``# length_m:`` (which must agree).
-
-    A given length must be within the FMU's bounds, :data:`MIN_LENGTH_M` to
-    :data:`MAX_LENGTH_M` [m] (the logs' are checked on reading).
-    """
-    if length_m is not None:
-        if not MIN_LENGTH_M <= length_m <= MAX_LENGTH_M:
-            raise IdentificationError(
-                f"ship length must be from {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} m, got {length_m!r}"
-            )
-        return float(length_m)
-    lengths = {log.length_m for log in logs if log.length_m is not None}
-    if not lengths:
-        raise IdentificationError(
-            "no ship length: pass --length-m or add '# length_m:' to the logs"
-        )
-    if len(lengths) > 1:
-        raise IdentificationError(f"the logs disagree on the ship length: {sorted(lengths)} m")
-    return lengths.pop()
-
-
-def vessel_name(logs: Sequence[ManeuverLog]) -> str:
-    """Return the vessel of the logs' ``# vessel:`` lines (``"ship"`` when none has one).
-
-    Raises
-    ------
-    IdentificationError
-        If two logs name different vessels (exact text), or a name is not printable text
-        (it becomes the FMU's model name).
-
-    """
-    first: dict[str, str] = {}  # vessel name → the first log naming it
-    for i, log in enumerate(logs):
-        name = log.metadata.get("vessel")
-        if name is None:
-            continue
-        problem = text_problem(name)
-        if problem is not None:
-            raise IdentificationError(f"vessel name {name!r} {problem}", log=_log_name(log, i))
-        first.setdefault(name, _log_name(log, i))
-    if len(first) > 1:
-        (a, log_a), (b, log_b) = list(first.items())[:2]
-        raise IdentificationError(
-            f"the logs are of different vessels: {a!r} ({log_a}) and {b!r} ({log_b}); "
-            "identify one vessel at a time"
-        )
-    return next(iter(first), "ship")
-
-
-def _check_track(track: SmoothedTrack, name: str) -> None:
-    """Reject a track too fast for a ship, or of a ship that does not move.
-
-    Raises
-    ------
-    IdentificationError
-        If the smoothed speed over ground exceeds :data:`MAX_SPEED_OVER_GROUND_MPS`
-        (wrong units of time or position), or its median is within
-        :data:`STILL_SPEED_SIGMAS` standard deviations of zero (or below the FMU's least
-        start speed, :data:`~fmu_model.interface.MIN_START_SPEED_MPS`).
-
-    """
-    derived = (track.u_mps, track.v_mps, track.r_radps, track.u_std_mps, track.v_std_mps)
-    if not all(np.all(np.isfinite(a)) for a in derived):
-        raise IdentificationError(
-            "the smoothed track is not finite (the times or positions overflow the smoother)",
-            log=name,
-        )
-    k = int(np.argmax(track.speed_mps))
-    fastest = float(track.speed_mps[k])
-    if fastest > MAX_SPEED_OVER_GROUND_MPS:
-        raise IdentificationError(
-            f"the track implies a speed over ground of {fastest:.3g} m/s, expected at most "
-            f"{MAX_SPEED_OVER_GROUND_MPS:g} m/s: check the units of time_s, x_m and y_m",
-            log=name,
-            sample=k,
-        )
-    speed = float(np.median(track.speed_mps))
-    threshold = max(STILL_SPEED_SIGMAS * float(np.median(track.speed_std_mps)), MIN_START_SPEED_MPS)
-    if not speed > threshold:
-        raise IdentificationError(
-            f"the ship does not move: its median speed over ground, {speed:.3g} m/s, is not "
-            f"above {threshold:.3g} m/s ({STILL_SPEED_SIGMAS:g} standard deviations of the "
-            f"smoothed speed, at least {MIN_START_SPEED_MPS:g} m/s); expected a ship under way "
-            "(the models need headway)",
-            log=name,
-        )
-
-
 def _no_stage(name: str) -> None:
     """Ignore a stage name (``identify`` without a ``stage`` callback)."""
-
-
-def _velocity_std(track: SmoothedTrack, measurements: str) -> np.ndarray:
-    """Return the σ of the smoothed (u, v, r) [m/s, m/s, rad/s] for the EKF, (N, 3).
-
-    Per sample when the EKF measures the velocities. When it measures the track it
-    needs them only for the velocities' initial covariance at a log's (or window's)
-    start: the first sample's then stand for every sample, a read-only broadcast of one
-    row (a log of a million samples is spared 24 MB).
-    """
-    if measurements == "velocities":
-        return np.column_stack([track.u_std_mps, track.v_std_mps, track.r_std_radps])
-    first = np.array([track.u_std_mps[0], track.v_std_mps[0], track.r_std_radps[0]])
-    return np.broadcast_to(first, (track.n_samples, 3))
-
-
-def _deglitched(
-    log: ManeuverLog, track: SmoothedTrack, name: str, notes: list[str], warnings: list[str]
-) -> ManeuverLog:
-    """Return the log with the samples the smoother's gate rejected replaced by its track.
-
-    The EKF and the output error measure the logged track itself: a GNSS jump the
-    smoother rejected (``identifier.smoothing``, innovation gate) must not reach them.
-    Adds a note of the counts, and a warning for every re-acquisition (a step in the
-    fixes the smoother believed).
-    """
-    if track.rejected_position_samples or track.rejected_heading_samples:
-        notes.append(
-            f"{name}: {track.rejected_position_samples} position fixes and "
-            f"{track.rejected_heading_samples} headings rejected as glitches (innovation gate)"
-        )
-    for what, samples in (
-        ("position", track.position_reacquired),
-        ("heading", track.heading_reacquired),
-    ):
-        for k in samples:
-            warnings.append(
-                f"{name}: {what} re-acquired after a jump at t = {float(log.time_s[k]):.1f} s "
-                "(a step in the fixes; split the log there if it is not a receiver offset)"
-            )
-    if not (track.rejected_position_samples or track.rejected_heading_samples):
-        return log
-    x_m, y_m, heading_rad = track.deglitched(log.x_m, log.y_m, log.heading_rad)
-    return replace(log, x_m=x_m, y_m=y_m, heading_rad=heading_rad)
-
-
-def ekf_order(logs: Sequence[ManeuverLog]) -> list[int]:
-    """Return the order in which the EKF runs through ``logs`` (unless the current drifts).
-
-    By the largest rudder angle of each log, smallest first: the EKF's coefficients are a
-    random walk, so its estimate weighs the log it ends on most, and the log of the
-    largest rudder angles is the nearest to the hard-over turns a model is asked to predict
-    (``benchmarks/environment.md``, "The same logs in the other order": that log last
-    predicted the KVLCC2 35° turn 1.6–2.8 points better in six fits of six). Logs of one
-    largest angle in the order of their content (SHA-256 of the channels), so that the
-    estimate is the same for the logs given in any order.
-    """
-
-    def content(log: ManeuverLog) -> str:
-        channels = (log.time_s, log.x_m, log.y_m, log.heading_rad, log.rudder_rad, log.n_rps)
-        digest = hashlib.sha256()
-        for channel in channels:
-            digest.update(np.ascontiguousarray(channel, dtype=np.float64).tobytes())
-        return digest.hexdigest()
-
-    keys = [(float(np.max(np.abs(log.rudder_rad))), content(log)) for log in logs]
-    return sorted(range(len(logs)), key=keys.__getitem__)
-
-
-def sailed_order(logs: Sequence[ManeuverLog]) -> tuple[list[int], list[float]]:
-    """Return the order the logs were sailed in, and each one's time since the one before [s].
-
-    By their ``time_origin_utc`` (``identifier convert`` writes it) when every log has one,
-    the gaps between one's last sample and the next one's first (the first log's 0, an
-    overlap's 0); else the order given, no gaps known (all 0). A drifting current walks
-    through the runs and the time between them (``identifier.ekf.EkfSegment.current_gap_s``).
-    """
-    origins = [log.time_origin_utc for log in logs]
-    if any(origin is None for origin in origins):
-        return list(range(len(logs))), [0.0] * len(logs)
-    first = min(o for o in origins if o is not None)
-    spans = [
-        ((o - first).total_seconds() + float(log.time_s[0]),
-         (o - first).total_seconds() + float(log.time_s[-1]))
-        for o, log in zip(origins, logs, strict=True) if o is not None
-    ]  # fmt: skip
-    order = sorted(range(len(logs)), key=lambda i: spans[i][0])
-    gaps = [0.0] + [max(spans[b][0] - spans[a][1], 0.0) for a, b in itertools.pairwise(order)]
-    return order, gaps
-
-
-def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
-    """Reject logs in which the rudder never leaves midship (nothing to identify)."""
-    if any(np.max(np.abs(log.rudder_rad)) > EXECUTE_RUDDER_RAD for log in logs):
-        return
-    limit = math.degrees(EXECUTE_RUDDER_RAD)
-    where = "the log" if len(logs) == 1 else "every log"
-    raise IdentificationError(
-        f"no rudder excitation: nothing to identify (the rudder stays within ±{limit:g} deg "
-        f"in {where}); expected a manoeuvre: a zig-zag or a turning circle",
-        log=_log_name(logs[0], 0) if len(logs) == 1 else None,
-    )
-
-
-def thrust_warning(params: ModelParameters) -> str | None:
-    """Return a warning when the estimate's propeller thrust is not a propeller's, else None.
-
-    The thrust of the prime families, X_nn·n²L + X_un·u·n, is a fixed-pitch propeller's
-    only with a thrust at bollard (X_nn > 0) that falls as the ship gains speed (X_un < 0:
-    K_T falls with the advance ratio J). Logs at one rpm fix the sum at the approach, not
-    the split; split the other way the model loses its thrust as it slows in a hard turn
-    and may stop there (benchmarks/hsva.md, "The propeller thrust is why";
-    ``prime-rudder-thrust`` fixes the split). Families without both terms: None.
-    """
-    coefficients = params.as_dict()
-    if "X_nn" not in coefficients or "X_un" not in coefficients:
-        return None
-    if coefficients["X_nn"] > 0.0 and coefficients["X_un"] < 0.0:
-        return None
-    return (
-        f"the identified propeller thrust is not a propeller's (X_nn = {coefficients['X_nn']:.3g}, "
-        f"X_un = {coefficients['X_un']:.3g}; a thrust at bollard needs X_nn > 0, one that "
-        "falls with speed X_un < 0): logs at one rpm fix the thrust at the approach only, "
-        "and turns, where the ship slows, extrapolate badly; add a run at another rpm "
-        "(an acceleration or a stopping run) or a turning circle, or fit with --model "
-        "prime-rudder-thrust (a thrust of fixed open-water slope)"
-    )
-
-
-TURN_SURGE_TERMS = ("X_vr", "X_vv", "X_rr")
-"""The prime families' surge terms of a hard turn: the centripetal v·r and the drag of
-drift and yaw, which set the speed a model keeps in a turn."""
-
-
-def turn_surge_warning(
-    weak: Sequence[str], *, turn_logged: bool, held: Sequence[str] = ()
-) -> str | None:
-    """Return a warning when the surge force of a hard turn is left open, else None.
-
-    ``weak``: the coefficients the logs do not determine. Zig-zags leave
-    :data:`TURN_SURGE_TERMS` open, and those alone move the held-out 35° turn of a
-    KVLCC2 fit by 30 points (benchmarks/fidelity.md, "Where the KVLCC2 turn's error
-    lives"). ``held``: the coefficients the family holds by a zero-mean prior (the
-    default's X_vv, X_rr, ``fmu_model.variants.with_surge_drag_prior``); the warning says
-    which of the open ones keep the prior's value rather than the logs'. None when a log
-    turns through 180° (``turn_logged``: it fixes them) or none of them is weak.
-    """
-    open_terms = [name for name in TURN_SURGE_TERMS if name in weak]
-    if turn_logged or not open_terms:
-        return None
-    by_prior = [name for name in open_terms if name in held]
-    keep = "keeps" if len(by_prior) == 1 else "keep"
-    prior = (
-        f"; {', '.join(by_prior)} {keep} the family's prior (near zero, a ship's size)"
-        if by_prior
-        else ""
-    )
-    return (
-        f"the surge force of a hard turn ({', '.join(open_terms)}) is not determined by "
-        "these logs, and it sets the speed the model keeps in a turn: its turning circles "
-        "are extrapolated (on the KVLCC2 reference these terms alone move a zig-zag fit's "
-        f"35 deg tactical diameter by 30 points){prior}; add a turning circle to the logs"
-    )
-
-
-def model_current_warning(length_m: float, current: CurrentEstimate | None) -> str | None:
-    """Return a warning when a model's fit was asked for a current no speed log measures.
-
-    Below ``MODEL_SCALE_MAX_LENGTH_M`` the logs are mostly a model's in a basin, whose
-    water is still: a current estimated there is the structure's error (the HSVA runs:
-    0.03–0.04 m/s at 1.18 m/s), traded against the hull's coefficients. Not for
-    ``--current auto``, a model's default, which keeps a current only where the logs show
-    one (``identifier.current.choose_current``). None otherwise.
-    """
-    if length_m >= MODEL_SCALE_MAX_LENGTH_M or current is None or current.measured:
-        return None
-    return (
-        f"L = {length_m:g} m, a model's size: in a basin's still water the current found "
-        f"here ({current.speed_mps:.3f} m/s) is the structure's error, and it trades against "
-        "the hull's coefficients; fit tank tests with --current none (or auto, the default "
-        "at this size)"
-    )
-
-
-def centripetal_warning(params: ModelParameters) -> str | None:
-    """Return a warning when the estimate's surge v·r term has no ship's sign, else None.
-
-    In the prime families u̇ holds X_vr·v·r, the centripetal term of the surge equation,
-    (m + m_y + X′_vr)/(m + m_x) for a ship: positive, about 1–2 (1.85 for the KVLCC2 MMG
-    model, 0.95 for the Mariner's Abkowitz model). Zig-zags at one rpm leave the surge
-    terms of a turn nearly collinear, and a fit can end with X_vr ≤ 0 (the HSVA 10/10 pair
-    fitted with a current estimated: −20, benchmarks/hsva.md, "Where the 20°/10° second
-    overshoots go wrong"): its speed in manoeuvres harder than the logs' is then no ship's.
-    Families without the term: None.
-    """
-    x_vr = params.as_dict().get("X_vr")
-    if x_vr is None or x_vr > 0.0:
-        return None
-    return (
-        f"the identified centripetal surge term X_vr = {x_vr:.3g} is not positive, as a ship's "
-        "is ((m + m_y)/(m + m_x), about 1 to 2): the speed the model keeps in harder "
-        "manoeuvres than the logs' is not to be trusted; add a turning circle, or fit tank "
-        "tests with --current none"
-    )
 
 
 def identify(
@@ -953,9 +618,10 @@ def identify(
     Parameters
     ----------
     logs : sequence of ManeuverLog
-        One manoeuvre each, in any order: the EKF runs through them in :func:`ekf_order`
-        (with ``settings.current == "drifting"`` in the order sailed, :func:`sailed_order`);
-        the result's logs, tracks and EKF histories are in that order.
+        One manoeuvre each, in any order: the EKF runs through them in
+        :func:`~identifier.preparation.ekf_order` (with ``settings.current == "drifting"``
+        in the order sailed, :func:`~identifier.preparation.sailed_order`); the result's
+        logs, tracks and EKF histories are in that order.
     settings : FitSettings, optional
         Defaults when omitted.
     length_m : float, optional
@@ -1004,8 +670,17 @@ def identify(
     # repeat on stderr what the error says.
     stage = stage or _no_stage
     with np.errstate(all="ignore"):
-        data = _smooth(logs, settings, progress, stage)
-        helm_note = _neutral_helm_note(data, settings.model)
+        data = smooth_logs(
+            logs,
+            position_noise_m=settings.position_noise_m,
+            heading_noise_rad=settings.heading_noise_rad,
+            measurements=settings.measurements,
+            windage=settings.windage,
+            drifting=settings.current == "drifting",
+            progress=progress,
+            stage=stage,
+        )
+        helm_note = neutral_helm_note(data, settings.model)
         if helm_note is not None:
             data = replace(data, notes=(*data.notes, helm_note))
         if settings.current in (DEFAULT_CURRENT, "drifting", "auto"):  # one current for all
@@ -1022,8 +697,8 @@ def identify(
 
 
 def _one_current_or_per_log(
-    settings: FitSettings, data: _SmoothedLogs, *, by_default: bool
-) -> tuple[FitSettings, _SmoothedLogs]:
+    settings: FitSettings, data: SmoothedLogs, *, by_default: bool
+) -> tuple[FitSettings, SmoothedLogs]:
     """Check a fit of one current for all the logs against what the logs show, once.
 
     Where the logs' approaches or speed logs show different currents
@@ -1056,7 +731,7 @@ def _one_current_or_per_log(
 
 
 def _fit_auto_current(
-    data: _SmoothedLogs,
+    data: SmoothedLogs,
     settings: FitSettings,
     fit: Callable[
         [FitSettings, Callable[[int], None] | None, Callable[[str], None]], IdentificationResult
@@ -1113,7 +788,7 @@ def _labelled(stage: Callable[[str], None], label: str) -> Callable[[str], None]
     return labelled
 
 
-def _training_track_rms_m(result: IdentificationResult, data: _SmoothedLogs) -> float:
+def _training_track_rms_m(result: IdentificationResult, data: SmoothedLogs) -> float:
     """RMS distance of ``result``'s predictions of its training logs from their tracks [m].
 
     Every sample after each log's execute counts alike; a fit with a current predicts the
@@ -1153,7 +828,7 @@ def _with_choice(
 
 
 def _fit_thrust_ruled(
-    data: _SmoothedLogs,
+    data: SmoothedLogs,
     settings: FitSettings,
     progress: Callable[[int], None] | None,
     stage: Callable[[str], None],
@@ -1164,7 +839,7 @@ def _fit_thrust_ruled(
     """Return :func:`_fit`'s result, refitted with a thrust of fixed slope if need be.
 
     Refitted (``fixed_thrust_model``) when the free thrust is not a propeller's
-    (:func:`thrust_warning`), and recorded why.
+    (:func:`~identifier.diagnostics.thrust_warning`), and recorded why.
     """
     result = _fit(data, settings, length, vessel, progress, stage)
     fixed_slope = fixed_thrust_model(settings.model)
@@ -1206,7 +881,8 @@ def fixed_thrust_model(model: str) -> str | None:
     ``prime-rudder-thrust`` for ``prime-rudder``, ``prime-rudder-offset-thrust`` for
     ``prime-rudder-offset`` and ``prime-crossflow-thrust`` for ``prime-crossflow`` (bare
     or with constants, which the refit fixes as well); None
-    for every other model, whose thrust :func:`thrust_warning` only warns about.
+    for every other model, whose thrust :func:`~identifier.diagnostics.thrust_warning`
+    only warns about.
     """
     parsed = parse_family(model)
     if parsed is None:
@@ -1220,158 +896,8 @@ def fixed_thrust_model(model: str) -> str | None:
     return f"{fixed_family}[" + ",".join(f"{k}={v!r}" for k, v in fixed.items()) + "]"
 
 
-@dataclass(frozen=True)
-class _SmoothedLogs:
-    """The logs as given, deglitched, smoothed and as EKF segments: what every fit starts from.
-
-    Every tuple is in the order the EKF runs through the logs (:func:`ekf_order`, or the
-    order sailed with a drifting current); ``names`` keep the places given ("log 2").
-
-    Smoothing depends on the logs and the noise settings only, not on the model, so a
-    refit (``identify``'s thrust rule) starts from the same.
-    """
-
-    given: tuple[ManeuverLog, ...]
-    logs: tuple[ManeuverLog, ...]  # the glitches replaced by the smoother's estimates
-    tracks: tuple[SmoothedTrack, ...]
-    segments: tuple[EkfSegment, ...]
-    warnings: tuple[str, ...]
-    notes: tuple[str, ...]
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """The logs' names (paths, or "log k" by the place given), in the EKF's order."""
-        return tuple(segment.name for segment in self.segments)
-
-
-def _smooth(
-    logs: Sequence[ManeuverLog],
-    settings: FitSettings,
-    progress: Callable[[int], None] | None,
-    stage: Callable[[str], None],
-) -> _SmoothedLogs:
-    """Check, smooth and deglitch every log; warn of what the fits cannot fix."""
-    warnings: list[str] = []
-    notes: list[str] = []
-    tracks: list[SmoothedTrack] = []
-    segments: list[EkfSegment] = []
-    cleaned = []
-    for i, given in enumerate(logs):
-        name = _log_name(given, i)
-        log = at_midship(given)  # the GNSS antenna's track reduced to the model's origin
-        if log is not given:
-            along, across = (given.on_board_m(key) or 0.0 for key in ("gnss_x_m", "gnss_y_m"))
-            notes.append(
-                f"{name}: positions reduced to midship from the GNSS antenna's, "
-                f"{abs(along):g} m {'aft' if along < 0.0 else 'forward'} and "
-                f"{abs(across):g} m to {'port' if across < 0.0 else 'starboard'}"
-            )
-        _check_sampling(log, name)
-        stage(f"smoothing {Path(name).name}")
-        track = smooth_track(
-            log.time_s,
-            log.x_m,
-            log.y_m,
-            log.heading_rad,
-            position_noise_m=settings.position_noise_m,
-            heading_noise_rad=settings.heading_noise_rad,
-        )
-        _check_track(track, name)
-        log = _deglitched(log, track, name, notes, warnings)
-        if log.stw_transverse_mps is not None and log.on_board_m("speed_log_x_m") is None:
-            warnings.append(
-                f"{name}: the speed log's transverse axis (stw_transverse_mps) was not used: "
-                "its position is not given (metadata speed_log_x_m, metres forward of "
-                "midship: there the sway speed is v + x·r)"
-            )
-            log = replace(log, stw_transverse_mps=None)
-        cleaned.append(log)
-        if track.position_noise_m > MAX_POSITION_NOISE_M:
-            warnings.append(
-                f"{name}: position noise {track.position_noise_m:.1f} m is unusually high"
-            )
-        if track.heading_noise_rad > MAX_HEADING_NOISE_RAD:
-            warnings.append(
-                f"{name}: heading noise {math.degrees(track.heading_noise_rad):.2f} deg "
-                "is unusually high"
-            )
-        tracks.append(track)
-        segments.append(
-            EkfSegment(
-                name=name,
-                time_s=log.time_s,
-                velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
-                velocity_std=_velocity_std(track, settings.measurements),
-                track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
-                track_std=np.array(
-                    [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]
-                ),
-                initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
-                rudder_rad=log.rudder_rad,
-                n_rps=log.n_rps,
-                known_acceleration=known_acceleration(log, settings.windage),
-            )
-        )
-        if progress is not None:
-            progress(log.n_samples)
-
-    _check_rudder(cleaned)
-    with_wind = [_log_name(log, i) for i, log in enumerate(cleaned) if has_wind(log)]
-    if with_wind and settings.windage is None:
-        warnings.append(
-            f"{len(with_wind)} of {len(cleaned)} logs carry a measured wind, but no windage was "
-            "given: its load stays in the coefficients (give --windage FILE.json)"
-        )
-    # A drifting current's random walk runs through the logs in the order they were sailed.
-    if settings.current == "drifting":
-        order, gaps = sailed_order(cleaned)
-        for i, gap in zip(order, gaps, strict=True):
-            segments[i] = replace(segments[i], current_gap_s=gap)
-    else:
-        order = ekf_order(cleaned)
-    names = ", ".join(Path(segments[i].name).name for i in order)
-    if settings.current == "drifting" and order != sorted(order):
-        notes.append(f"the EKF runs through the logs in the order sailed (their times): {names}")
-    elif order != sorted(order):
-        notes.append(
-            f"the EKF runs through the logs by their largest rudder angle, smallest first "
-            f"(its estimate weighs the last most): {names}"
-        )
-    return _SmoothedLogs(
-        given=tuple(logs[i] for i in order),
-        logs=tuple(cleaned[i] for i in order),
-        tracks=tuple(tracks[i] for i in order),
-        segments=tuple(segments[i] for i in order),
-        warnings=tuple(warnings),
-        notes=tuple(notes),
-    )
-
-
-def _neutral_helm_note(data: _SmoothedLogs, model: str) -> str | None:
-    """Say when the logs approach at a helm off the centre line the model has no term for.
-
-    A single-screw ship runs straight at a neutral helm off the centre line (the Mariner
-    reference 1.1° to port); ``prime-rudder-offset`` models it, the other families
-    explain it by their hull and rudder gains (benchmarks/fidelity.md, "A ship of another
-    structure"). None when every log's approach helm is within
-    :data:`NEUTRAL_HELM_NOTE_RAD` of amidships, or the model has the offset.
-    """
-    parsed = parse_family(model)
-    if parsed is not None and any(c.symbol == NEUTRAL_RUDDER_OFFSET for c in parsed[0].shape):
-        return None
-    helms = [approach_helm_rad(log) for log in data.logs]
-    i = int(np.argmax(np.abs(helms)))
-    if abs(helms[i]) <= NEUTRAL_HELM_NOTE_RAD:
-        return None
-    return (
-        f"{data.names[i]} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
-        f"(mean rudder before execute): a single screw's neutral helm, which "
-        f"{family_name(model)} has no term for; --model {PRIME_RUDDER_OFFSET.name} has one"
-    )
-
-
 def _fit(
-    data: _SmoothedLogs,
+    data: SmoothedLogs,
     settings: FitSettings,
     length: float,
     vessel: str,

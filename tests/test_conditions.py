@@ -11,6 +11,7 @@ import pytest
 
 from fmu_model import DEFAULT_MODEL, ModelParameters
 from identifier import identify as identify_module
+from identifier import preparation
 from identifier.identify import FitSettings, IdentificationResult, fixed_thrust_model, identify
 from identifier.output_error import VirtualTurn
 from identifier.output_error.guards import virtual_turns
@@ -202,7 +203,7 @@ def test_a_failed_refit_keeps_the_free_split_warned_about(
     """A refit that fails (a diverging EKF, say) does not lose the fit that worked; the
     three fits (free, refit, free again) start from one smoothing of each log."""
     first_pass = identify_module._fit
-    smooth = identify_module.smooth_track
+    smooth = preparation.smooth_track
     smoothed = []
 
     def counted(*args, **kwargs):  # type: ignore[no-untyped-def]
@@ -218,7 +219,7 @@ def test_a_failed_refit_keeps_the_free_split_warned_about(
         return first_pass(data, settings, *args)
 
     monkeypatch.setattr(identify_module, "_fit", refit_fails)
-    monkeypatch.setattr(identify_module, "smooth_track", counted)
+    monkeypatch.setattr(preparation, "smooth_track", counted)
     runs = [hsva["hsva_zz10_stbd"], hsva["hsva_zz10_port"]]
     result = identify(runs, FitSettings(current="none"), length_m=7.0)
     assert smoothed == [run.n_samples for run in runs]

@@ -30,7 +30,8 @@ from identifier.current import (
     with_approach_cross,
 )
 from identifier.ekf import ekf_identify
-from identifier.identify import IdentificationResult, identify, sailed_order
+from identifier.identify import IdentificationResult, identify
+from identifier.preparation import sailed_order
 from identifier.smoothing import SmoothedTrack, smooth_track
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from tests.test_identify import SEED, TRAINING, _ship

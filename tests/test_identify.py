@@ -22,16 +22,9 @@ from fmu_model.variants import (
 )
 from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
-from identifier.identify import (
-    FitSettings,
-    IdentificationResult,
-    centripetal_warning,
-    ekf_order,
-    fixed_thrust_model,
-    identify,
-    thrust_warning,
-    turn_surge_warning,
-)
+from identifier.diagnostics import centripetal_warning, thrust_warning, turn_surge_warning
+from identifier.identify import FitSettings, IdentificationResult, fixed_thrust_model, identify
+from identifier.preparation import ekf_order
 from scenarios.kvlcc2 import kvlcc2
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, reference_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS

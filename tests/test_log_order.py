@@ -1,5 +1,5 @@
 """The logs' order: with a constant current (or none) ``fit`` runs the EKF through the logs
-by their largest rudder angle (``identifier.identify.ekf_order``), so the logs given in any
+by their largest rudder angle (``identifier.preparation.ekf_order``), so the logs given in any
 order give the same model; a drifting current keeps the order they were sailed in."""
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ import pytest
 
 from fmu_model import load_params
 from identifier.cli import main
-from identifier.identify import FitSettings, ekf_order, identify
+from identifier.identify import FitSettings, identify
+from identifier.preparation import ekf_order
 from scenarios.synthesize import MANEUVERS, synthesize_log
 from tests.test_identify import _ship
 from trials.logs import ManeuverLog, write_log

@@ -15,7 +15,7 @@ import pytest
 from fmu_model import ModelParameters, get_model, numeric_model
 from fmu_model.kernels import kernel_constants, kernel_module
 from identifier import ekf as ekf_module
-from identifier import equation_error, smoothing
+from identifier import equation_error, preparation, smoothing
 from identifier import identify as identify_module
 from identifier.ekf import (
     EkfSegment,
@@ -324,11 +324,11 @@ def test_velocity_std_is_held_per_sample_only_when_the_ekf_measures_the_velociti
     log = _seed_log()
     track = smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
     first = np.array([track.u_std_mps[0], track.v_std_mps[0], track.r_std_radps[0]])
-    per_sample = identify_module._velocity_std(track, "velocities")
+    per_sample = preparation._velocity_std(track, "velocities")
     assert per_sample.shape == (log.n_samples, 3) and per_sample.strides[0] > 0
     np.testing.assert_array_equal(per_sample[:, 1], track.v_std_mps)
     assert np.ptp(per_sample[:, 1]) > 0.0  # a σ that changes along the log
-    held = identify_module._velocity_std(track, "track")
+    held = preparation._velocity_std(track, "track")
     assert held.shape == (log.n_samples, 3) and held.strides[0] == 0  # one row in memory
     np.testing.assert_array_equal(held[-1], first)
 

@@ -1,0 +1,149 @@
+"""What a fit's estimate or logs leave in doubt: the warnings and notes of ``identify``.
+
+Pure judgements of an estimate (its propeller thrust, its centripetal surge term), of
+what the logs determine (the surge force of a hard turn), of a current asked of a
+model's logs, and of an approach at a helm off the centre line that the model family has
+no term for. Each returns its text, or None where there is nothing to say.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from fmu_model import ModelParameters
+from fmu_model.variants import NEUTRAL_RUDDER_OFFSET, PRIME_RUDDER_OFFSET, family_name, parse_family
+from identifier.current import CurrentEstimate
+from identifier.preparation import SmoothedLogs
+from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, approach_helm_rad
+
+NEUTRAL_HELM_NOTE_RAD = math.radians(0.5)
+"""An approach helm [rad] beyond which ``identify`` notes the neutral-rudder family: above a
+rudder indicator's resolution, below the Mariner's 1.1° (the HSVA runs approach within 0.02°)."""
+
+
+def thrust_warning(params: ModelParameters) -> str | None:
+    """Return a warning when the estimate's propeller thrust is not a propeller's, else None.
+
+    The thrust of the prime families, X_nn·n²L + X_un·u·n, is a fixed-pitch propeller's
+    only with a thrust at bollard (X_nn > 0) that falls as the ship gains speed (X_un < 0:
+    K_T falls with the advance ratio J). Logs at one rpm fix the sum at the approach, not
+    the split; split the other way the model loses its thrust as it slows in a hard turn
+    and may stop there (benchmarks/hsva.md, "The propeller thrust is why";
+    ``prime-rudder-thrust`` fixes the split). Families without both terms: None.
+    """
+    coefficients = params.as_dict()
+    if "X_nn" not in coefficients or "X_un" not in coefficients:
+        return None
+    if coefficients["X_nn"] > 0.0 and coefficients["X_un"] < 0.0:
+        return None
+    return (
+        f"the identified propeller thrust is not a propeller's (X_nn = {coefficients['X_nn']:.3g}, "
+        f"X_un = {coefficients['X_un']:.3g}; a thrust at bollard needs X_nn > 0, one that "
+        "falls with speed X_un < 0): logs at one rpm fix the thrust at the approach only, "
+        "and turns, where the ship slows, extrapolate badly; add a run at another rpm "
+        "(an acceleration or a stopping run) or a turning circle, or fit with --model "
+        "prime-rudder-thrust (a thrust of fixed open-water slope)"
+    )
+
+
+TURN_SURGE_TERMS = ("X_vr", "X_vv", "X_rr")
+"""The prime families' surge terms of a hard turn: the centripetal v·r and the drag of
+drift and yaw, which set the speed a model keeps in a turn."""
+
+
+def turn_surge_warning(
+    weak: Sequence[str], *, turn_logged: bool, held: Sequence[str] = ()
+) -> str | None:
+    """Return a warning when the surge force of a hard turn is left open, else None.
+
+    ``weak``: the coefficients the logs do not determine. Zig-zags leave
+    :data:`TURN_SURGE_TERMS` open, and those alone move the held-out 35° turn of a
+    KVLCC2 fit by 30 points (benchmarks/fidelity.md, "Where the KVLCC2 turn's error
+    lives"). ``held``: the coefficients the family holds by a zero-mean prior (the
+    default's X_vv, X_rr, ``fmu_model.variants.with_surge_drag_prior``); the warning says
+    which of the open ones keep the prior's value rather than the logs'. None when a log
+    turns through 180° (``turn_logged``: it fixes them) or none of them is weak.
+    """
+    open_terms = [name for name in TURN_SURGE_TERMS if name in weak]
+    if turn_logged or not open_terms:
+        return None
+    by_prior = [name for name in open_terms if name in held]
+    keep = "keeps" if len(by_prior) == 1 else "keep"
+    prior = (
+        f"; {', '.join(by_prior)} {keep} the family's prior (near zero, a ship's size)"
+        if by_prior
+        else ""
+    )
+    return (
+        f"the surge force of a hard turn ({', '.join(open_terms)}) is not determined by "
+        "these logs, and it sets the speed the model keeps in a turn: its turning circles "
+        "are extrapolated (on the KVLCC2 reference these terms alone move a zig-zag fit's "
+        f"35 deg tactical diameter by 30 points){prior}; add a turning circle to the logs"
+    )
+
+
+def model_current_warning(length_m: float, current: CurrentEstimate | None) -> str | None:
+    """Return a warning when a model's fit was asked for a current no speed log measures.
+
+    Below ``MODEL_SCALE_MAX_LENGTH_M`` the logs are mostly a model's in a basin, whose
+    water is still: a current estimated there is the structure's error (the HSVA runs:
+    0.03–0.04 m/s at 1.18 m/s), traded against the hull's coefficients. Not for
+    ``--current auto``, a model's default, which keeps a current only where the logs show
+    one (``identifier.current.choose_current``). None otherwise.
+    """
+    if length_m >= MODEL_SCALE_MAX_LENGTH_M or current is None or current.measured:
+        return None
+    return (
+        f"L = {length_m:g} m, a model's size: in a basin's still water the current found "
+        f"here ({current.speed_mps:.3f} m/s) is the structure's error, and it trades against "
+        "the hull's coefficients; fit tank tests with --current none (or auto, the default "
+        "at this size)"
+    )
+
+
+def centripetal_warning(params: ModelParameters) -> str | None:
+    """Return a warning when the estimate's surge v·r term has no ship's sign, else None.
+
+    In the prime families u̇ holds X_vr·v·r, the centripetal term of the surge equation,
+    (m + m_y + X′_vr)/(m + m_x) for a ship: positive, about 1–2 (1.85 for the KVLCC2 MMG
+    model, 0.95 for the Mariner's Abkowitz model). Zig-zags at one rpm leave the surge
+    terms of a turn nearly collinear, and a fit can end with X_vr ≤ 0 (the HSVA 10/10 pair
+    fitted with a current estimated: −20, benchmarks/hsva.md, "Where the 20°/10° second
+    overshoots go wrong"): its speed in manoeuvres harder than the logs' is then no ship's.
+    Families without the term: None.
+    """
+    x_vr = params.as_dict().get("X_vr")
+    if x_vr is None or x_vr > 0.0:
+        return None
+    return (
+        f"the identified centripetal surge term X_vr = {x_vr:.3g} is not positive, as a ship's "
+        "is ((m + m_y)/(m + m_x), about 1 to 2): the speed the model keeps in harder "
+        "manoeuvres than the logs' is not to be trusted; add a turning circle, or fit tank "
+        "tests with --current none"
+    )
+
+
+def neutral_helm_note(data: SmoothedLogs, model: str) -> str | None:
+    """Say when the logs approach at a helm off the centre line the model has no term for.
+
+    A single-screw ship runs straight at a neutral helm off the centre line (the Mariner
+    reference 1.1° to port); ``prime-rudder-offset`` models it, the other families
+    explain it by their hull and rudder gains (benchmarks/fidelity.md, "A ship of another
+    structure"). None when every log's approach helm is within
+    :data:`NEUTRAL_HELM_NOTE_RAD` of amidships, or the model has the offset.
+    """
+    parsed = parse_family(model)
+    if parsed is not None and any(c.symbol == NEUTRAL_RUDDER_OFFSET for c in parsed[0].shape):
+        return None
+    helms = [approach_helm_rad(log) for log in data.logs]
+    i = int(np.argmax(np.abs(helms)))
+    if abs(helms[i]) <= NEUTRAL_HELM_NOTE_RAD:
+        return None
+    return (
+        f"{data.names[i]} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
+        f"(mean rudder before execute): a single screw's neutral helm, which "
+        f"{family_name(model)} has no term for; --model {PRIME_RUDDER_OFFSET.name} has one"
+    )
