@@ -1,9 +1,10 @@
 """What a fit's estimate or logs leave in doubt: the warnings and notes of ``identify``.
 
 Pure judgements of an estimate (its propeller thrust, its centripetal surge term), of
-what the logs determine (the surge force of a hard turn), of a current asked of a
-model's logs, and of an approach at a helm off the centre line that the model family has
-no term for. Each returns its text, or None where there is nothing to say.
+what the logs determine (the surge force of a hard turn; a current their headings barely
+tell from the ship's speed), of a current asked of a model's logs, and of an approach at
+a helm off the centre line that the model family has no term for. Each returns its text,
+or None where there is nothing to say.
 """
 
 from __future__ import annotations
@@ -15,8 +16,9 @@ import numpy as np
 
 from fmu_model import ModelParameters
 from fmu_model.variants import NEUTRAL_RUDDER_OFFSET, PRIME_RUDDER_OFFSET, family_name, parse_family
-from identifier.current import CurrentEstimate
+from identifier.current import MIN_HEADING_SPAN_RAD, CurrentEstimate, heading_span_rad
 from identifier.preparation import SmoothedLogs
+from identifier.smoothing import SmoothedTrack
 from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, approach_helm_rad
 
 NEUTRAL_HELM_NOTE_RAD = math.radians(0.5)
@@ -146,4 +148,32 @@ def neutral_helm_note(data: SmoothedLogs, model: str) -> str | None:
         f"{data.names[i]} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
         f"(mean rudder before execute): a single screw's neutral helm, which "
         f"{family_name(model)} has no term for; --model {PRIME_RUDDER_OFFSET.name} has one"
+    )
+
+
+def heading_span_warning(current: CurrentEstimate, tracks: Sequence[SmoothedTrack]) -> str | None:
+    """Return a warning when the logs' headings barely tell a current from the ship's speed.
+
+    A current along the course and the ship's own speed move the track alike; headings
+    spanning less than ``MIN_HEADING_SPAN_RAD`` tell them apart poorly. Judged on the
+    logs together, or with a current per log on each log alone; a current a speed log
+    measures needs no span. None otherwise.
+    """
+    if current.logs:  # each current is told from its own log alone
+        span_rad = min(
+            (heading_span_rad([t]) for c, t in zip(current.logs, tracks, strict=True)
+             if not c.measured),
+            default=math.inf,
+        )  # fmt: skip
+    else:
+        span_rad = math.inf if current.measured else heading_span_rad(tracks)
+    if span_rad >= MIN_HEADING_SPAN_RAD:
+        return None
+    whose = "a log's" if current.logs else "the logs'"
+    return (
+        f"{whose} headings span {math.degrees(span_rad):.0f} deg: "
+        "the current along the course is barely told apart from the ship's own "
+        "speed (add a turning circle of 360 deg or more, or runs on other headings, "
+        "or a speed log's column stw_mps, or fit with --current none if the water "
+        "was still)"
     )

@@ -79,7 +79,6 @@ from identifier.current import (
     DEFAULT_CURRENT,
     DRIFTING_RANDOM_WALK_MPS,
     MAX_CURRENT_ITERATIONS,
-    MIN_HEADING_SPAN_RAD,
     PER_LOG,
     SHAPE_PASSES,
     SPEED_LOG_SCALE_STD,
@@ -92,7 +91,6 @@ from identifier.current import (
     current_model_form,
     current_tolerance_mps,
     default_current,
-    heading_span_rad,
     initial_current,
     speed_log_current,
     speed_log_noise_mps,
@@ -102,6 +100,7 @@ from identifier.current import (
 )
 from identifier.diagnostics import (
     centripetal_warning,
+    heading_span_warning,
     model_current_warning,
     neutral_helm_note,
     thrust_warning,
@@ -410,53 +409,13 @@ def _estimate_current(
     The equation-error start is fitted on the velocities through the water for the
     current so far (from what a speed log shows alone, ``speed_log_current``, else from
     what the approaches show, ``initial_current``), the EKF estimates the current with
-    the coefficients from it, until the current settles; the shape is chosen for the
-    starting current and once more for the settled one. The EKF's prior of the current
-    is the current so far with :data:`CURRENT_PRIOR_STD_MPS`; a speed log (a plausible
-    one, :meth:`SpeedLogFit.implausible`) is a measurement of every pass, its scale error
-    a state (``identifier.ekf.SpeedLogMeasurement``, its noise from the log,
-    ``speed_log_noise_mps``). A last EKF pass over
-    every sample (with progress, and the random walk of a drifting current) gives the
-    estimate. The passes before it (on windows of long logs, ``ALTERNATION_MAX_SAMPLES``)
-    report no progress; when one of them diverges (a start the filter cannot follow),
-    the alternation stops and the last pass starts where the last pass that converged
-    started.
+    the coefficients from it, until the current settles (:func:`_alternate`). A speed log
+    (a plausible one, :meth:`SpeedLogFit.implausible`) is a measurement of every pass,
+    its scale error a state (:func:`_with_speed_log`). A last EKF pass over every sample
+    (with progress, and the random walk of a drifting current) gives the estimate.
     """
     per_log = settings.current == PER_LOG
-    # What the speed log shows alone: of all the logs' one current, or of each log's own.
-    if per_log:
-        alone = [
-            speed_log_current([log], [track], settings.speed_log_scale_std)
-            for log, track in zip(logs, tracks, strict=True)
-        ]
-        labels = [f"{seg.name}: " for seg in segments]
-    else:
-        alone, labels = [speed_log_current(logs, tracks, settings.speed_log_scale_std)], [""]
-    ignored = next(
-        (label + why for label, fit in zip(labels, alone, strict=True)
-         if fit is not None and (why := fit.implausible()) is not None),
-        None,
-    )  # fmt: skip
-    if ignored is not None:
-        alone = [None] * len(alone)  # a broken log: the track alone, as without one
-    measurement = None
-    if any(fit is not None for fit in alone):
-        noise_mps = speed_log_noise_mps(logs)
-        assert noise_mps is not None  # a log carries stw_mps
-        measurement = SpeedLogMeasurement(
-            noise_mps,
-            settings.speed_log_scale_std,
-            speed_log_noise_mps(logs, "stw_transverse_mps"),  # a two-axis log's other axis
-        )
-        segments = [
-            replace(
-                seg,
-                speed_log_mps=log.stw_mps,
-                speed_log_transverse_mps=log.stw_transverse_mps,
-                speed_log_x_m=log.on_board_m("speed_log_x_m") or 0.0,  # given with the axis
-            )
-            for seg, log in zip(segments, logs, strict=True)
-        ]
+    alone, ignored, measurement, segments = _with_speed_log(settings, segments, tracks, logs)
     if per_log:  # (logs, 2): each log's own start, as below for one
         current = np.array([
             initial_current([log], [track]) if fit is None else fit.current_ne
@@ -464,57 +423,9 @@ def _estimate_current(
         ])  # fmt: skip
     else:
         current = initial_current(logs, tracks) if alone[0] is None else alone[0].current_ne
-    iterations = 0
-    settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
-    sources = [source for source, _ in settling]
-    settled = None  # (shape, structure, start, current) of the last pass that converged
-    diverged = False
-    for _ in range(SHAPE_PASSES):
-        water = water_segments(segments, tracks, current)
-        speed_mps, n_rps = _nominal(logs, water)
-        stage("equation-error start")
-        shape, structure, ls = _structure_and_start(settings, water, length_m, speed_mps, n_rps)
-        del water  # N × 3 velocities: a long log's memory is bounded by what is held
-        for _ in range(MAX_CURRENT_ITERATIONS):
-            stage(f"current: EKF pass {iterations + 1}")
-            try:
-                ekf = _run_ekf(
-                    settings,
-                    structure,
-                    ls,
-                    [window for _, window in settling],
-                    length_m,
-                    None,
-                    current[sources] if per_log else current,
-                    speed_log=measurement,
-                )
-            except IdentificationError:
-                if settled is None:
-                    raise
-                diverged = True  # a start the EKF cannot follow: keep the last it followed
-                break
-            assert ekf.current is not None and ekf.current_covariance is not None
-            settled = (shape, structure, ls, current)
-            found = ekf.current
-            if per_log:  # each log's from its last window (a log without one keeps its own)
-                found = current.copy()
-                for window, source in enumerate(sources):
-                    found[source] = ekf.current[window]
-            change = float(np.max(np.abs(found - current)))
-            current = found
-            iterations += 1
-            ls = equation_error_fit(
-                structure,
-                water_segments(segments, tracks, current),
-                length_m,
-                settings.prior_inflation,
-            )
-            if change < current_tolerance_mps(ekf.current_covariance):
-                break
-        if diverged:
-            assert settled is not None  # set by the pass before, or the error was raised
-            shape, structure, ls, current = settled
-            break
+    shape, structure, ls, current, iterations = _alternate(
+        settings, segments, tracks, logs, length_m, current, measurement, stage
+    )
     stage("EKF on every sample")
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
     ekf = _run_ekf(
@@ -552,6 +463,129 @@ def _estimate_current(
             model_form=model_form,
         )
     return shape, structure, ls, ekf, estimate
+
+
+def _with_speed_log(
+    settings: FitSettings,
+    segments: Sequence[EkfSegment],
+    tracks: Sequence[SmoothedTrack],
+    logs: Sequence[ManeuverLog],
+) -> tuple[list[SpeedLogFit | None], str | None, SpeedLogMeasurement | None, list[EkfSegment]]:
+    """Return what the speed logs show alone, and the segments that measure them in the EKF.
+
+    Returns the current each speed log shows alone (``speed_log_current``: one for all
+    the logs, or with ``per-log`` one per log; None without a log), why they were
+    ignored (a log that is implausible, :meth:`SpeedLogFit.implausible`: then every log
+    is taken as without one), the EKF's measurement of them (its noise from the logs,
+    ``speed_log_noise_mps``; None without) and the segments carrying them.
+    """
+    if settings.current == PER_LOG:
+        alone = [
+            speed_log_current([log], [track], settings.speed_log_scale_std)
+            for log, track in zip(logs, tracks, strict=True)
+        ]
+        labels = [f"{seg.name}: " for seg in segments]
+    else:
+        alone, labels = [speed_log_current(logs, tracks, settings.speed_log_scale_std)], [""]
+    ignored = next(
+        (label + why for label, fit in zip(labels, alone, strict=True)
+         if fit is not None and (why := fit.implausible()) is not None),
+        None,
+    )  # fmt: skip
+    if ignored is not None:
+        alone = [None] * len(alone)  # a broken log: the track alone, as without one
+    if all(fit is None for fit in alone):
+        return alone, ignored, None, list(segments)
+    noise_mps = speed_log_noise_mps(logs)
+    assert noise_mps is not None  # a log carries stw_mps
+    measurement = SpeedLogMeasurement(
+        noise_mps,
+        settings.speed_log_scale_std,
+        speed_log_noise_mps(logs, "stw_transverse_mps"),  # a two-axis log's other axis
+    )
+    measured = [
+        replace(
+            seg,
+            speed_log_mps=log.stw_mps,
+            speed_log_transverse_mps=log.stw_transverse_mps,
+            speed_log_x_m=log.on_board_m("speed_log_x_m") or 0.0,  # given with the axis
+        )
+        for seg, log in zip(segments, logs, strict=True)
+    ]
+    return alone, ignored, measurement, measured
+
+
+def _alternate(
+    settings: FitSettings,
+    segments: Sequence[EkfSegment],
+    tracks: Sequence[SmoothedTrack],
+    logs: Sequence[ManeuverLog],
+    length_m: float,
+    current: np.ndarray,
+    measurement: SpeedLogMeasurement | None,
+    stage: Callable[[str], None],
+) -> tuple[ShapeSelection | None, ModelStructure, EquationErrorFit, np.ndarray, int]:
+    """Alternate the equation-error start and the EKF's current until the current settles.
+
+    From ``current`` (North, East) [m/s], (2,) or one row per log with ``per-log``: the
+    shape and the start are fitted through the water for the current so far, the EKF
+    (its prior of the current the current so far, of σ :data:`CURRENT_PRIOR_STD_MPS`)
+    finds the next, until it moves less than its tolerance (``current_tolerance_mps``);
+    the shape is chosen for the starting current and once more for the settled one
+    (:data:`SHAPE_PASSES`). The passes run on windows of long logs
+    (:data:`ALTERNATION_MAX_SAMPLES`) and report no progress; when one diverges (a start
+    the filter cannot follow) the alternation stops where the last pass that converged
+    started. Returns the shape, structure and start, the current and the EKF passes made.
+    """
+    per_log = settings.current == PER_LOG
+    iterations = 0
+    settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
+    sources = [source for source, _ in settling]
+    settled = None  # (shape, structure, start, current) of the last pass that converged
+    for _ in range(SHAPE_PASSES):
+        water = water_segments(segments, tracks, current)
+        speed_mps, n_rps = _nominal(logs, water)
+        stage("equation-error start")
+        shape, structure, ls = _structure_and_start(settings, water, length_m, speed_mps, n_rps)
+        del water  # N × 3 velocities: a long log's memory is bounded by what is held
+        for _ in range(MAX_CURRENT_ITERATIONS):
+            stage(f"current: EKF pass {iterations + 1}")
+            try:
+                ekf = _run_ekf(
+                    settings,
+                    structure,
+                    ls,
+                    [window for _, window in settling],
+                    length_m,
+                    None,
+                    current[sources] if per_log else current,
+                    speed_log=measurement,
+                )
+            except IdentificationError:
+                if settled is None:
+                    raise
+                # A start the EKF cannot follow: keep the last it followed.
+                shape, structure, ls, current = settled
+                return shape, structure, ls, current, iterations
+            assert ekf.current is not None and ekf.current_covariance is not None
+            settled = (shape, structure, ls, current)
+            found = ekf.current
+            if per_log:  # each log's from its last window (a log without one keeps its own)
+                found = current.copy()
+                for window, source in enumerate(sources):
+                    found[source] = ekf.current[window]
+            change = float(np.max(np.abs(found - current)))
+            current = found
+            iterations += 1
+            ls = equation_error_fit(
+                structure,
+                water_segments(segments, tracks, current),
+                length_m,
+                settings.prior_inflation,
+            )
+            if change < current_tolerance_mps(ekf.current_covariance):
+                break
+    return shape, structure, ls, current, iterations
 
 
 def _per_log_estimate(
@@ -927,50 +961,10 @@ def _fit(
         del water  # a copy of every velocity: not held through the refinement
         if current.speed_log_ignored is not None:
             warnings.append(f"the speed log (stw_mps) was not used: {current.speed_log_ignored}")
-        if current.logs:  # each current is told from its own log alone
-            span_rad = min(
-                (heading_span_rad([t]) for c, t in zip(current.logs, tracks, strict=True)
-                 if not c.measured),
-                default=math.inf,
-            )  # fmt: skip
-        else:
-            span_rad = math.inf if current.measured else heading_span_rad(tracks)
-        if span_rad < MIN_HEADING_SPAN_RAD:
-            whose = "a log's" if current.logs else "the logs'"
-            warnings.append(
-                f"{whose} headings span {math.degrees(span_rad):.0f} deg: "
-                "the current along the course is barely told apart from the ship's own "
-                "speed (add a turning circle of 360 deg or more, or runs on other headings, "
-                "or a speed log's column stw_mps, or fit with --current none if the water "
-                "was still)"
-            )
-    ls_prior = ls.covariance * settings.prior_inflation**2  # the EKF's, and refinement's
-    std = np.sqrt(np.diag(ekf.covariance))
-    reports = tuple(
-        CoefficientReport(
-            name=name,
-            value=float(value),
-            std=float(s),
-            relative_std=float(s / abs(value)) if value != 0.0 else math.inf,
-            contribution=float(c),
-            variance_inflation=float(vif),
-            excited=bool(rms > 0.0),
-            identifiable=bool(
-                rms > 0.0
-                and vif <= settings.max_variance_inflation
-                and s <= settings.max_relative_std * abs(value)
-            ),
-        )
-        for name, value, s, c, rms, vif in zip(
-            structure.coefficient_names,
-            ekf.theta,
-            std,
-            ls.contribution,
-            ls.regressor_rms,
-            ls.variance_inflation,
-            strict=True,
-        )
-    )
+        span = heading_span_warning(current, tracks)
+        if span is not None:
+            warnings.append(span)
+    reports = _coefficient_reports(structure, ekf, ls, settings)
     params = ModelParameters(
         model=structure.name,
         coefficients=ekf.theta,
@@ -1016,21 +1010,8 @@ def _fit(
             "kept the EKF estimate. Fit the manoeuvres alone, or use --method ekf"
         )
     elif settings.method == "output-error":
-        equation_error = params.with_vector(ls.theta, ls_prior)
-        water_logs, water_tracks = list(logs), list(tracks)
-        if current is not None:  # the refinement sees a ship in still water
-            moved = [
-                water_frame(g, t, c)
-                for g, t, c in zip(logs, tracks, current.vectors(len(logs)), strict=True)
-            ]
-            water_logs, water_tracks = [m[0] for m in moved], [m[1] for m in moved]
         stage("output-error refinement")
-        refinement = refine_output_error(
-            params,
-            water_logs,
-            tracks=water_tracks,
-            alternatives={"equation-error": equation_error},
-        )
+        refinement = _refine(params, ls, settings, logs, tracks, current)
         params = refinement.params
         warnings.extend(refinement.warnings)
     warnings.extend(w for w in (thrust_warning(params), centripetal_warning(params)) if w)
@@ -1053,4 +1034,68 @@ def _fit(
         settings=settings,
         refinement=refinement,
         current=current,
+    )
+
+
+def _coefficient_reports(
+    structure: ModelStructure, ekf: EkfResult, ls: EquationErrorFit, settings: FitSettings
+) -> tuple[CoefficientReport, ...]:
+    """Each coefficient of the EKF's estimate with its σ and whether the logs determine it.
+
+    Identifiable: excited in the logs, a variance inflation of its equation-error column
+    within ``settings.max_variance_inflation`` and a posterior σ within
+    ``settings.max_relative_std`` of the value.
+    """
+    std = np.sqrt(np.diag(ekf.covariance))
+    return tuple(
+        CoefficientReport(
+            name=name,
+            value=float(value),
+            std=float(s),
+            relative_std=float(s / abs(value)) if value != 0.0 else math.inf,
+            contribution=float(c),
+            variance_inflation=float(vif),
+            excited=bool(rms > 0.0),
+            identifiable=bool(
+                rms > 0.0
+                and vif <= settings.max_variance_inflation
+                and s <= settings.max_relative_std * abs(value)
+            ),
+        )
+        for name, value, s, c, rms, vif in zip(
+            structure.coefficient_names,
+            ekf.theta,
+            std,
+            ls.contribution,
+            ls.regressor_rms,
+            ls.variance_inflation,
+            strict=True,
+        )
+    )
+
+
+def _refine(
+    params: ModelParameters,
+    ls: EquationErrorFit,
+    settings: FitSettings,
+    logs: Sequence[ManeuverLog],
+    tracks: Sequence[SmoothedTrack],
+    current: CurrentEstimate | None,
+) -> RefinementResult:
+    """Refine the EKF's estimate ``params`` by output error, the equation-error one beside it.
+
+    The equation-error estimate carries the EKF's prior covariance (its own × the
+    ``prior_inflation``²). With a current the logs are taken into the water frame first:
+    the refinement sees a ship in still water.
+    """
+    equation_error = params.with_vector(ls.theta, ls.covariance * settings.prior_inflation**2)
+    water_logs, water_tracks = list(logs), list(tracks)
+    if current is not None:
+        moved = [
+            water_frame(g, t, c)
+            for g, t, c in zip(logs, tracks, current.vectors(len(logs)), strict=True)
+        ]
+        water_logs, water_tracks = [m[0] for m in moved], [m[1] for m in moved]
+    return refine_output_error(
+        params, water_logs, tracks=water_tracks, alternatives={"equation-error": equation_error}
     )
