@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba
 import numpy as np
@@ -383,8 +383,10 @@ def ekf_identify(
     with np.errstate(over="ignore"):  # an infinite Q or limit: the pass reports divergence
         q_theta = (settings.param_random_walk * np.sqrt(np.diag(P_theta))) ** 2
         variance_limit = settings.divergence_factor * np.maximum(np.diag(P_theta), 1e-300)
+    block = _Augmented(theta, P_theta, q_theta, variance_limit)
     estimated_current = current0 is not None
-    if estimated_current:
+    per_segment = False
+    if current0 is not None:
         if settings.measurements != "track":
             raise ValueError('a current is estimated only with measurements="track"')
         if current_covariance0 is None or np.shape(current_covariance0) != (2, 2):
@@ -394,36 +396,27 @@ def ekf_identify(
         if current_rows.shape not in ((2,), (len(segments), 2)):
             raise ValueError(f"current0 must have shape (2,) or ({len(segments)}, 2)")
         # θ and c are one augmented block: they carry over together, correlations too.
-        theta = np.concatenate([theta, current_rows[0] if per_segment else current_rows])
-        P_theta = np.block(
-            [[P_theta, np.zeros((p, 2))], [np.zeros((2, p)), np.asarray(current_covariance0)]]
-        )
         interval_s = float(np.median(np.concatenate([np.diff(s.time_s) for s in segments])))
-        q_current = settings.current_random_walk_mps**2 * interval_s / 3600.0
-        q_theta = np.concatenate([q_theta, [q_current, q_current]])
-        variance_limit = np.concatenate(
-            [variance_limit, settings.divergence_factor * np.diag(P_theta)[p:]]
+        block = block.augmented(
+            current_rows[0] if per_segment else current_rows,
+            np.asarray(current_covariance0),
+            settings.current_random_walk_mps**2 * interval_s / 3600.0,
+            settings.divergence_factor,
         )
-    else:
-        per_segment = False
     speed_log_var = np.zeros(2)  # of the two axes
     if speed_log is not None:
         if not estimated_current:
             raise ValueError("a speed log is measured only with a current estimated")
         # k follows c in the augmented block, constant, from its prior N(0, σ_k²).
         k_var = speed_log.scale_error_std**2
-        theta = np.append(theta, 0.0)
-        P_theta = np.block(
-            [[P_theta, np.zeros((p + 2, 1))], [np.zeros((1, p + 2)), np.array([[k_var]])]]
-        )
-        q_theta = np.append(q_theta, 0.0)
-        variance_limit = np.append(variance_limit, settings.divergence_factor * k_var)
+        block = block.augmented(np.zeros(1), np.array([[k_var]]), 0.0, settings.divergence_factor)
         transverse_std = speed_log.transverse_noise_std_mps
         if transverse_std is None and any(
             seg.speed_log_transverse_mps is not None for seg in segments
         ):
             raise ValueError("a transverse speed-log axis needs transverse_noise_std_mps")
         speed_log_var[:] = speed_log.noise_std_mps**2, (transverse_std or 0.0) ** 2
+    theta, P_theta, q_theta, variance_limit = block
     speed_log_counts = np.zeros(4, dtype=np.int64)  # taken, rejected of each axis
     # Model error enters the accelerations; the kinematics are exact.
     q_state = np.concatenate(
@@ -552,6 +545,34 @@ def ekf_identify(
         speed_log_samples=(int(speed_log_counts[0]), int(speed_log_counts[1])),
         speed_log_transverse_samples=(int(speed_log_counts[2]), int(speed_log_counts[3])),
     )
+
+
+class _Augmented(NamedTuple):
+    """The EKF's augmented parameter block: θ and what follows it (a current, a scale error).
+
+    Its mean, covariance, random-walk variance per step and divergence limits of the
+    variances, each over the whole block.
+    """
+
+    mean: np.ndarray
+    covariance: np.ndarray
+    walk_variance: np.ndarray
+    variance_limit: np.ndarray
+
+    def augmented(
+        self, mean: np.ndarray, covariance: np.ndarray, walk_variance: float, factor: float
+    ) -> _Augmented:
+        """Append states of prior ``mean`` and ``covariance`` (uncorrelated with the block).
+
+        Each walks by ``walk_variance`` per step; its variance may grow ``factor`` times.
+        """
+        n, m = self.mean.size, mean.size
+        return _Augmented(
+            np.concatenate([self.mean, mean]),
+            np.block([[self.covariance, np.zeros((n, m))], [np.zeros((m, n)), covariance]]),
+            np.concatenate([self.walk_variance, np.full(m, walk_variance)]),
+            np.concatenate([self.variance_limit, factor * np.diag(covariance)]),
+        )
 
 
 def body_current(current_ne: np.ndarray, heading_rad: np.ndarray | float) -> np.ndarray:
