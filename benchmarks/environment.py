@@ -5,7 +5,7 @@
         [--heading-noise-deg 0.1] [--model NAME] [--method output-error|ekf]
         [--current constant|auto|per-log] [--tide-deg T] [--same-noise]
         [--calm-speed-log] [--speed-log-axes 1|2 [--speed-log-x-m X]] [--no-speed-log]
-        [--gnss-jump-pct P]
+        [--gnss-jump-pct P] [--compass-spike-pct P]
         [--out benchmarks/environment.md]
 
 For every condition (a uniform current of each speed towards each direction, crossed with
@@ -28,6 +28,8 @@ on the identification, without the noise's. With ``--gnss-jump-pct P`` P % of th
 the sea logs jump 50–1000 m (``scenarios.synthesize.with_gnss_jumps``), the calm logs'
 not; with ``--current-mps 0 --wind-mps 0`` the condition is calm water itself, so the
 rows compare the glitched logs with the clean ones (issue 14's glitch bar). With
+``--compass-spike-pct P`` P % of the sea logs' headings spike 5–180° either way
+(``with_compass_spikes``: a gyro's garbled serial line), alike. With
 ``--tide-deg T`` the 20/20 zig-zag is sailed in the current turned by T (a run at another
 time of the tide: 180, the ebb after the flood), the 10/10 in the condition's. Two fits:
 
@@ -78,6 +80,7 @@ from scenarios.synthesize import (
     maneuver_seed,
     reference_ship,
     synthesize_log,
+    with_compass_spikes,
     with_gnss_jumps,
 )
 from trials.logs import ManeuverLog
@@ -127,6 +130,7 @@ def training_logs(
     speed_log_axes: int = 1,
     speed_log_x_m: float = 0.0,
     gnss_jump_fraction: float = 0.0,
+    compass_spike_fraction: float = 0.0,
     tide_deg: float = 0.0,
 ) -> list[ManeuverLog]:
     """Sail the zig-zags of draw ``draw`` in ``condition``, logged at ``quality``.
@@ -136,7 +140,8 @@ def training_logs(
     which moves the ship exactly as calm water does); at sea they always do.
     ``speed_log_axes``, ``speed_log_x_m``: the speed log's axes and, with two, its
     position (``synthesize_log``). ``gnss_jump_fraction``: that share of the fixes jumps
-    (``scenarios.synthesize.with_gnss_jumps``, seeded by the log's noise seed).
+    (``scenarios.synthesize.with_gnss_jumps``, seeded by the log's noise seed);
+    ``compass_spike_fraction``: that share of the headings spikes (``with_compass_spikes``).
     ``tide_deg``: the logs after the first are sailed in the current turned by that angle.
     """
     logs = []
@@ -161,6 +166,9 @@ def training_logs(
         if gnss_jump_fraction > 0.0:
             jumps_seed = maneuver_seed(seed, "gnss-jumps")
             log = with_gnss_jumps(log, gnss_jump_fraction, jumps_seed)[0]
+        if compass_spike_fraction > 0.0:
+            spikes_seed = maneuver_seed(seed, "compass-spikes")
+            log = with_compass_spikes(log, compass_spike_fraction, spikes_seed)[0]
         logs.append(log)
     return logs
 
@@ -303,6 +311,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="that share of the sea logs' fixes jumps 50-1000 m [%%]; with no current and "
         "no wind the calm logs themselves, glitched (issue 14's glitch bar)",
     )
+    parser.add_argument(
+        "--compass-spike-pct",
+        type=float,
+        default=0.0,
+        help="that share of the sea logs' headings spikes 5-180 deg [%%]; with no current "
+        "and no wind the calm logs themselves, spiked",
+    )
     parser.add_argument("--out", default=str(Path(__file__).with_name("environment.md")))
     args = parser.parse_args(argv)
     if args.no_speed_log and (args.calm_speed_log or args.speed_log_axes == 2):
@@ -318,7 +333,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for c in currents
         for d in (directions if c else [0.0])
         for w in winds
-        if c or w or args.gnss_jump_pct
+        if c or w or args.gnss_jump_pct or args.compass_spike_pct
     ]
     settings = FitSettings(model=args.model, method=args.method, current=args.current)
     same = args.same_noise
@@ -338,6 +353,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{f' at {args.speed_log_x_m:g} m forward' if args.speed_log_x_m else ''}"
         f"{'; no speed log at sea' if args.no_speed_log else ''}"
         f"{f'; {args.gnss_jump_pct:g} % GNSS jumps' if args.gnss_jump_pct else ''}"
+        f"{f'; {args.compass_spike_pct:g} % compass spikes' if args.compass_spike_pct else ''}"
         f"{f'; the 20/20 in the current turned by {args.tide_deg:g}°' if args.tide_deg else ''}; "
         f"model {args.model}, "
         f"method {args.method}, current {args.current}). "
@@ -378,6 +394,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 speed_log_axes=args.speed_log_axes,
                 speed_log_x_m=args.speed_log_x_m,
                 gnss_jump_fraction=args.gnss_jump_pct / 100.0,
+                compass_spike_fraction=args.compass_spike_pct / 100.0,
                 tide_deg=args.tide_deg,
             )
             if args.no_speed_log:
