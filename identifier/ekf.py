@@ -442,39 +442,12 @@ def ekf_identify(
         elif estimated_current:  # a drifting current walks between the runs too
             walk = settings.current_random_walk_mps**2 * seg.current_gap_s / 3600.0
             P_theta[p : p + 2, p : p + 2] += walk * np.eye(2)
-        # Motion states restart at the segment's first smoothed sample (through the water:
-        # less the current's body components); θ (and c, k) carry over.
-        velocities0 = seg.velocities[0].copy()
-        velocity_var0 = seg.velocity_std[0] ** 2
-        if estimated_current:
-            velocities0[:2] -= body_current(theta[p : p + 2], seg.initial_track[2])
-            velocity_var0[:2] += np.trace(P_theta[p : p + 2, p : p + 2])
-        x = np.concatenate([velocities0, seg.initial_track, theta])
-        P = np.zeros((6 + theta.size, 6 + theta.size))
-        P[:3, :3] = np.diag(velocity_var0)
-        P[3:6, 3:6] = np.diag(seg.track_std**2)
-        P[6:, 6:] = P_theta
-        if settings.measurements == "track":  # one row of R for every sample
-            offset, y, r_var = 3, seg.track, (seg.track_std**2)[None, :]
-        else:
-            offset, y, r_var = 0, seg.velocities, seg.velocity_std**2
+        x, P = _segment_start(seg, theta, P_theta, p if estimated_current else None)
+        offset = 3 if settings.measurements == "track" else 0
+        track = np.ascontiguousarray(seg.track, dtype=float)
+        inputs = _pass_inputs(seg, track, offset, speed_log is not None)
         states = np.empty((rows[len(filtered)], 6))
         square_sums = np.zeros(2)
-        track = np.ascontiguousarray(seg.track, dtype=float)
-        measured_speed = (  # one row of NaN: no speed-log measurement in this segment
-            np.full((1, 2), np.nan)
-            if speed_log is None
-            else np.ascontiguousarray(seg.speed_log_or_none(), dtype=float)
-        )
-        inputs = (  # t, y, R, δ, n, known loads, speed log: the pass's arguments in order
-            np.ascontiguousarray(seg.time_s, dtype=float),
-            track if offset == 3 else np.ascontiguousarray(y, dtype=float),
-            np.ascontiguousarray(r_var, dtype=float),
-            np.ascontiguousarray(seg.rudder_rad, dtype=float),
-            np.ascontiguousarray(seg.n_rps, dtype=float),
-            seg.known_acceleration_or_zero(),
-            measured_speed,
-        )
         histories = (states, theta_hist[row : row + states.shape[0]],
                      std_hist[row : row + states.shape[0]])  # fmt: skip
         # Chunks [a, b] of whole strides, each starting at the previous one's last sample:
@@ -544,6 +517,58 @@ def ekf_identify(
         else math.sqrt(float(P_theta[scale, scale])),
         speed_log_samples=(int(speed_log_counts[0]), int(speed_log_counts[1])),
         speed_log_transverse_samples=(int(speed_log_counts[2]), int(speed_log_counts[3])),
+    )
+
+
+def _segment_start(
+    seg: EkfSegment, theta: np.ndarray, P_theta: np.ndarray, current_at: int | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return the filter's state and covariance at a segment's first sample.
+
+    The motion states restart at the segment's first smoothed sample (through the water:
+    less the current's body components, the current at ``current_at`` in θ's augmented
+    block, None without one); θ (and c, k) carry over with ``P_theta``.
+    """
+    velocities0 = seg.velocities[0].copy()
+    velocity_var0 = seg.velocity_std[0] ** 2
+    if current_at is not None:
+        c = slice(current_at, current_at + 2)
+        velocities0[:2] -= body_current(theta[c], seg.initial_track[2])
+        velocity_var0[:2] += np.trace(P_theta[c, c])
+    x = np.concatenate([velocities0, seg.initial_track, theta])
+    P = np.zeros((6 + theta.size, 6 + theta.size))
+    P[:3, :3] = np.diag(velocity_var0)
+    P[3:6, 3:6] = np.diag(seg.track_std**2)
+    P[6:, 6:] = P_theta
+    return x, P
+
+
+def _pass_inputs(
+    seg: EkfSegment, track: np.ndarray, offset: int, with_speed_log: bool
+) -> tuple[np.ndarray, ...]:
+    """Return the pass's per-sample arguments: t, y, R, δ, n, known loads, speed log.
+
+    ``offset`` 3: the filter measures the track (``track``, one row of R for every
+    sample); 0: the smoothed velocities with their variances. An input of one row stands
+    for every sample (R of the track, no known loads, no speed log: one row of NaN).
+    """
+    if offset == 3:
+        y, r_var = track, (seg.track_std**2)[None, :]
+    else:
+        y, r_var = seg.velocities, seg.velocity_std**2
+    measured_speed = (
+        np.ascontiguousarray(seg.speed_log_or_none(), dtype=float)
+        if with_speed_log
+        else np.full((1, 2), np.nan)
+    )
+    return (
+        np.ascontiguousarray(seg.time_s, dtype=float),
+        np.ascontiguousarray(y, dtype=float),
+        np.ascontiguousarray(r_var, dtype=float),
+        np.ascontiguousarray(seg.rudder_rad, dtype=float),
+        np.ascontiguousarray(seg.n_rps, dtype=float),
+        seg.known_acceleration_or_zero(),
+        measured_speed,
     )
 
 
