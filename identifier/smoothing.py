@@ -94,6 +94,8 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from trials.angles import unwrap_heading
+
 __all__ = [
     "DEFAULT_TAU_S",
     "EXCURSION_S",
@@ -1612,7 +1614,8 @@ def smooth_track(
         Measured North and East positions [m].
     heading_rad : array_like, shape (N,)
         Measured heading, wrapped (0..2π or ±π) or continuous [rad]; it is unwrapped
-        before filtering, so the smoothed heading is continuous.
+        before filtering (``trials.angles.unwrap_heading``, robust to compass spikes),
+        so the smoothed heading is continuous.
     position_noise_m : float, optional
         Position measurement noise standard deviation [m]; estimated if None.
     heading_noise_rad : float, optional
@@ -1648,7 +1651,7 @@ def smooth_track(
     psi_meas = _as_series(heading_rad, "heading_rad")
     _check_same_length(t, x_m=xm, y_m=ym, heading_rad=psi_meas)
     _check_time(t)
-    psi_meas = np.unwrap(psi_meas)
+    psi_meas = unwrap_heading(psi_meas)
     given = {
         "position": (position_noise_m, position_accel_std_mps2),
         "heading": (heading_noise_rad, heading_accel_std_radps2),

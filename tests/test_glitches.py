@@ -195,6 +195,31 @@ def test_compass_spikes_are_rejected(clean: ManeuverLog, clean_track: SmoothedTr
         assert rms < 0.3 and largest < 1.5, (name, rms, largest)
 
 
+@pytest.mark.parametrize("wrapped", [False, True])
+def test_two_compass_spikes_in_a_row_leave_no_whole_turn_behind(
+    clean: ManeuverLog, clean_track: SmoothedTrack, wrapped: bool
+) -> None:
+    """A gyro's line garbles two headings in a row by about half a turn (+168°, −178°):
+    numpy.unwrap would take the good heading after them a turn further on for the rest
+    of the log (the gate then re-acquires there and the default fit's EKF diverged,
+    benchmarks/environment.md, "The glitch bar again, and compass spikes"); the spikes
+    must stay two rejected samples, wrapped to 0..360° or not."""
+    heading = clean.heading_rad.copy()
+    heading[813] += math.radians(167.9)
+    heading[814] -= math.radians(178.1)
+    if wrapped:
+        heading = np.mod(heading, 2.0 * math.pi)
+    assert np.ptp(np.unwrap(heading)[815:] - clean.heading_rad[815:]) == pytest.approx(0.0)
+    assert np.unwrap(heading)[815] - clean.heading_rad[815] == pytest.approx(2.0 * math.pi)
+    track = _smooth(dataclasses.replace(clean, heading_rad=heading))
+    np.testing.assert_array_equal(track.heading_rejected, [813, 814])
+    assert track.heading_reacquired.size == 0
+    np.testing.assert_allclose(track.heading_rad, clean_track.heading_rad, atol=0.01)
+    for name in RATES:
+        rms, largest = _in_sigma(track, clean_track, name)
+        assert rms < 0.3 and largest < 1.5, (name, rms, largest)
+
+
 @pytest.mark.parametrize("length", [2, 4, 8, 20])
 def test_a_jump_of_several_samples_is_one_excursion(
     clean: ManeuverLog, clean_track: SmoothedTrack, length: int

@@ -30,6 +30,7 @@ from hypothesis import strategies as st
 
 from fmu_model import ModelParameters, ParamsFormatError, load_params
 from tests.conftest import SEED_COEFFICIENTS
+from trials.angles import UNWRAP_WINDOW
 from trials.errors import LogFormatError
 from trials.logs import LOG_COLUMNS, MIN_SAMPLES, ManeuverLog, format_log, read_log
 
@@ -242,7 +243,10 @@ def _check_read(raw: bytes) -> None:
         scale = 1e-12 * max(1.0, float(np.max(np.abs(heading))))
         wrapped = np.angle(np.exp(1j * (log.heading_rad - heading)))
         np.testing.assert_allclose(wrapped, 0.0, atol=scale)
-        assert np.all(np.abs(np.diff(log.heading_rad)) <= np.pi + scale)
+        # continuous: each sample within half a turn of the median of those before it
+        for k in range(1, log.n_samples):
+            before = log.heading_rad[max(0, k - UNWRAP_WINDOW) : k]
+            assert abs(log.heading_rad[k] - np.median(before)) <= np.pi + scale
 
 
 # --------------------------------------------------------------------------- log properties

@@ -45,8 +45,9 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
 - UTF-8 with or without a byte-order mark, LF or CRLF line endings. Anything that
   is not UTF-8 text (NUL bytes, invalid UTF-8, UTF-16) is "not a text file".
 - ``heading_deg`` may be wrapped (0..360) or continuous: it is unwrapped on reading
-  with ``np.unwrap``, so a heading change of half a turn or more between two
-  consecutive samples cannot be represented.
+  (``trials.angles.unwrap_heading``: each sample on the turn nearest the median of the
+  five before it, so that compass spikes leave no whole turn behind), and a heading
+  change of half a turn or more within three samples cannot be represented.
 
 Optional columns, what the ship's own sensors measured (an NMEA recording gives them
 from MWV and VHW/VBW sentences):
@@ -95,6 +96,7 @@ from fmu_model.atomic import write_atomic
 from fmu_model.interface import MAX_LENGTH_M, MAX_PROPELLER_RPM, MIN_LENGTH_M
 from fmu_model.interface import MAX_POSITION_M as MAX_POSITION_M_FMU
 from fmu_model.params import text_problem
+from trials.angles import unwrap_heading
 from trials.errors import LogFormatError
 from trials.text_input import NUMBER, decode_utf8, read_bytes, show, split_fields
 
@@ -935,7 +937,7 @@ class _Parser:
             time_s=time_s,
             x_m=x_m,
             y_m=y_m,
-            heading_rad=np.unwrap(np.deg2rad(heading_deg)),
+            heading_rad=unwrap_heading(np.deg2rad(heading_deg)),
             rudder_rad=np.deg2rad(rudder_deg),
             n_rps=rpm / _SECONDS_PER_MINUTE,
             metadata=self.metadata,

@@ -39,6 +39,7 @@ from identifier.ingest.recording import (
     Options,
     Recording,
 )
+from trials.angles import unwrap_heading
 from trials.errors import LogFormatError
 from trials.logs import MAX_STW_MPS, MAX_WIND_SPEED_MPS, ManeuverLog
 
@@ -233,7 +234,7 @@ def assemble(recording: Recording, options: Options) -> ConversionResult:
     fix_t = recording.fix_t - t0
     streams = {name: (t - t0, v) for name, (t, v) in recording.streams.items()}
     heading_t, heading = streams[HEADING]
-    streams[HEADING] = (heading_t, np.unwrap(heading))
+    streams[HEADING] = (heading_t, unwrap_heading(heading))
     optional = {name: (t - t0, v) for name, (t, v) in recording.optional.items()}
     if WIND_ANGLE in optional:
         angle_t, angle = optional[WIND_ANGLE]
