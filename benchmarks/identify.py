@@ -69,6 +69,7 @@ from identifier.current import PER_LOG, kept_current
 from identifier.ekf import EkfSegment, EkfSettings, SpeedLogMeasurement, ekf_identify
 from identifier.equation_error import equation_error_fit
 from identifier.identify import FitSettings, identify
+from identifier.preparation import ekf_segment
 from identifier.smoothing import smooth_track
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from trials.logs import ManeuverLog, read_log
@@ -147,18 +148,8 @@ def segments(logs: Sequence[ManeuverLog]) -> list[EkfSegment]:
     for i, log in enumerate(logs):
         track = smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
         result.append(
-            EkfSegment(
-                name=f"log {i + 1}",
-                time_s=log.time_s,
-                velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
-                velocity_std=np.column_stack([track.u_std_mps, track.v_std_mps, track.r_std_radps]),
-                track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
-                track_std=np.array(
-                    [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]
-                ),
-                initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
-                rudder_rad=log.rudder_rad,
-                n_rps=log.n_rps,
+            replace(
+                ekf_segment(log, track, f"log {i + 1}", measurements="velocities"),
                 speed_log_mps=track.u_mps,  # measured only by the speed-log rows
                 speed_log_transverse_mps=track.v_mps,  # only by the two-axis row
             )

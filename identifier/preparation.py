@@ -176,6 +176,38 @@ def _velocity_std(track: SmoothedTrack, measurements: str) -> np.ndarray:
     return np.broadcast_to(first, (track.n_samples, 3))
 
 
+def ekf_segment(
+    log: ManeuverLog,
+    track: SmoothedTrack,
+    name: str,
+    *,
+    measurements: str,
+    windage: Windage | None = None,
+) -> EkfSegment:
+    """Return a log and its smoothed track as the EKF's segment.
+
+    The smoothed (u, v, r) and their σ (:func:`_velocity_std`: per sample when the EKF
+    measures them, ``measurements="velocities"``), the logged track as the measurement
+    with the smoother's noise levels, the track's first smoothed sample as the start, the
+    rudder and propeller speed, and a measured wind's known acceleration with the
+    vessel's ``windage`` (``identifier.wind.known_acceleration``; None without either).
+    """
+    return EkfSegment(
+        name=name,
+        time_s=log.time_s,
+        velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
+        velocity_std=_velocity_std(track, measurements),
+        track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
+        track_std=np.array(
+            [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]
+        ),
+        initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
+        rudder_rad=log.rudder_rad,
+        n_rps=log.n_rps,
+        known_acceleration=known_acceleration(log, windage),
+    )
+
+
 def _deglitched(
     log: ManeuverLog, track: SmoothedTrack, name: str, notes: list[str], warnings: list[str]
 ) -> ManeuverLog:
@@ -353,22 +385,7 @@ def smooth_logs(
                 "is unusually high"
             )
         tracks.append(track)
-        segments.append(
-            EkfSegment(
-                name=name,
-                time_s=log.time_s,
-                velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
-                velocity_std=_velocity_std(track, measurements),
-                track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
-                track_std=np.array(
-                    [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]
-                ),
-                initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
-                rudder_rad=log.rudder_rad,
-                n_rps=log.n_rps,
-                known_acceleration=known_acceleration(log, windage),
-            )
-        )
+        segments.append(ekf_segment(log, track, name, measurements=measurements, windage=windage))
         if progress is not None:
             progress(log.n_samples)
 

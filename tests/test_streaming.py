@@ -42,19 +42,7 @@ DATA = Path(__file__).parent / "data"
 
 def _segment(log: ManeuverLog) -> EkfSegment:
     track = smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
-    return EkfSegment(
-        name="log",
-        time_s=log.time_s,
-        velocities=np.column_stack([track.u_mps, track.v_mps, track.r_radps]),
-        velocity_std=np.column_stack([track.u_std_mps, track.v_std_mps, track.r_std_radps]),
-        track=np.column_stack([log.x_m, log.y_m, log.heading_rad]),
-        track_std=np.array(
-            [track.position_noise_m, track.position_noise_m, track.heading_noise_rad]
-        ),
-        initial_track=np.array([track.x_m[0], track.y_m[0], track.heading_rad[0]]),
-        rudder_rad=log.rudder_rad,
-        n_rps=log.n_rps,
-    )
+    return preparation.ekf_segment(log, track, "log", measurements="velocities")
 
 
 def _seed_log(rate_hz: float = 1.0) -> ManeuverLog:
