@@ -45,9 +45,10 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
 - UTF-8 with or without a byte-order mark, LF or CRLF line endings. Anything that
   is not UTF-8 text (NUL bytes, invalid UTF-8, UTF-16) is "not a text file".
 - ``heading_deg`` may be wrapped (0..360) or continuous: it is unwrapped on reading
-  (``trials.angles.unwrap_heading``: each sample on the turn nearest the median of the
-  five before it, so that compass spikes leave no whole turn behind), and a heading
-  change of half a turn or more within three samples cannot be represented.
+  (``trials.angles.unwrap_heading``: ``numpy.unwrap``, but after a step of a third of a
+  turn the next samples on the turn nearest the median of the five before, so that
+  compass spikes leave no whole turn behind), and a heading change of half a turn or
+  more within three samples cannot be represented.
 
 Optional columns, what the ship's own sensors measured (an NMEA recording gives them
 from MWV and VHW/VBW sentences):
