@@ -37,7 +37,7 @@ def test_spikes_stay_spikes_where_numpy_unwrap_leaves_a_turn_behind() -> None:
     spiked = heading.copy()
     spiked[100] += math.radians(167.9)  # two in a row, about half a turn each way
     spiked[101] -= math.radians(178.1)
-    spiked[250] += math.radians(179.0)  # one alone, and three the window cannot out-vote
+    spiked[250] += math.radians(179.0)  # one alone
     wrapped = np.mod(spiked, 2.0 * math.pi)
     unwrapped = unwrap_heading(wrapped)
     good = np.setdiff1d(np.arange(heading.size), [100, 101, 250])
@@ -54,12 +54,15 @@ def test_spikes_stay_spikes_where_numpy_unwrap_leaves_a_turn_behind() -> None:
 
 
 def test_the_window_out_votes_two_bad_samples_not_three() -> None:
+    """The rule's limit: after three samples in a row at 179°, the median of the five
+    before the next is one of them, and a heading of −179° goes onto their turn (181°)."""
     assert UNWRAP_WINDOW == 5
     heading = np.zeros(20)
-    heading[8:11] = math.radians(179.0)  # three in a row: the median is one of them
-    heading[11:] = math.radians(-179.0) + 0.0  # the good heading, 2° from the spikes' side
+    heading[8:11] = math.radians(179.0)
+    heading[11:] = math.radians(-179.0)
     unwrapped = unwrap_heading(heading)
-    assert unwrapped[11] == pytest.approx(math.radians(181.0))  # taken as the spikes' turn
+    np.testing.assert_allclose(unwrapped[:11], heading[:11], atol=1e-12)
+    assert unwrapped[11] == pytest.approx(math.radians(181.0))
 
 
 def test_the_reader_unwraps_a_logged_spike_pair_without_a_step() -> None:
