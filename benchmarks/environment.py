@@ -77,11 +77,9 @@ from scenarios.sea import SeaEnvironment
 from scenarios.synthesize import (
     MANEUVERS,
     TruthShip,
-    maneuver_seed,
     reference_ship,
     synthesize_log,
-    with_compass_spikes,
-    with_gnss_jumps,
+    with_glitches,
 )
 from trials.logs import ManeuverLog
 from trials.run import ModelPlant
@@ -140,8 +138,8 @@ def training_logs(
     which moves the ship exactly as calm water does); at sea they always do.
     ``speed_log_axes``, ``speed_log_x_m``: the speed log's axes and, with two, its
     position (``synthesize_log``). ``gnss_jump_fraction``: that share of the fixes jumps
-    (``scenarios.synthesize.with_gnss_jumps``, seeded by the log's noise seed);
-    ``compass_spike_fraction``: that share of the headings spikes (``with_compass_spikes``).
+    and ``compass_spike_fraction``: that share of the headings spikes
+    (``scenarios.synthesize.with_glitches``, seeded by the log's noise seed).
     ``tide_deg``: the logs after the first are sailed in the current turned by that angle.
     """
     logs = []
@@ -163,13 +161,14 @@ def training_logs(
             speed_log_axes=speed_log_axes if environment is not None else 1,
             speed_log_x_m=speed_log_x_m,
         )
-        if gnss_jump_fraction > 0.0:
-            jumps_seed = maneuver_seed(seed, "gnss-jumps")
-            log = with_gnss_jumps(log, gnss_jump_fraction, jumps_seed)[0]
-        if compass_spike_fraction > 0.0:
-            spikes_seed = maneuver_seed(seed, "compass-spikes")
-            log = with_compass_spikes(log, compass_spike_fraction, spikes_seed)[0]
-        logs.append(log)
+        logs.append(
+            with_glitches(
+                log,
+                seed,
+                gnss_jump_fraction=gnss_jump_fraction,
+                compass_spike_fraction=compass_spike_fraction,
+            )
+        )
     return logs
 
 

@@ -402,6 +402,30 @@ def _noise_streams(seed: int, size: int, per_channel: bool) -> Iterator[np.ndarr
         yield rng.standard_normal(size)
 
 
+def with_glitches(
+    log: ManeuverLog,
+    seed: int,
+    *,
+    gnss_jump_fraction: float = 0.0,
+    compass_spike_fraction: float = 0.0,
+    tag: str = "",
+) -> ManeuverLog:
+    """Return ``log`` with GNSS jumps and compass spikes on those shares of its samples.
+
+    :func:`with_gnss_jumps` and :func:`with_compass_spikes`, each seeded by
+    :func:`maneuver_seed` of ``seed`` and ``f"{tag}gnss-jumps"`` or
+    ``f"{tag}compass-spikes"``, so that the clean channels and either kind of glitch stay
+    the same whatever the other; a share of 0 leaves that channel as it is.
+    """
+    if gnss_jump_fraction > 0.0:
+        jumps_seed = maneuver_seed(seed, f"{tag}gnss-jumps")
+        log = with_gnss_jumps(log, gnss_jump_fraction, jumps_seed)[0]
+    if compass_spike_fraction > 0.0:
+        spikes_seed = maneuver_seed(seed, f"{tag}compass-spikes")
+        log = with_compass_spikes(log, compass_spike_fraction, spikes_seed)[0]
+    return log
+
+
 def maneuver_seed(seed: int, maneuver: str) -> int:
     """Noise seed of one manoeuvre's log, derived from a run seed and the manoeuvre name.
 
@@ -496,14 +520,13 @@ def synthesize_logs(
             gnss_x_m=gnss_x_m,
             gnss_y_m=gnss_y_m,
         )
-        if gnss_jump_fraction > 0.0:
-            log = with_gnss_jumps(
-                log, gnss_jump_fraction, maneuver_seed(seed, f"{name}:gnss-jumps")
-            )[0]
-        if compass_spike_fraction > 0.0:
-            log = with_compass_spikes(
-                log, compass_spike_fraction, maneuver_seed(seed, f"{name}:compass-spikes")
-            )[0]
+        log = with_glitches(
+            log,
+            seed,
+            gnss_jump_fraction=gnss_jump_fraction,
+            compass_spike_fraction=compass_spike_fraction,
+            tag=f"{name}:",
+        )
         path = Path(directory) / f"{name}.csv"
         write_log(path, log)
         written.append(path)
