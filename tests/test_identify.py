@@ -24,7 +24,7 @@ from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
 from identifier.diagnostics import centripetal_warning, thrust_warning, turn_surge_warning
 from identifier.identify import FitSettings, IdentificationResult, fixed_thrust_model, identify
-from identifier.preparation import ekf_order
+from identifier.preparation import MAX_SAMPLE_INTERVAL_S, ekf_order, smooth_logs
 from scenarios.kvlcc2 import kvlcc2
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, reference_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
@@ -184,6 +184,19 @@ def test_too_coarse_sampling_is_an_error() -> None:
     log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), rate_hz=0.1, seed=1)
     with pytest.raises(IdentificationError, match="sampling interval 10 s is too coarse"):
         identify([log])
+
+
+def test_a_log_at_the_coarsest_interval_is_smoothed() -> None:
+    """0.2 Hz with times summed in floating point: 5.000000000005 s, a few ulps beyond
+    the limit (rejected before: "interval 5 s is too coarse (expected at most 5 s)")."""
+    log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), rate_hz=0.2, seed=1)
+    log = replace(log, time_s=np.arange(log.time_s.size) * MAX_SAMPLE_INTERVAL_S * (1 + 1e-12))
+    assert float(np.median(np.diff(log.time_s))) > MAX_SAMPLE_INTERVAL_S
+    smoothed = smooth_logs(
+        [log], position_noise_m=None, heading_noise_rad=None, measurements="track",
+        windage=None, drifting=False, progress=None, stage=lambda _: None,
+    )  # fmt: skip
+    assert len(smoothed.tracks) == 1
 
 
 def test_missing_length_is_an_error() -> None:
