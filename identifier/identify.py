@@ -706,6 +706,7 @@ def identify(
     with np.errstate(all="ignore"):
         data = smooth_logs(
             logs,
+            length_m=length,
             position_noise_m=settings.position_noise_m,
             heading_noise_rad=settings.heading_noise_rad,
             measurements=settings.measurements,

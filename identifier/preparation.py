@@ -5,7 +5,8 @@ checked for what no fit can mend (sampling, a ship that does not move or moves f
 than a ship, no rudder excitation; the vessel's length and name agreed), the GNSS
 antenna's track reduced to midship, each log smoothed by ``identifier.smoothing`` (the
 seed paper's Kalman filter and RTS smoother, with its innovation gate against GNSS
-glitches) and the glitches it rejected replaced by its estimates, and the logs ordered
+glitches) and the glitches it rejected replaced by its estimates, the spikes of the rudder
+angle and the propeller speed interpolated (``identifier.spikes``), and the logs ordered
 for the EKF: by their largest rudder angle (:func:`ekf_order`), or as sailed for a
 drifting current (:func:`sailed_order`).
 """
@@ -26,6 +27,7 @@ from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
 from identifier.ekf import EkfSegment
 from identifier.smoothing import SmoothedTrack, smooth_track
+from identifier.spikes import despiked, input_rate_bound, out_and_back
 from identifier.wind import has_wind, known_acceleration
 from trials.conditions import EXECUTE_RUDDER_RAD
 from trials.errors import IdentificationError
@@ -240,6 +242,33 @@ def _deglitched(
     return replace(log, x_m=x_m, y_m=y_m, heading_rad=heading_rad)
 
 
+def _despiked_inputs(log: ManeuverLog, name: str, length_m: float, notes: list[str]) -> ManeuverLog:
+    """Return the log with the spikes of its rudder angle and propeller speed interpolated.
+
+    ``identifier.spikes``: out and back faster than a ship of ``length_m`` [m] moves them
+    (the propeller speed relative to its median; a log whose median is 0 is not looked
+    at). Adds a note of the counts.
+    """
+    rate = input_rate_bound(length_m)
+    rudder = out_and_back(log.time_s, log.rudder_rad, rate)
+    typical_rps = float(np.median(np.abs(log.n_rps)))
+    propeller = (
+        out_and_back(log.time_s, log.n_rps, rate * typical_rps) if typical_rps > 0.0 else rudder[:0]
+    )
+    if not (rudder.size or propeller.size):
+        return log
+    notes.append(
+        f"{name}: {rudder.size} rudder angles and {propeller.size} propeller speeds taken for "
+        "spikes (out and straight back faster than a ship's steering gear or engine) and "
+        "interpolated"
+    )
+    return replace(
+        log,
+        rudder_rad=despiked(log.time_s, log.rudder_rad, rudder),
+        n_rps=despiked(log.time_s, log.n_rps, propeller),
+    )
+
+
 def ekf_order(logs: Sequence[ManeuverLog]) -> list[int]:
     """Return the order in which the EKF runs through ``logs`` (unless the current drifts).
 
@@ -325,6 +354,7 @@ class SmoothedLogs:
 def smooth_logs(
     logs: Sequence[ManeuverLog],
     *,
+    length_m: float,
     position_noise_m: float | None,
     heading_noise_rad: float | None,
     measurements: str,
@@ -335,8 +365,10 @@ def smooth_logs(
 ) -> SmoothedLogs:
     """Check, smooth and deglitch every log; warn of what the fits cannot fix.
 
-    ``position_noise_m``, ``heading_noise_rad``: the logger's noise (None: estimated
-    from the logs, ``identifier.smoothing.smooth_track``); ``measurements``: what the EKF
+    ``length_m``: the ship's [m], which sets how fast its inputs can change
+    (``identifier.spikes``); ``position_noise_m``, ``heading_noise_rad``: the logger's
+    noise (None: estimated from the logs, ``identifier.smoothing.smooth_track``);
+    ``measurements``: what the EKF
     measures ("track" or "velocities"); ``windage``: the vessel's, to take a measured
     wind's load out; ``drifting``: order the logs as sailed (a drifting current's random
     walk runs through them in time), else by :func:`ekf_order`. ``progress`` is called
@@ -369,6 +401,7 @@ def smooth_logs(
         )
         _check_track(track, name)
         log = _deglitched(log, track, name, notes, warnings)
+        log = _despiked_inputs(log, name, length_m, notes)
         if log.stw_transverse_mps is not None and log.on_board_m("speed_log_x_m") is None:
             warnings.append(
                 f"{name}: the speed log's transverse axis (stw_transverse_mps) was not used: "

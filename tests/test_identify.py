@@ -193,7 +193,7 @@ def test_a_log_at_the_coarsest_interval_is_smoothed() -> None:
     log = replace(log, time_s=np.arange(log.time_s.size) * MAX_SAMPLE_INTERVAL_S * (1 + 1e-12))
     assert float(np.median(np.diff(log.time_s))) > MAX_SAMPLE_INTERVAL_S
     smoothed = smooth_logs(
-        [log], position_noise_m=None, heading_noise_rad=None, measurements="track",
+        [log], length_m=320.0, position_noise_m=None, heading_noise_rad=None, measurements="track",
         windage=None, drifting=False, progress=None, stage=lambda _: None,
     )  # fmt: skip
     assert len(smoothed.tracks) == 1
