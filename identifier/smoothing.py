@@ -1598,6 +1598,58 @@ def _segment_noise(
     return math.sqrt(meas_var / used), math.sqrt(accel_var / used)
 
 
+def _noise_levels(
+    t_s: FloatArray,
+    axes: tuple[FloatArray, ...],
+    meas_std: float | None,
+    accel_std: float | None,
+    names: tuple[str, str],
+) -> tuple[float, float]:
+    """Return the (measurement, acceleration) noise levels of ``axes`` gated together.
+
+    Those not given (None) are estimated by :func:`_pooled_noise` of each axis, pooled as
+    the RMS over the axes (one isotropic level for x and y); both checked positive
+    (``names``: the arguments' names, for the error).
+    """
+    if meas_std is None or accel_std is None:
+        estimates = [_pooled_noise(t_s, z) for z in axes]
+        rms = math.sqrt(len(axes))
+        if meas_std is None:
+            meas_std = math.hypot(*(e.meas_std for e in estimates)) / rms
+        if accel_std is None:
+            accel_std = math.hypot(*(e.accel_std for e in estimates)) / rms
+    return _check_positive(meas_std, names[0]), _check_positive(accel_std, names[1])
+
+
+def _gated(
+    t_s: FloatArray,
+    axes: tuple[FloatArray, ...],
+    meas_std: float,
+    accel_std: float,
+    tau_s: float,
+    threshold: float,
+    given: tuple[float | None, float | None],
+) -> tuple[NDArray[np.bool_], FloatArray, float, list[tuple[FloatArray, FloatArray]], float, float]:
+    """Run the innovation gate (:func:`_gate`) on ``axes`` gated together.
+
+    When it rejected or re-acquired anything, the levels not ``given`` (measurement,
+    acceleration) are estimated again without the rejected samples and apart on either
+    side of a re-acquisition (:func:`_segment_noise`: a step widens the acceleration
+    level), and the gate runs again with them. Returns the accepted samples, the
+    re-acquisition variances, λ, each axis' prior (x0, P0) and the levels used.
+    """
+    z = np.column_stack(axes)
+    accept, jump, scale, x0, P0 = _gate(t_s, z, meas_std**2, accel_std, tau_s, threshold)
+    if (None in given) and (not accept.all() or jump.any()):
+        meas_again, accel_again = _segment_noise(t_s, axes, accept, jump[:, 0] != 0.0)
+        if math.isfinite(meas_again):  # else no piece long enough: keep the first
+            meas_std = meas_std if given[0] is not None else meas_again
+            accel_std = accel_std if given[1] is not None else accel_again
+            accept, jump, scale, x0, P0 = _gate(t_s, z, meas_std**2, accel_std, tau_s, threshold)
+    priors = [(x0[i], P0) for i in range(len(axes))]
+    return accept, jump, scale, priors, meas_std, accel_std
+
+
 def smooth_track(
     t_s: ArrayLike,
     x_m: ArrayLike,
@@ -1690,52 +1742,31 @@ def smooth_track(
         "position": (position_noise_m, position_accel_std_mps2),
         "heading": (heading_noise_rad, heading_accel_std_radps2),
     }
-
-    if position_noise_m is None or position_accel_std_mps2 is None:
-        ex, ey = _pooled_noise(t, xm), _pooled_noise(t, ym)
-        if position_noise_m is None:
-            position_noise_m = math.hypot(ex.meas_std, ey.meas_std) / math.sqrt(2.0)
-        if position_accel_std_mps2 is None:
-            position_accel_std_mps2 = math.hypot(ex.accel_std, ey.accel_std) / math.sqrt(2.0)
-    if heading_noise_rad is None or heading_accel_std_radps2 is None:
-        eh = _pooled_noise(t, psi_meas)
-        if heading_noise_rad is None:
-            heading_noise_rad = eh.meas_std
-        if heading_accel_std_radps2 is None:
-            heading_accel_std_radps2 = eh.accel_std
-    position_noise_m = _check_positive(position_noise_m, "position_noise_m")
-    heading_noise_rad = _check_positive(heading_noise_rad, "heading_noise_rad")
-    position_accel_std_mps2 = _check_positive(position_accel_std_mps2, "position_accel_std_mps2")
-    heading_accel_std_radps2 = _check_positive(heading_accel_std_radps2, "heading_accel_std_radps2")
+    position_levels = _noise_levels(
+        t, (xm, ym), *given["position"], ("position_noise_m", "position_accel_std_mps2")
+    )
+    heading_levels = _noise_levels(
+        t, (psi_meas,), *given["heading"], ("heading_noise_rad", "heading_accel_std_radps2")
+    )
     tau_s = _check_positive(tau_s, "tau_s")
+    groups = {
+        "position": ((xm, ym), *position_levels, GATE_NIS_POSITION),
+        "heading": ((psi_meas,), *heading_levels, GATE_NIS_HEADING),
+    }
 
     n = t.size
     states = np.empty((3, n, 3))
     variances = np.empty((3, n, 2))
     dt = np.diff(t)
     none = np.empty((0, 6))
-    groups = {
-        "position": ((xm, ym), position_noise_m, position_accel_std_mps2, GATE_NIS_POSITION),
-        "heading": ((psi_meas,), heading_noise_rad, heading_accel_std_radps2, GATE_NIS_HEADING),
-    }
     levels: dict[str, tuple[float, float]] = {}
     rejected, reacquired, scales = [], [], []
     axis = 0
     for name, (axes, meas_std, accel_std, threshold) in groups.items():
         if gate:
-            z = np.column_stack(axes)
-            accept, jump, scale, x0, P0 = _gate(t, z, meas_std**2, accel_std, tau_s, threshold)
-            if (None in given[name]) and (not accept.all() or jump.any()):
-                # Estimated levels: again, without the rejected samples and apart on
-                # either side of a re-acquisition (a step widens the acceleration level).
-                meas_again, accel_again = _segment_noise(t, axes, accept, jump[:, 0] != 0.0)
-                if math.isfinite(meas_again):  # else no piece long enough: keep the first
-                    meas_std = meas_std if given[name][0] is not None else meas_again
-                    accel_std = accel_std if given[name][1] is not None else accel_again
-                    accept, jump, scale, x0, P0 = _gate(
-                        t, z, meas_std**2, accel_std, tau_s, threshold
-                    )
-            priors = [(x0[i], P0) for i in range(len(axes))]
+            accept, jump, scale, priors, meas_std, accel_std = _gated(
+                t, axes, meas_std, accel_std, tau_s, threshold, given[name]
+            )
         else:
             accept, jump, scale = np.ones(n, dtype=np.bool_), np.zeros((n, 2)), 1.0
             priors = [_default_prior(t, z, meas_std**2, accel_std) for z in axes]
