@@ -383,50 +383,27 @@ def ekf_identify(
     with np.errstate(over="ignore"):  # an infinite Q or limit: the pass reports divergence
         q_theta = (settings.param_random_walk * np.sqrt(np.diag(P_theta))) ** 2
         variance_limit = settings.divergence_factor * np.maximum(np.diag(P_theta), 1e-300)
-    block = _Augmented(theta, P_theta, q_theta, variance_limit)
-    estimated_current = current0 is not None
-    per_segment = False
-    if current0 is not None:
-        if settings.measurements != "track":
-            raise ValueError('a current is estimated only with measurements="track"')
-        if current_covariance0 is None or np.shape(current_covariance0) != (2, 2):
-            raise ValueError("current_covariance0 must have shape (2, 2)")
-        current_rows = np.asarray(current0, dtype=float)
-        per_segment = current_rows.ndim == 2
-        if current_rows.shape not in ((2,), (len(segments), 2)):
-            raise ValueError(f"current0 must have shape (2,) or ({len(segments)}, 2)")
-        # θ and c are one augmented block: they carry over together, correlations too.
-        interval_s = float(np.median(np.concatenate([np.diff(s.time_s) for s in segments])))
-        block = block.augmented(
-            current_rows[0] if per_segment else current_rows,
-            np.asarray(current_covariance0),
-            settings.current_random_walk_mps**2 * interval_s / 3600.0,
-            settings.divergence_factor,
-        )
-    speed_log_var = np.zeros(2)  # of the two axes
-    if speed_log is not None:
-        if not estimated_current:
-            raise ValueError("a speed log is measured only with a current estimated")
-        # k follows c in the augmented block, constant, from its prior N(0, σ_k²).
-        k_var = speed_log.scale_error_std**2
-        block = block.augmented(np.zeros(1), np.array([[k_var]]), 0.0, settings.divergence_factor)
-        transverse_std = speed_log.transverse_noise_std_mps
-        if transverse_std is None and any(
-            seg.speed_log_transverse_mps is not None for seg in segments
-        ):
-            raise ValueError("a transverse speed-log axis needs transverse_noise_std_mps")
-        speed_log_var[:] = speed_log.noise_std_mps**2, (transverse_std or 0.0) ** 2
+    block, current_rows, speed_log_var = _augment(
+        _Augmented(theta, P_theta, q_theta, variance_limit),
+        segments, settings, current0, current_covariance0, speed_log,
+    )  # fmt: skip
+    estimated_current = current_rows is not None
+    per_segment = current_rows is not None and current_rows.ndim == 2
     theta, P_theta, q_theta, variance_limit = block
-    speed_log_counts = np.zeros(4, dtype=np.int64)  # taken, rejected of each axis
-    # Model error enters the accelerations; the kinematics are exact.
-    q_state = np.concatenate(
-        [np.asarray(settings.state_process_std, dtype=float) ** 2, np.zeros(3)]
-    )
     n_total = sum(seg.time_s.size for seg in segments)
     stride = max(1, -(-n_total // max(settings.max_history_rows, 1)))
     rows = [-(-seg.time_s.size // stride) for seg in segments]
     theta_hist = np.empty((sum(rows), p))
     std_hist = np.empty((sum(rows), p))
+    # Model error enters the accelerations; the kinematics are exact.
+    q_state = np.concatenate(
+        [np.asarray(settings.state_process_std, dtype=float) ** 2, np.zeros(3)]
+    )
+    ekf = _Pass(
+        ekf_pass, eq_index, constants, settings, 3 if settings.measurements == "track" else 0,
+        speed_log_var, q_state, q_theta, variance_limit, stride,
+    )  # fmt: skip
+    speed_log_counts = np.zeros(4, dtype=np.int64)  # taken, rejected of each axis
     ends: list[int] = []
     filtered: list[np.ndarray] = []
     track_rms: list[tuple[float, float]] = []
@@ -434,7 +411,8 @@ def ekf_identify(
     row = 0
     for index, seg in enumerate(segments):
         n = seg.time_s.size
-        if per_segment:  # this run's own current, from its prior, uncorrelated with θ and k
+        if current_rows is not None and per_segment:
+            # this run's own current, from its prior, uncorrelated with θ and k
             P_theta[p : p + 2, :] = 0.0
             P_theta[:, p : p + 2] = 0.0
             P_theta[p : p + 2, p : p + 2] = current_covariance0
@@ -443,40 +421,12 @@ def ekf_identify(
             walk = settings.current_random_walk_mps**2 * seg.current_gap_s / 3600.0
             P_theta[p : p + 2, p : p + 2] += walk * np.eye(2)
         x, P = _segment_start(seg, theta, P_theta, p if estimated_current else None)
-        offset = 3 if settings.measurements == "track" else 0
-        track = np.ascontiguousarray(seg.track, dtype=float)
-        inputs = _pass_inputs(seg, track, offset, speed_log is not None)
-        states = np.empty((rows[len(filtered)], 6))
-        square_sums = np.zeros(2)
+        states = np.empty((rows[index], 6))
         histories = (states, theta_hist[row : row + states.shape[0]],
                      std_hist[row : row + states.shape[0]])  # fmt: skip
-        # Chunks [a, b] of whole strides, each starting at the previous one's last sample:
-        # the pass carries x and P on, so the filter is the same as in one pass; the
-        # history row of a chunk's first sample is written again with the same values,
-        # and its track residual, added again, is taken back out. An input of one row
-        # stands for every sample (R with track measurements, no known loads, no speed
-        # log): not cut.
-        chunk = -(-EKF_CHUNK_SAMPLES // stride) * stride
-        for a in range(0, max(n - 1, 1), chunk):
-            b = min(a + chunk, n - 1)
-            repeated = np.zeros(2)
-            if a > 0:
-                _add_track_residual(x, track, a, repeated)
-            part, rows_part = slice(a, b + 1), slice(a // stride, b // stride + 1)
-            status, sample = _run_pass(
-                ekf_pass, seg.name, eq_index, constants, settings.max_substep_s,
-                settings.process_noise_interval_s, offset,
-                *(v if v.shape[0] == 1 else v[part] for v in inputs), speed_log_var,
-                seg.speed_log_x_m, x, P, q_state, q_theta, variance_limit, stride, track[part],
-                *(h[rows_part] for h in histories), square_sums, speed_log_counts,
-            )  # fmt: skip
-            if status != _OK:
-                raise IdentificationError(
-                    _STATUS_MESSAGES[status], log=seg.name, sample=a + int(sample)
-                )
-            square_sums -= repeated
-            if progress is not None:
-                progress(b - a + int(a == 0))  # every sample once
+        square_sums = ekf.run(
+            seg, x, P, histories, speed_log is not None, speed_log_counts, progress
+        )
         theta = x[6:].copy()
         P_theta = 0.5 * (P[6:, 6:] + P[6:, 6:].T)
         try:
@@ -518,6 +468,116 @@ def ekf_identify(
         speed_log_samples=(int(speed_log_counts[0]), int(speed_log_counts[1])),
         speed_log_transverse_samples=(int(speed_log_counts[2]), int(speed_log_counts[3])),
     )
+
+
+def _augment(
+    block: _Augmented,
+    segments: Sequence[EkfSegment],
+    settings: EkfSettings,
+    current0: np.ndarray | None,
+    current_covariance0: np.ndarray | None,
+    speed_log: SpeedLogMeasurement | None,
+) -> tuple[_Augmented, np.ndarray | None, np.ndarray]:
+    """Return θ's block augmented by the current and the speed log's scale error.
+
+    (:func:`ekf_identify`'s arguments, checked.) Also returns the current's rows
+    (``current0`` as an array; None without a current) and the variances of the speed
+    log's two axes (zeros without one).
+    """
+    current_rows = None
+    if current0 is not None:
+        if settings.measurements != "track":
+            raise ValueError('a current is estimated only with measurements="track"')
+        if current_covariance0 is None or np.shape(current_covariance0) != (2, 2):
+            raise ValueError("current_covariance0 must have shape (2, 2)")
+        current_rows = np.asarray(current0, dtype=float)
+        if current_rows.shape not in ((2,), (len(segments), 2)):
+            raise ValueError(f"current0 must have shape (2,) or ({len(segments)}, 2)")
+        # θ and c are one augmented block: they carry over together, correlations too.
+        interval_s = float(np.median(np.concatenate([np.diff(s.time_s) for s in segments])))
+        block = block.augmented(
+            current_rows[0] if current_rows.ndim == 2 else current_rows,
+            np.asarray(current_covariance0),
+            settings.current_random_walk_mps**2 * interval_s / 3600.0,
+            settings.divergence_factor,
+        )
+    speed_log_var = np.zeros(2)  # of the two axes
+    if speed_log is not None:
+        if current_rows is None:
+            raise ValueError("a speed log is measured only with a current estimated")
+        # k follows c in the augmented block, constant, from its prior N(0, σ_k²).
+        k_var = speed_log.scale_error_std**2
+        block = block.augmented(np.zeros(1), np.array([[k_var]]), 0.0, settings.divergence_factor)
+        transverse_std = speed_log.transverse_noise_std_mps
+        if transverse_std is None and any(
+            seg.speed_log_transverse_mps is not None for seg in segments
+        ):
+            raise ValueError("a transverse speed-log axis needs transverse_noise_std_mps")
+        speed_log_var[:] = speed_log.noise_std_mps**2, (transverse_std or 0.0) ** 2
+    return block, current_rows, speed_log_var
+
+
+class _Pass(NamedTuple):
+    """What every segment's pass of the compiled EKF shares: kernel, settings, noise."""
+
+    kernel: Callable[..., tuple[int, int]]
+    eq_index: np.ndarray
+    constants: np.ndarray
+    settings: EkfSettings
+    offset: int  # the measured states: 3 (x, y, ψ) or 0 (u, v, r)
+    speed_log_var: np.ndarray
+    q_state: np.ndarray
+    q_theta: np.ndarray
+    variance_limit: np.ndarray
+    stride: int
+
+    def run(
+        self,
+        seg: EkfSegment,
+        x: np.ndarray,
+        P: np.ndarray,
+        histories: tuple[np.ndarray, np.ndarray, np.ndarray],
+        with_speed_log: bool,
+        speed_log_counts: np.ndarray,
+        progress: Callable[[int], None] | None,
+    ) -> np.ndarray:
+        """Filter ``seg`` in place on x, P and ``histories``; return its track's square sums.
+
+        In chunks [a, b] of whole strides, each starting at the previous one's last
+        sample: the pass carries x and P on, so the filter is the same as in one pass;
+        the history row of a chunk's first sample is written again with the same values,
+        and its track residual, added again, is taken back out. An input of one row
+        stands for every sample (R with track measurements, no known loads, no speed
+        log): not cut.
+        """
+        n = seg.time_s.size
+        track = np.ascontiguousarray(seg.track, dtype=float)
+        inputs = _pass_inputs(seg, track, self.offset, with_speed_log)
+        square_sums = np.zeros(2)
+        stride = self.stride
+        chunk = -(-EKF_CHUNK_SAMPLES // stride) * stride
+        for a in range(0, max(n - 1, 1), chunk):
+            b = min(a + chunk, n - 1)
+            repeated = np.zeros(2)
+            if a > 0:
+                _add_track_residual(x, track, a, repeated)
+            part, rows_part = slice(a, b + 1), slice(a // stride, b // stride + 1)
+            status, sample = _run_pass(
+                self.kernel, seg.name, self.eq_index, self.constants,
+                self.settings.max_substep_s, self.settings.process_noise_interval_s,
+                self.offset, *(v if v.shape[0] == 1 else v[part] for v in inputs),
+                self.speed_log_var, seg.speed_log_x_m, x, P, self.q_state, self.q_theta,
+                self.variance_limit, stride, track[part], *(h[rows_part] for h in histories),
+                square_sums, speed_log_counts,
+            )  # fmt: skip
+            if status != _OK:
+                raise IdentificationError(
+                    _STATUS_MESSAGES[status], log=seg.name, sample=a + int(sample)
+                )
+            square_sums -= repeated
+            if progress is not None:
+                progress(b - a + int(a == 0))  # every sample once
+        return square_sums
 
 
 def _segment_start(
