@@ -1,12 +1,13 @@
 """Model fidelity: which structure predicts manoeuvres it was not trained on (issue 8).
 
     python benchmarks/fidelity.py [--model NAME ...] [--out benchmarks/fidelity.md]
-        [--dt-s 0.2] [--vessel kvlcc2|mariner] [--draws N [--current MODE]]
+        [--dt-s 0.2] [--vessel kvlcc2|mariner|tanker] [--draws N [--current MODE]]
 
 Data: full-scale trial logs from a reference ship (``scenarios.synthesize``, ``--vessel``:
-the KVLCC2 MMG model by default, or the Mariner's Abkowitz model, a ship of another
-structure; 1 Hz, 1 m position and 0.1° heading noise): zig-zag 10/10, zig-zag 20/20 and the 35°
-starboard turning circle. For every model structure and two training sets
+the KVLCC2 MMG model by default, or the Mariner's Abkowitz model or Van Berlekom &
+Goddard's large tanker, ships of other structures; 1 Hz, 1 m position and 0.1° heading
+noise): zig-zag 10/10, zig-zag 20/20 and the 35° starboard turning circle. For every
+model structure and two training sets
 
 (a) the two zig-zags only: the turning circle is held out;
 (b) all three manoeuvres;

@@ -52,11 +52,9 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 import numpy as np
-from scipy.optimize import root
 
-from fmu_model.integrate import rk4_into
+from scenarios.calm_plants import RhsPlant, straight_run_helm
 from trials.maneuvers import Helm
-from trials.run import SingleShip
 
 LENGTH_M = 160.93
 """Length between perpendiculars L [m] (source)."""
@@ -226,8 +224,9 @@ def abkowitz_rhs(ship: AbkowitzShip, state: np.ndarray, rudder_rad: float) -> np
 def neutral_helm(ship: AbkowitzShip) -> Helm:
     """Return the rudder [rad] and sway velocity [m/s] of the straight run at U₀.
 
-    The trim Y′ = N′ = 0 of (2)-(3) at u = U₀, r = 0: the helm a trial's approach is
-    steadied on, against the single screw's Y₀ and N₀ (the Mariner: 1.1° to port).
+    The trim Y′ = N′ = 0 of (2)-(3) at u = U₀, r = 0 (``scenarios.calm_plants``): the
+    helm a trial's approach is steadied on, against the single screw's Y₀ and N₀ (the
+    Mariner: 1.1° to port).
 
     Raises
     ------
@@ -237,25 +236,14 @@ def neutral_helm(ship: AbkowitzShip) -> Helm:
     """
     speed = ship.approach_speed_mps
 
-    def side_force_and_moment(z: np.ndarray) -> list[float]:
-        _, y, n = abkowitz_forces(ship, speed, float(z[0]) * speed, 0.0, float(z[1]))
-        return [y, n]
+    def side_force_and_moment(v_prime: float, rudder_rad: float) -> tuple[float, float]:
+        _, y, n = abkowitz_forces(ship, speed, v_prime * speed, 0.0, rudder_rad)
+        return y, n
 
-    trim = root(side_force_and_moment, np.zeros(2), tol=1e-14)
-    if not trim.success:
-        raise RuntimeError(f"no straight run of the {ship.name} at U0: {trim.message}")
-    v_prime, rudder_rad = (float(x) for x in trim.x)
-    return Helm(rudder_rad=rudder_rad, sway_mps=v_prime * speed)
+    return straight_run_helm(side_force_and_moment, speed, ship.name)
 
 
-def _derivative_into(
-    state: np.ndarray, ship: AbkowitzShip, rudder_rad: float, out: np.ndarray
-) -> None:
-    """``fmu_model.integrate`` form of :func:`abkowitz_rhs`."""
-    out[:] = abkowitz_rhs(ship, state, rudder_rad)
-
-
-class AbkowitzPlant(SingleShip):
+class AbkowitzPlant(RhsPlant):
     """An :class:`AbkowitzShip` as a plant of ``trials.run``, in calm water.
 
     RK4 with equal substeps of at most :data:`MAX_SUBSTEP_S`, the rudder held over each
@@ -263,28 +251,19 @@ class AbkowitzPlant(SingleShip):
     """
 
     def __init__(self, ship: AbkowitzShip, nominal_rps: float = NOMINAL_RPS) -> None:
+        super().__init__(
+            lambda state, rudder_rad, _: abkowitz_rhs(ship, state, rudder_rad),
+            ship.length_m,
+            MAX_SUBSTEP_S,
+        )
         self.ship = ship
-        self.length_m = ship.length_m
         self.nominal_rps = nominal_rps
-        self._state = np.zeros(6)
-
-    def reset(self, initial_state: np.ndarray) -> None:
-        """Start again from ``initial_state``."""
-        self._state = np.array(initial_state, dtype=float)
 
     def step(self, rudder_rad: float, n_rps: float, dt_s: float) -> np.ndarray:
         """Advance ``dt_s`` [s] with the rudder [rad] held; ``n_rps`` must be the nominal."""
-        if not (math.isfinite(dt_s) and dt_s > 0.0):
-            raise ValueError(f"dt_s must be a positive finite number, got {dt_s!r}")
         if not math.isclose(n_rps, self.nominal_rps, rel_tol=1e-9):
             raise ValueError(
                 f"the {self.ship.name} model has no propeller term: it sails at its nominal "
                 f"{60.0 * self.nominal_rps:g} rpm only, not {60.0 * n_rps:g} rpm"
             )
-        n_sub = max(1, math.ceil(dt_s / MAX_SUBSTEP_S - 1e-9))
-        h = dt_s / n_sub
-        work = np.empty((5, 6))
-        rudder = float(rudder_rad)
-        for _ in range(n_sub):
-            rk4_into(_derivative_into, self._state, h, self.ship, rudder, rudder, rudder, work)
-        return self._state.copy()
+        return super().step(rudder_rad, n_rps, dt_s)

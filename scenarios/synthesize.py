@@ -36,6 +36,7 @@ import numpy as np
 
 from fmu_model import ModelParameters
 from fmu_model.atomic import write_atomic
+from scenarios import tanker
 from scenarios.errors import ScenarioError
 from scenarios.kvlcc2 import ReferencePlant, kvlcc2, kvlcc2_windage
 from scenarios.mariner import (
@@ -92,9 +93,10 @@ class TruthShip:
     neutral_helm: Helm = field(default_factory=Helm)
 
 
-REFERENCE_VESSELS = ("kvlcc2", "mariner")
+REFERENCE_VESSELS = ("kvlcc2", "mariner", "tanker")
 """The reference ships: KVLCC2 (MMG, ``scenarios.kvlcc2``), the Mariner (Abkowitz,
-``scenarios.mariner``; full scale, calm water)."""
+``scenarios.mariner``) and a large tanker (Van Berlekom & Goddard, ``scenarios.tanker``);
+the last two at full scale in calm water."""
 
 
 def reference_ship(
@@ -104,8 +106,8 @@ def reference_ship(
 
     With an ``environment`` KVLCC2 sails in that current and wind (``scenarios.kvlcc2``,
     windage of ``docs/kvlcc2_environment.md``), all values at the ship's scale; its
-    ``source`` says so. Without, it is the calm-water ship. The Mariner is given at full
-    scale in calm water only.
+    ``source`` says so. Without, it is the calm-water ship. The Mariner and the tanker
+    are given at full scale in calm water only.
 
     Raises
     ------
@@ -113,11 +115,24 @@ def reference_ship(
         An unknown vessel, or a scale or environment the vessel is not given in.
 
     """
-    if name == "mariner":
+    if name in ("mariner", "tanker"):
         if scale != "full":
-            raise ValueError(f"the mariner reference is given at full scale only, not {scale!r}")
+            raise ValueError(f"the {name} reference is given at full scale only, not {scale!r}")
         if environment is not None:
-            raise ValueError("the mariner reference sails in calm water only (no windage)")
+            raise ValueError(f"the {name} reference sails in calm water only (no windage)")
+    if name == "tanker":
+        vessel = tanker.tanker()
+        return TruthShip(
+            name="tanker-full",
+            plant=tanker.TankerPlant(vessel),
+            length_m=vessel.length_m,
+            speed_mps=tanker.approach_speed(vessel),
+            n_rps=tanker.NOMINAL_RPS,
+            rudder_rate_radps=tanker.RUDDER_RATE_RADPS,
+            source="large tanker (Van Berlekom & Goddard 1972), full scale, deep water",
+            neutral_helm=tanker.neutral_helm(vessel),
+        )
+    if name == "mariner":
         ship = mariner()
         return TruthShip(
             name="mariner-full",

@@ -57,7 +57,8 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
         "--vessel",
         choices=REFERENCE_VESSELS,
         default="kvlcc2",
-        help="reference ship: kvlcc2 (MMG) or mariner (Abkowitz; full scale, calm water)",
+        help="reference ship: kvlcc2 (MMG), mariner (Abkowitz) or tanker (Van Berlekom & "
+        "Goddard; the last two full scale, calm water)",
     )
     p.add_argument(
         "--maneuver",
