@@ -256,8 +256,8 @@ def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candida
     np.testing.assert_array_equal(result.params.to_vector(), other.to_vector())
     why = (
         "the EKF estimate from the EKF start fails the sanity guard (a virtual hard-over turn "
-        "diverges, turns back or does not pass 360 deg); refined again from the "
-        "equation-error estimate, which sails the virtual turns and zig-zags"
+        "diverges, turns back, loses its headway or does not pass 360 deg); refined again "
+        "from the equation-error estimate, which sails the virtual turns and zig-zags"
     )
     assert why in result.warnings and why in result.reason
     assert why in result.params.identification["refinement"]["reason"]
@@ -289,6 +289,22 @@ def test_sanity_guard_flags_a_diverging_turn() -> None:
     theta[truth.names.index("a1")] = 0.004  # negative resistance: the ship accelerates
     turns = _turns(truth.with_vector(theta))
     assert not any(t.bounded for t in turns) and not any(t.sane for t in turns)
+
+
+def test_sanity_guard_flags_a_turn_that_loses_its_headway() -> None:
+    """A rudder drag seven times the seed ship's (a4 δ², 35° of rudder): the virtual turn
+    stays finite and turns through 360° and more, but the ship stops and sails astern
+    under its ahead propeller (measured: every guard but this one passed it). At 0.3 it
+    keeps its headway, as the seed ship does."""
+    truth = _truth()
+    theta = truth.to_vector().copy()
+    theta[truth.names.index("a4")] = -0.35
+    turns = _turns(truth.with_vector(theta))
+    assert all(t.bounded and t.passed_360 and t.lost_headway for t in turns)
+    assert not any(t.sane for t in turns)
+    theta[truth.names.index("a4")] = -0.3
+    assert all(t.sane and not t.lost_headway for t in _turns(truth.with_vector(theta)))
+    assert all(t.sane for t in _turns(truth))
 
 
 def test_identify_by_default_refines_and_carries_every_estimate(

@@ -31,7 +31,12 @@ import numpy as np
 
 from fmu_model import ModelParameters
 from identifier.output_error.objective import DIVERGENCE_SPEED_FACTOR
-from identifier.output_error.records import FitSummary, RefineSettings, VirtualTurn
+from identifier.output_error.records import (
+    SANITY_FAILURE,
+    FitSummary,
+    RefineSettings,
+    VirtualTurn,
+)
 from identifier.smoothing import SmoothedTrack
 from trials.logs import ManeuverLog
 from trials.maneuvers import Program, turning_circle, zigzag
@@ -223,6 +228,7 @@ def virtual_turns(
                 bounded=not bool(run.diverged[0]),
                 passed_360=change >= 2.0 * math.pi,
                 turned_back_rad=turned_back_rad(traj) if change > 0.0 else 0.0,
+                lost_headway=bool(np.any(traj["u_mps"] <= 0.0)),
             )
         )
     return turns[0], turns[1]
@@ -430,10 +436,7 @@ def decide(
             + f" diverges; {keep}"
         )
     if not all(_no_worse(a, b) for a, b in zip(initial.turns, refined.turns, strict=True)):
-        return "initial", (
-            "output-error estimate rejected: a virtual hard-over turn diverges, turns back "
-            f"or does not pass 360 deg; {keep}"
-        )
+        return "initial", (f"output-error estimate rejected: {SANITY_FAILURE}; {keep}")
     if initial.zigzags_complete and not refined.zigzags_complete:
         return "initial", (
             "output-error estimate rejected: a virtual 20/20 zig-zag diverges or does not "

@@ -127,6 +127,10 @@ class VirtualTurn:
     turned_back_rad : float
         How far the heading fell back against the rudder (``trials.metrics.
         turned_back_rad``) [rad].
+    lost_headway : bool
+        The forward speed u fell to zero or below: the ship under its ahead propeller
+        stopped or went astern in the turn, which no ship does (the speed a hard turn
+        costs is a surge equation extrapolated far below the logs' speeds).
 
     """
 
@@ -138,11 +142,23 @@ class VirtualTurn:
     bounded: bool
     passed_360: bool
     turned_back_rad: float = 0.0
+    lost_headway: bool = False
 
     @property
     def sane(self) -> bool:
-        """Bounded, through 360° (model_structures.md §7) and never turning back."""
-        return self.bounded and self.passed_360 and self.turned_back_rad <= TURN_BACK_TOLERANCE_RAD
+        """Bounded, through 360° (model_structures.md §7), never turning back nor astern."""
+        return (
+            self.bounded
+            and self.passed_360
+            and self.turned_back_rad <= TURN_BACK_TOLERANCE_RAD
+            and not self.lost_headway
+        )
+
+
+SANITY_FAILURE = (
+    "a virtual hard-over turn diverges, turns back, loses its headway or does not pass 360 deg"
+)
+"""What an estimate that fails the sanity guard (:attr:`VirtualTurn.sane`) does, for messages."""
 
 
 @dataclass(frozen=True)

@@ -48,6 +48,7 @@ from identifier.output_error.guards import (
 from identifier.output_error.initial_state import execute_state, smooth_log
 from identifier.output_error.objective import Objective, prepare_log, whitening
 from identifier.output_error.records import (
+    SANITY_FAILURE,
     FitSummary,
     RefinementResult,
     RefineSettings,
@@ -77,7 +78,8 @@ def refine_output_error(
     then being zero). The paper's one-step-ahead EKF fit is not always the estimate that
     simulates or predicts whole manoeuvres best.
     When the estimate kept (refined or start) fails the sanity guard (a virtual hard-over
-    turn diverges, turns back or does not pass 360°) and another candidate sails the
+    turn diverges, turns back, loses its headway or does not pass 360°) and another
+    candidate sails the
     virtual turns and zig-zags, the refinement runs again from that candidate, and the
     result says why.
 
@@ -160,10 +162,7 @@ def refine_output_error(
         method, initial.turns, other_turns, settings.disagreement_tolerance
     )
     if not all(t.sane for t in initial.turns):
-        warnings.append(
-            f"the {label} estimate fails the sanity guard: a virtual hard-over turn "
-            "diverges, turns back or does not pass 360 deg"
-        )
+        warnings.append(f"the {label} estimate fails the sanity guard: {SANITY_FAILURE}")
     opt = objective.solve(np.zeros(objective.size), settings.max_nfev)
     refined_params = params.with_vector(objective.theta(opt.x), _covariance(objective, opt))
     refined = _summarise(objective, opt.x, refined_params, approach)
@@ -189,10 +188,9 @@ def refine_output_error(
             )
             kept_label = "output-error" if kept == "refined" else label
             why = (
-                f"the {kept_label} estimate from the {label} start fails the sanity guard (a "
-                "virtual hard-over turn diverges, turns back or does not pass 360 deg); "
-                f"refined again from the {method_label(sane)} estimate, which sails the "
-                "virtual turns and zig-zags"
+                f"the {kept_label} estimate from the {label} start fails the sanity guard "
+                f"({SANITY_FAILURE}); refined again from the {method_label(sane)} estimate, "
+                "which sails the virtual turns and zig-zags"
             )
             return replace(
                 again,
