@@ -253,7 +253,9 @@ def _despiked_inputs(log: ManeuverLog, name: str, length_m: float, notes: list[s
     rudder = out_and_back(log.time_s, log.rudder_rad, rate)
     typical_rps = float(np.median(np.abs(log.n_rps)))
     propeller = (
-        out_and_back(log.time_s, log.n_rps, rate * typical_rps) if typical_rps > 0.0 else rudder[:0]
+        out_and_back(log.time_s, log.n_rps, rate * typical_rps)
+        if typical_rps > 0.0
+        else np.empty(0, dtype=np.intp)
     )
     if not (rudder.size or propeller.size):
         return log

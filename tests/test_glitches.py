@@ -103,6 +103,19 @@ def test_the_synthetic_glitches_move_only_their_samples(clean: ManeuverLog) -> N
         with_gnss_jumps(clean, 1.5, 0)
 
 
+def _rejected_exactly(
+    track: SmoothedTrack, bad: np.ndarray, reference: SmoothedTrack, rms_max: float,
+    largest_max: float,
+) -> None:  # fmt: skip
+    """The gate rejected the fixes ``bad`` and nothing else, re-acquired nowhere, and the
+    rates are within ``rms_max`` (RMS) and ``largest_max`` of the reference's, in its σ."""
+    np.testing.assert_array_equal(track.position_rejected, bad)
+    assert track.position_reacquired.size == 0
+    for name in RATES:
+        rms, largest = _in_sigma(track, reference, name)
+        assert rms < rms_max and largest < largest_max, (name, rms, largest)
+
+
 def _in_sigma(track: SmoothedTrack, reference: SmoothedTrack, name: str) -> tuple[float, float]:
     """RMS and largest |difference| of a rate from the reference's, in its mean σ."""
     sigma = float(np.mean(getattr(reference, name.replace("_", "_std_", 1))))
@@ -161,11 +174,8 @@ def test_gnss_jumps_are_rejected_and_the_velocities_kept(
 ) -> None:
     log, index = with_gnss_jumps(clean, fraction, seed)
     track = _smooth(log)
-    np.testing.assert_array_equal(track.position_rejected, index)
-    assert track.rejected_heading_samples == 0 and track.position_reacquired.size == 0
-    for name in RATES:
-        rms, largest = _in_sigma(track, clean_track, name)
-        assert rms < 0.3 and largest < 1.5, (name, rms, largest)
+    assert track.rejected_heading_samples == 0
+    _rejected_exactly(track, index, clean_track, 0.3, 1.5)
 
 
 def test_without_the_gate_the_same_jumps_ruin_the_velocities(
@@ -230,11 +240,8 @@ def test_a_jump_of_several_samples_is_one_excursion(
     x[400 : 400 + length] += 300.0
     y[400 : 400 + length] -= 200.0
     track = _smooth(dataclasses.replace(clean, x_m=x, y_m=y))
-    np.testing.assert_array_equal(track.position_rejected, np.arange(400, 400 + length))
-    assert track.position_reacquired.size == 0
-    for name in RATES:  # a gap of up to 20 s in the fixes (0.38 σ RMS at 20)
-        rms, largest = _in_sigma(track, clean_track, name)
-        assert rms < 0.5 and largest < 2.0, (name, rms, largest)
+    # a gap of up to 20 s in the fixes (0.38 σ RMS at 20)
+    _rejected_exactly(track, np.arange(400, 400 + length), clean_track, 0.5, 2.0)
 
 
 @pytest.mark.parametrize(("length", "offset_m"), [(8, 12.0), (10, 15.0), (20, 12.0)])
@@ -251,11 +258,7 @@ def test_an_excursion_of_tens_of_metres_is_not_let_in_by_the_widening_prediction
     x[400 : 400 + length] += 0.6 * offset_m
     y[400 : 400 + length] -= 0.8 * offset_m
     track = _smooth(dataclasses.replace(clean, x_m=x, y_m=y))
-    np.testing.assert_array_equal(track.position_rejected, np.arange(400, 400 + length))
-    assert track.position_reacquired.size == 0
-    for name in RATES:
-        rms, largest = _in_sigma(track, clean_track, name)
-        assert rms < 0.5 and largest < 2.0, (name, rms, largest)
+    _rejected_exactly(track, np.arange(400, 400 + length), clean_track, 0.5, 2.0)
 
 
 def test_excursions_of_more_than_a_percent_of_the_samples_leave_the_gate_tight(
@@ -272,12 +275,8 @@ def test_excursions_of_more_than_a_percent_of_the_samples_leave_the_gate_tight(
     x[bad] += 12.0
     y[bad] -= 16.0
     track = _smooth(dataclasses.replace(clean, x_m=x, y_m=y))
-    np.testing.assert_array_equal(track.position_rejected, bad)
-    assert track.position_reacquired.size == 0
     assert track.position_gate_scale <= smoothing.TAIL_RATIO_MAX * 1.5
-    for name in RATES:
-        rms, largest = _in_sigma(track, clean_track, name)
-        assert rms < 0.5 and largest < 2.0, (name, rms, largest)
+    _rejected_exactly(track, bad, clean_track, 0.5, 2.0)
 
 
 def test_a_step_that_stays_is_re_acquired_not_locked_out(
