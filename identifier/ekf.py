@@ -388,7 +388,8 @@ def ekf_identify(
         segments, settings, current0, current_covariance0, speed_log,
     )  # fmt: skip
     estimated_current = current_rows is not None
-    per_segment = current_rows is not None and current_rows.ndim == 2
+    # One current per segment: its rows, else None.
+    per_segment = current_rows if current_rows is not None and current_rows.ndim == 2 else None
     theta, P_theta, q_theta, variance_limit = block
     n_total = sum(seg.time_s.size for seg in segments)
     stride = max(1, -(-n_total // max(settings.max_history_rows, 1)))
@@ -411,12 +412,12 @@ def ekf_identify(
     row = 0
     for index, seg in enumerate(segments):
         n = seg.time_s.size
-        if current_rows is not None and per_segment:
+        if per_segment is not None:
             # this run's own current, from its prior, uncorrelated with θ and k
             P_theta[p : p + 2, :] = 0.0
             P_theta[:, p : p + 2] = 0.0
             P_theta[p : p + 2, p : p + 2] = current_covariance0
-            theta[p : p + 2] = current_rows[index]
+            theta[p : p + 2] = per_segment[index]
         elif estimated_current:  # a drifting current walks between the runs too
             walk = settings.current_random_walk_mps**2 * seg.current_gap_s / 3600.0
             P_theta[p : p + 2, p : p + 2] += walk * np.eye(2)
@@ -445,7 +446,7 @@ def ekf_identify(
         track_rms.append((float(np.sqrt(square_sums[0] / n)), float(np.sqrt(square_sums[1] / n))))
     scale = p + 2  # k's index in θ's augmented block, with a speed log
     current = current_covariance = None
-    if per_segment:
+    if per_segment is not None:
         current = np.array([c for c, _ in segment_currents])
         current_covariance = np.array([cov for _, cov in segment_currents])
     elif estimated_current:
