@@ -370,11 +370,11 @@ def smooth_logs(
     ``length_m``: the ship's [m], which sets how fast its inputs can change
     (``identifier.spikes``); ``position_noise_m``, ``heading_noise_rad``: the logger's
     noise (None: estimated from the logs, ``identifier.smoothing.smooth_track``);
-    ``measurements``: what the EKF
-    measures ("track" or "velocities"); ``windage``: the vessel's, to take a measured
-    wind's load out; ``drifting``: order the logs as sailed (a drifting current's random
-    walk runs through them in time), else by :func:`ekf_order`. ``progress`` is called
-    with each log's samples, ``stage`` with "smoothing <log>".
+    ``measurements``: what the EKF measures ("track" or "velocities"); ``windage``: the
+    vessel's, to take a measured wind's load out; ``drifting``: order the logs as sailed
+    (a drifting current's random walk runs through them in time), else by
+    :func:`ekf_order`. ``progress`` is called with each log's samples, ``stage`` with
+    "smoothing <log>".
     """
     warnings: list[str] = []
     notes: list[str] = []
