@@ -140,7 +140,7 @@ def tanker_forces(
         + k["Xccdd"] * race * d * d
         + k["Xccbd"] * race * beta * d
         + length * thrust * (1.0 - k["t"])
-    ) / length
+    ) / length  # (1)
     y = (
         k["Yuv"] * u * v
         + k["Yvv"] * abs(v) * v
@@ -148,7 +148,7 @@ def tanker_forces(
         + length * k["d22"] * u * r
         + k["Yccbbd"] * race * abs(beta) * beta * abs(d)
         + k["YT"] * thrust * length
-    ) / length
+    ) / length  # (2)
     ln = (
         k["Nuv"] * u * v
         + length * k["Nvr"] * abs(v) * r
@@ -156,7 +156,7 @@ def tanker_forces(
         + length * k["d33"] * u * r
         + k["Nccbbd"] * race * abs(beta) * beta * abs(d)
         + length * k["NT"] * thrust
-    )
+    )  # (3)
     return x, y, ln
 
 
@@ -167,7 +167,7 @@ def tanker_rhs(ship: TankerShip, state: np.ndarray, rudder_rad: float, n_rps: fl
     x, y, ln = tanker_forces(ship, u, v, r, rudder_rad, n_rps)
     cos_psi, sin_psi = math.cos(psi), math.sin(psi)
     return np.array(
-        [
+        [  # (4), then the kinematics
             x / k["m11"],
             y / k["m22"],
             ln / (ship.length_m**2 * k["m33"]),
