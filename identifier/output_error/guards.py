@@ -436,7 +436,7 @@ def decide(
             + f" diverges; {keep}"
         )
     if not all(_no_worse(a, b) for a, b in zip(initial.turns, refined.turns, strict=True)):
-        return "initial", (f"output-error estimate rejected: {SANITY_FAILURE}; {keep}")
+        return "initial", f"output-error estimate rejected: {SANITY_FAILURE}; {keep}"
     if initial.zigzags_complete and not refined.zigzags_complete:
         return "initial", (
             "output-error estimate rejected: a virtual 20/20 zig-zag diverges or does not "

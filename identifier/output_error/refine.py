@@ -79,9 +79,8 @@ def refine_output_error(
     simulates or predicts whole manoeuvres best.
     When the estimate kept (refined or start) fails the sanity guard (a virtual hard-over
     turn diverges, turns back, loses its headway or does not pass 360°) and another
-    candidate sails the
-    virtual turns and zig-zags, the refinement runs again from that candidate, and the
-    result says why.
+    candidate sails the virtual turns and zig-zags, the refinement runs again from that
+    candidate, and the result says why.
 
     Every log is replayed from its execute sample on, from the state there that the
     start model gives when fitted to the approach (:func:`execute_state`). That state is
