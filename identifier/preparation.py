@@ -6,7 +6,7 @@ than a ship, no rudder excitation; the vessel's length and name agreed), the GNS
 antenna's track reduced to midship, each log smoothed by ``identifier.smoothing`` (the
 seed paper's Kalman filter and RTS smoother, with its innovation gate against GNSS
 glitches) and the glitches it rejected replaced by its estimates, the spikes of the rudder
-angle and the propeller speed interpolated (``identifier.spikes``), and the logs ordered
+angle and the propeller speed interpolated (``trials.spikes``), and the logs ordered
 for the EKF: by their largest rudder angle (:func:`ekf_order`), or as sailed for a
 drifting current (:func:`sailed_order`).
 """
@@ -27,11 +27,11 @@ from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
 from identifier.ekf import EkfSegment
 from identifier.smoothing import SmoothedTrack, smooth_track
-from identifier.spikes import despiked, input_rate_bound, out_and_back
 from identifier.wind import has_wind, known_acceleration
 from trials.conditions import EXECUTE_RUDDER_RAD
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship
+from trials.spikes import despiked_inputs
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
 MAX_SAMPLE_INTERVAL_S = 5.0
@@ -245,30 +245,17 @@ def _deglitched(
 def _despiked_inputs(log: ManeuverLog, name: str, length_m: float, notes: list[str]) -> ManeuverLog:
     """Return the log with the spikes of its rudder angle and propeller speed interpolated.
 
-    ``identifier.spikes``: out and back faster than a ship of ``length_m`` [m] moves them
-    (the propeller speed relative to its median; a log whose median is 0 is not looked
-    at). Adds a note of the counts.
+    (``trials.spikes.despiked_inputs``: out and back faster than a ship of ``length_m``
+    [m] moves them.) Adds a note of the counts.
     """
-    rate = input_rate_bound(length_m)
-    rudder = out_and_back(log.time_s, log.rudder_rad, rate)
-    typical_rps = float(np.median(np.abs(log.n_rps)))
-    propeller = (
-        out_and_back(log.time_s, log.n_rps, rate * typical_rps)
-        if typical_rps > 0.0
-        else np.empty(0, dtype=np.intp)
-    )
-    if not (rudder.size or propeller.size):
-        return log
-    notes.append(
-        f"{name}: {rudder.size} rudder angles and {propeller.size} propeller speeds taken for "
-        "spikes (out and straight back faster than a ship's steering gear or engine) and "
-        "interpolated"
-    )
-    return replace(
-        log,
-        rudder_rad=despiked(log.time_s, log.rudder_rad, rudder),
-        n_rps=despiked(log.time_s, log.n_rps, propeller),
-    )
+    log, rudder, propeller = despiked_inputs(log, length_m)
+    if rudder or propeller:
+        notes.append(
+            f"{name}: {rudder} rudder angles and {propeller} propeller speeds taken for "
+            "spikes (out and straight back faster than a ship's steering gear or engine) "
+            "and interpolated"
+        )
+    return log
 
 
 def ekf_order(logs: Sequence[ManeuverLog]) -> list[int]:
@@ -368,7 +355,7 @@ def smooth_logs(
     """Check, smooth and deglitch every log; warn of what the fits cannot fix.
 
     ``length_m``: the ship's [m], which sets how fast its inputs can change
-    (``identifier.spikes``); ``position_noise_m``, ``heading_noise_rad``: the logger's
+    (``trials.spikes``); ``position_noise_m``, ``heading_noise_rad``: the logger's
     noise (None: estimated from the logs, ``identifier.smoothing.smooth_track``);
     ``measurements``: what the EKF measures ("track" or "velocities"); ``windage``: the
     vessel's, to take a measured wind's load out; ``drifting``: order the logs as sailed

@@ -1,4 +1,4 @@
-"""Spikes of the logged rudder angle and propeller speed (identifier.spikes).
+"""Spikes of the logged rudder angle and propeller speed (trials.spikes).
 
 Hand-built channels: a rudder that holds and turns at 2.3 °/s (the KVLCC2's steering
 gear) sampled at 1 Hz, a ship of 320 m (the bound √(g/L) = 0.175 rad/s, 10 °/s); then
@@ -16,7 +16,16 @@ import numpy as np
 import pytest
 
 from identifier.preparation import smooth_logs
-from identifier.spikes import (
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from trials.conditions import (
+    approach_helm_rad,
+    execute_index,
+    logged_condition,
+    maneuver_kind,
+    zigzag_angles,
+)
+from trials.logs import ManeuverLog, read_log
+from trials.spikes import (
     FROUDE_RATE,
     GRAVITY_MPS2,
     MAX_SPIKE_SAMPLES,
@@ -24,8 +33,6 @@ from identifier.spikes import (
     input_rate_bound,
     out_and_back,
 )
-from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
-from trials.logs import ManeuverLog, read_log
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
 LENGTH_M = 320.0
@@ -154,3 +161,24 @@ def test_a_fit_takes_the_spikes_out_and_says_so() -> None:
     np.testing.assert_allclose(log.n_rps, clean.n_rps, rtol=1e-12)
     _, clean_notes = _prepared(clean)
     assert not any("spikes" in n for n in clean_notes)
+
+
+def test_a_logged_condition_is_read_through_the_spikes() -> None:
+    """A 10/10 zig-zag without its ``# execute_time_s:`` line, one rudder sample spiked to
+    +20° during the approach and one to +35° on the first plateau: the execute point, the
+    rudder amplitude and rate, the kind and the angles read as from the clean log (the
+    spike before execute would be taken for it, 40 s early; the one on the plateau for a
+    35° zig-zag)."""
+    clean = synthesize_log(reference_ship("kvlcc2"), MANEUVERS["zigzag-10"](), seed=1)
+    metadata = {k: v for k, v in clean.metadata.items() if k != "execute_time_s"}
+    clean = replace(clean, metadata=metadata)
+    k = execute_index(clean)
+    rudder = clean.rudder_rad.copy()
+    rudder[k - 40] = math.radians(20.0)
+    rudder[k + 20] = math.radians(35.0)
+    spiked = replace(clean, rudder_rad=rudder)
+    assert execute_index(spiked) == k
+    assert maneuver_kind(spiked) == maneuver_kind(clean) == "zigzag"
+    assert zigzag_angles(spiked) == zigzag_angles(clean)
+    assert approach_helm_rad(spiked) == approach_helm_rad(clean)
+    assert logged_condition(spiked) == logged_condition(clean)

@@ -39,6 +39,7 @@ from trials.logs import ManeuverLog, at_midship
 from trials.maneuvers import Leg, Program, Until, turning_circle
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
 from trials.run import Plant, run_batch
+from trials.spikes import despiked_inputs
 from trials.trajectory import empty_trajectory
 
 KINDS = ("turning", "zigzag")
@@ -106,7 +107,8 @@ def execute_index(log: ManeuverLog) -> int:
 
     From the log's ``# execute_time_s:`` when given (the last sample not after it),
     else the first sample of the rudder movement that takes it more than
-    :data:`EXECUTE_RUDDER_RAD` from its first value; the last sample when it never moves.
+    :data:`EXECUTE_RUDDER_RAD` from its first value (its spikes interpolated,
+    ``trials.spikes``); the last sample when it never moves.
     """
     text = log.metadata.get("execute_time_s")
     if text is not None:
@@ -117,7 +119,7 @@ def execute_index(log: ManeuverLog) -> int:
         if math.isfinite(t_exec) and log.time_s[0] <= t_exec <= log.time_s[-1]:
             # 1 µs of slack: sample times are often sums of float steps.
             return int(np.searchsorted(log.time_s, t_exec + 1e-6, side="right")) - 1
-    rudder = log.rudder_rad
+    rudder = despiked_inputs(log)[0].rudder_rad
     moved = np.flatnonzero(np.abs(rudder - rudder[0]) > EXECUTE_RUDDER_RAD)
     if not moved.size:
         return log.n_samples - 1
@@ -163,8 +165,9 @@ def maneuver_kind(log: ManeuverLog) -> str | None:
     past midship) after its first command is a zig-zag; one whose rudder is put over
     and held (or returned to midship) is a turning circle. The data decide, not the
     file name or the ``# source:`` text (HSVA's source says "turns the ship to port" of
-    a zig-zag).
+    a zig-zag). The rudder's spikes are interpolated first (``trials.spikes``).
     """
+    log = despiked_inputs(log)[0]
     k = execute_index(log)
     if k >= log.n_samples - 1:
         return None
@@ -249,6 +252,7 @@ def zigzag_angles(log: ManeuverLog) -> tuple[float, float]:
         When the rudder is never reversed.
 
     """
+    log = despiked_inputs(log)[0]  # a spike is no rudder angle (trials.spikes)
     k = execute_index(log)
     sign = _first_side(log, k)
     named = _named_angles(log)
@@ -289,8 +293,10 @@ def approach_helm_rad(log: ManeuverLog) -> float:
     """Mean rudder angle [rad] before execute: the helm the approach was sailed at.
 
     A single-screw ship needs one off the centre line to run straight (its neutral helm);
-    the first sample when the log starts at execute.
+    the first sample when the log starts at execute; the rudder's spikes interpolated
+    (``trials.spikes``).
     """
+    log = despiked_inputs(log)[0]
     return _helm_before(log, execute_index(log))
 
 
@@ -351,6 +357,7 @@ def logged_condition(log: ManeuverLog, *, max_time_s: float = 3600.0) -> LoggedC
 
     """
     log = at_midship(log)  # the approach speed of the midship point, as the model's
+    log = despiked_inputs(log)[0]  # a spike is no rudder angle nor rpm (trials.spikes)
     kind = maneuver_kind(log)
     k = execute_index(log)
     if kind is None or k >= log.n_samples - 1:

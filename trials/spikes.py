@@ -7,6 +7,9 @@ channel was. Taken as logged, such samples are rudder the ship never had; on the
 zig-zags at 1 Hz, 1 % of the rudder samples spiked to ±35° moved the predicted 35° turn's
 transfer by 10 points and the 10/10 second overshoot by 0.65°, 1 % of the propeller
 speeds dropped to 0 the tactical diameter by 4.6 points (`identifier fit`, by hand).
+:func:`despiked_inputs` mends a log before every fit (``identifier.preparation``) and
+before its manoeuvre's condition is read (``trials.conditions``: a spike before the
+execute point would be taken for it, one on a plateau for the rudder amplitude).
 
 A spike is a run of at most :data:`MAX_SPIKE_SAMPLES` samples that leaves the sample
 before it and returns to the sample after it, both steps in opposite directions and
@@ -25,15 +28,19 @@ was.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from trials.logs import ManeuverLog
 
 __all__ = [
     "FROUDE_RATE",
     "GRAVITY_MPS2",
     "MAX_SPIKE_SAMPLES",
     "despiked",
+    "despiked_inputs",
     "input_rate_bound",
     "out_and_back",
 ]
@@ -105,3 +112,35 @@ def despiked(t_s: ArrayLike, values: ArrayLike, spikes: ArrayLike) -> FloatArray
     bad[np.asarray(spikes, dtype=np.intp)] = True
     z[bad] = np.interp(t[bad], t[~bad], z[~bad])
     return z
+
+
+def despiked_inputs(
+    log: ManeuverLog, length_m: float | None = None
+) -> tuple[ManeuverLog, int, int]:
+    """Return ``log`` with the spikes of its rudder angle and propeller speed interpolated.
+
+    Spikes as :func:`out_and_back` finds them at :func:`input_rate_bound` of the ship's
+    length ``length_m`` [m] (default the log's ``# length_m:``; with neither, the log as
+    it is), the propeller speed relative to its median (a log whose median is 0 is not
+    looked at). Also returns how many rudder angles and propeller speeds were taken for
+    spikes; the log itself when none was.
+    """
+    length = log.length_m if length_m is None else length_m
+    if length is None:
+        return log, 0, 0
+    rate = input_rate_bound(length)
+    rudder = out_and_back(log.time_s, log.rudder_rad, rate)
+    typical_rps = float(np.median(np.abs(log.n_rps)))
+    propeller = (
+        out_and_back(log.time_s, log.n_rps, rate * typical_rps)
+        if typical_rps > 0.0
+        else np.empty(0, dtype=np.intp)
+    )
+    if not (rudder.size or propeller.size):
+        return log, 0, 0
+    despiked_log = replace(
+        log,
+        rudder_rad=despiked(log.time_s, log.rudder_rad, rudder),
+        n_rps=despiked(log.time_s, log.n_rps, propeller),
+    )
+    return despiked_log, int(rudder.size), int(propeller.size)
