@@ -110,6 +110,11 @@ def execute_index(log: ManeuverLog) -> int:
     :data:`EXECUTE_RUDDER_RAD` from its first value (its spikes interpolated,
     ``trials.spikes``); the last sample when it never moves.
     """
+    return _execute_index(despiked_inputs(log)[0])
+
+
+def _execute_index(log: ManeuverLog) -> int:
+    """:func:`execute_index` of a log whose spikes are interpolated already."""
     text = log.metadata.get("execute_time_s")
     if text is not None:
         try:
@@ -119,7 +124,7 @@ def execute_index(log: ManeuverLog) -> int:
         if math.isfinite(t_exec) and log.time_s[0] <= t_exec <= log.time_s[-1]:
             # 1 µs of slack: sample times are often sums of float steps.
             return int(np.searchsorted(log.time_s, t_exec + 1e-6, side="right")) - 1
-    rudder = despiked_inputs(log)[0].rudder_rad
+    rudder = log.rudder_rad
     moved = np.flatnonzero(np.abs(rudder - rudder[0]) > EXECUTE_RUDDER_RAD)
     if not moved.size:
         return log.n_samples - 1
@@ -167,8 +172,12 @@ def maneuver_kind(log: ManeuverLog) -> str | None:
     file name or the ``# source:`` text (HSVA's source says "turns the ship to port" of
     a zig-zag). The rudder's spikes are interpolated first (``trials.spikes``).
     """
-    log = despiked_inputs(log)[0]
-    k = execute_index(log)
+    return _maneuver_kind(despiked_inputs(log)[0])
+
+
+def _maneuver_kind(log: ManeuverLog) -> str | None:
+    """:func:`maneuver_kind` of a log whose spikes are interpolated already."""
+    k = _execute_index(log)
     if k >= log.n_samples - 1:
         return None
     sign = _first_side(log, k)
@@ -253,7 +262,7 @@ def zigzag_angles(log: ManeuverLog) -> tuple[float, float]:
 
     """
     log = despiked_inputs(log)[0]  # a spike is no rudder angle (trials.spikes)
-    k = execute_index(log)
+    k = _execute_index(log)
     sign = _first_side(log, k)
     named = _named_angles(log)
     if named is not None:
@@ -297,7 +306,7 @@ def approach_helm_rad(log: ManeuverLog) -> float:
     (``trials.spikes``).
     """
     log = despiked_inputs(log)[0]
-    return _helm_before(log, execute_index(log))
+    return _helm_before(log, _execute_index(log))
 
 
 def _helm_before(log: ManeuverLog, k: int) -> float:
@@ -358,8 +367,8 @@ def logged_condition(log: ManeuverLog, *, max_time_s: float = 3600.0) -> LoggedC
     """
     log = at_midship(log)  # the approach speed of the midship point, as the model's
     log = despiked_inputs(log)[0]  # a spike is no rudder angle nor rpm (trials.spikes)
-    kind = maneuver_kind(log)
-    k = execute_index(log)
+    kind = _maneuver_kind(log)
+    k = _execute_index(log)
     if kind is None or k >= log.n_samples - 1:
         raise IdentificationError(
             "the rudder never leaves midship: not a turning circle or a zig-zag", log=_name(log)
