@@ -36,6 +36,14 @@ free one:
   the default ``prime-rudder-offset``, and the same with the fixed thrust;
 * ``offset-swirl-thrust``: ``swirl``'s angle beside the neutral-rudder offset δ₀, with the
   fixed thrust;
+* ``offset-shadow``, ``offset-shadow-thrust``: the rudder in the hull's shadow at drift,
+  u_R²·v′|v′|·|sin δ| in sway and yaw (one gain each, Y_Rb and N_Rb) on the default
+  ``prime-rudder-offset``: Van Berlekom & Goddard's drift-rudder term c²|β|β|δ|, which
+  cancels the tanker's rudder force in its hard turns (``scenarios/tanker.py``;
+  ``benchmarks/fidelity.md``, "A third structure"); and the same with the fixed thrust.
+  Its tables in ``fidelity.md`` ("The rudder in the hull's shadow") were measured with
+  ``offset-shadow`` refitted as its thrust twin, as ``fit`` does the default (one more
+  entry in ``identifier.identify``'s map of fixed-thrust families, in a worktree);
 * ``helm``: the neutral-rudder offset linearised, so that it is estimated with the other
   gains instead of gridded: u_R² sin(α_R + δ₀) ≈ u_R² sin α_R + δ₀·u_R² cos α_R, the
   second term with its own gain in sway and yaw (Y_R0, N_R0; Y_R0/Y_R ≈ δ₀): the
@@ -87,7 +95,7 @@ from dataclasses import replace
 
 import sympy as sp
 
-from fmu_model.structure import L, ModelStructure, Term, n, r, u
+from fmu_model.structure import L, ModelStructure, Term, delta, n, r, u, v
 from fmu_model.variants import (
     NEUTRAL_RUDDER_OFFSET,
     PRIME_CROSSFLOW,
@@ -212,6 +220,15 @@ _, _XFLOW_SWAY, _XFLOW_YAW = rudder_gain_terms(
 )
 
 
+# The rudder in the hull's shadow at drift (module docstring): u_R²·v′|v′|·|sin δ|, the
+# cos δ of rudder_gain_terms divided out; v′ = v/U.
+_V_PRIME = v / sp.sqrt(u**2 + v**2)
+_, _SHADOW_SWAY, _SHADOW_YAW = rudder_gain_terms(
+    RUDDER_INFLOW_SQUARED * _V_PRIME * sp.Abs(_V_PRIME) * sp.Abs(sp.sin(delta)) / sp.cos(delta),
+    suffix="b",
+)
+
+
 def candidate_families() -> tuple[ModelFamily, ...]:
     """Return the candidate families of the module docstring."""
     base = PRIME_RUDDER
@@ -253,10 +270,19 @@ def candidate_families() -> tuple[ModelFamily, ...]:
             Term("X_un", u * n, prior_std=THRUST_SLOPE_DEVIATION_STD),
         ),
     )
+    shadow = _with_terms(
+        "offset-shadow",
+        PRIME_RUDDER_OFFSET.surge,
+        (_SHADOW_SWAY,),
+        (_SHADOW_YAW,),
+        PRIME_RUDDER_OFFSET,
+    )
     crossflow_lift = _with_terms(
         "crossflow-lift", PRIME_CROSSFLOW.surge, (_OFFSET_SWAY3,), (_OFFSET_YAW3,), PRIME_CROSSFLOW
     )
     return (
+        shadow,
+        with_fixed_thrust(shadow, "offset-shadow-thrust", "offset-shadow, fixed thrust"),
         crossflow_lift,
         with_fixed_thrust(crossflow_lift, "crossflow-lift-thrust", "crossflow-lift, fixed thrust"),
         _with_hull("rudder-cubic", *cubic),

@@ -1,21 +1,28 @@
-"""The hull-basis blend of benchmarks/candidates.py (``offset-hullmix``, issue 13).
+"""Candidate families of benchmarks/candidates.py (issue 13).
 
-Each nonlinear modulus hull term is blended with the cubic term of the same symmetry,
-(1 − b)·modulus + b·cubic: at b = 0 the family is the default one term for term, at b = 1
-its hull is the MMG cubic basis of ``prime-cubic``, and the coefficient count is the
-default's at every b.
+The hull-basis blend (``offset-hullmix``): each nonlinear modulus hull term is blended
+with the cubic term of the same symmetry, (1 − b)·modulus + b·cubic: at b = 0 the family
+is the default one term for term, at b = 1 its hull is the MMG cubic basis of
+``prime-cubic``, and the coefficient count is the default's at every b. The rudder in the
+hull's shadow (``offset-shadow``): the tanker's drift-rudder term in the family's units.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from types import ModuleType
 
 import pytest
 import sympy as sp
 
-from fmu_model.structure import ModelStructure, Term, r, v
-from fmu_model.variants import PRIME_CUBIC, PRIME_RUDDER_OFFSET, ModelFamily
+from fmu_model.structure import L, ModelStructure, Term, delta, n, r, u, v
+from fmu_model.variants import (
+    PRIME_CUBIC,
+    PRIME_RUDDER_OFFSET,
+    RUDDER_INFLOW_SQUARED,
+    ModelFamily,
+)
 from tests.module_files import load_module
 
 CANDIDATES = Path(__file__).resolve().parents[1] / "benchmarks" / "candidates.py"
@@ -73,3 +80,26 @@ def test_each_pair_has_one_symmetry(candidates: ModuleType, flip: dict[sp.Symbol
 
     for name, twin in candidates.HULL_PAIRS.items():
         assert parity(modulus[name]) == parity(cubic[twin]), (name, twin)
+
+
+def test_the_rudder_shadow_is_van_berlekom_and_goddards_drift_rudder_term(
+    candidates: ModuleType,
+) -> None:
+    """``offset-shadow``'s sway term is u_R²·v′|v′|·|sin δ|/L (the tanker's c²|β|β|δ| with
+    β ≈ v′), odd under the port/starboard mirror, silent without drift or rudder."""
+    family = next(f for f in candidates.candidate_families() if f.name == "offset-shadow")
+    # dwake 0: a wake recovery of one side would make u_R² itself differ by side.
+    shape = {**PRIME_RUDDER_OFFSET.default_shape, "k": 4e-4, "gamma": 0.5, "dwake": 0.0}
+    (sway,) = (t for t in family.structure(shape).sway if t.coefficient == "Y_Rb")
+    (yaw,) = (t for t in family.structure(shape).yaw if t.coefficient == "N_Rb")
+    point = {u: 6.0, v: -1.5, r: 0.004, delta: math.radians(30.0), n: 1.2, L: 320.0}
+    constants = {c.symbol: shape[c.name] for c in family.shape}
+    inflow_squared = float(RUDDER_INFLOW_SQUARED.subs(constants).subs(point))
+    v_prime = -1.5 / math.hypot(6.0, -1.5)
+    expected = inflow_squared * v_prime * abs(v_prime) * math.sin(math.radians(30.0)) / 320.0
+    assert float(sway.regressor.subs(point)) == pytest.approx(expected, rel=1e-12)
+    assert float(yaw.regressor.subs(point)) == pytest.approx(expected / 320.0, rel=1e-12)
+    mirrored = {**point, v: 1.5, r: -0.004, delta: -math.radians(30.0)}
+    assert float(sway.regressor.subs(mirrored)) == pytest.approx(-expected, rel=1e-12)
+    assert float(sway.regressor.subs({**point, v: 0.0})) == 0.0
+    assert float(sway.regressor.subs({**point, delta: 0.0})) == 0.0
