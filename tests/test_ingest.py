@@ -512,6 +512,40 @@ def _simple_nmea(n: int = 20, *, date: bool = True, start: str = "120000") -> li
     return lines
 
 
+def _as_gns(line: str, modes: str) -> str:
+    """A GGA sentence's fix as a GNS sentence with the mode per system ``modes``."""
+    fields = line[1 : line.index("*")].split(",")
+    talker = fields[0][:2]
+    return _sentence(f"{talker}GNS,{','.join(fields[1:6])},{modes},09,0.9,12.0,41.0,,")
+
+
+def test_gns_fixes_convert_as_the_gga_ones(tmp_path: Path, clean_nmea: Path) -> None:
+    """A multi-constellation receiver's GNS in place of every GGA: the same logs; a fix
+    is valid when any system has one (``DN``: differential GPS, no GLONASS)."""
+    lines, _ = nmea_trial(corrupt=False)
+    gns = [
+        _as_gns(line, "NN" if ",,,,,0," in line else "DN") if "GGA," in line else line
+        for line in lines
+    ]
+    result = convert_nmea(_nmea_file(tmp_path, gns))
+    expected = convert_nmea(clean_nmea)
+    assert len(result.logs) == len(expected.logs) == 2
+    for log, reference in zip(result.logs, expected.logs, strict=True):
+        for name in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps"):
+            np.testing.assert_array_equal(getattr(log, name), getattr(reference, name))
+    assert result.time_origin_utc == expected.time_origin_utc
+    assert "GNS sentences without a fix (mode N): 9" in " | ".join(result.notes)
+
+
+def test_a_gns_mode_that_is_none_of_nmea_s_is_a_malformed_sentence(tmp_path: Path) -> None:
+    lines = [_as_gns(line, "AN") if "GGA," in line else line for line in _simple_nmea(20)]
+    lines[4 * 7] = _as_gns(_simple_nmea(20)[4 * 7], "A?")
+    result = convert_nmea(_nmea_file(tmp_path, lines))
+    assert result.skipped_lines == 1
+    (log,) = result.logs
+    np.testing.assert_array_equal(log.time_s, np.setdiff1d(np.arange(20.0), [7.0]))
+
+
 def test_gga_only_time_rolls_over_midnight_without_a_date(tmp_path: Path) -> None:
     path = _nmea_file(tmp_path, _simple_nmea(30, date=False, start="235950"))
     result = convert_nmea(path)
@@ -709,6 +743,11 @@ def _north_azimuth_deg_rad(log: ManeuverLog) -> np.ndarray:
             [_sentence("HEHDT,10.0,T"), _sentence("GPGGA,120000,,,,,0,0,,,,,,,")],
             r"no valid position fix; expected GGA sentences with a fix quality above 0",
             id="no fix",
+        ),
+        pytest.param(
+            [_sentence("HEHDT,10.0,T"), _sentence("GNGNS,120000,,,,,NNN,00,,,,,")],
+            r"no valid position fix; expected .* or GNS sentences with a mode other than N",
+            id="no GNS fix",
         ),
         pytest.param(
             [line for line in _simple_nmea(20) if "RSA" not in line],

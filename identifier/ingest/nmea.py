@@ -12,6 +12,7 @@ type  fields used                                                  valid when
 ===== ============================================================ ===============
 GGA   UTC time of day, latitude, longitude, fix quality            quality > 0
 RMC   UTC time of day, status, latitude, longitude, date (ddmmyy)  status ``A`` [#]_
+GNS   UTC time of day, latitude, longitude, a mode per system      a mode not ``N``
 ZDA   UTC time of day, day, month, year (time and date only)       always
 HDT   true heading [deg], ``T``                                    always
 THS   true heading [deg], mode indicator                           mode ``A``
@@ -24,6 +25,11 @@ VBW   longitudinal and transverse water speeds [kn], their status  status ``A``
 ===== ============================================================ ===============
 
 .. [#] and a mode indicator (NMEA 2.3) other than ``N``.
+
+GNS is the multi-constellation fix (NMEA 2.3, talker ``GN`` when it combines systems):
+one mode character per satellite system (GPS, GLONASS, Galileo, BeiDou, ...), ``N``
+for no fix in that system; the fix is valid when any system has one, as RMC's mode
+indicator says. Its time has no date, as GGA's.
 
 MWV, VHW and VBW are optional: a log gets the columns ``wind_speed_mps``,
 ``wind_angle_deg`` (MWV), ``stw_mps`` (VHW or VBW) and ``stw_transverse_mps`` (VBW) when
@@ -58,8 +64,8 @@ sentences and they cover the log (see :mod:`identifier.ingest.assemble`).
   counted in :attr:`~identifier.ingest.ConversionResult.skipped_lines`.
   Neither is fatal. Other sentence types (GSV, VTG, AIS ``!`` lines, proprietary
   ``$P...`` sentences) are ignored and only counted in the notes.
-- **Time.** GGA, RMC and ZDA carry the UTC time of day; RMC and ZDA also the date.
-  A GGA time takes its day from the time-stamped sentence before it (at the start
+- **Time.** GGA, RMC, GNS and ZDA carry the UTC time of day; RMC and ZDA also the
+  date. A GGA (or GNS) time takes its day from the time-stamped sentence before it (at the start
   of the file: after it), the day that puts it within 12 hours of that one; so a
   time of day more than 12 hours before the previous one means midnight has passed
   (rollover), and a GGA-only stretch across midnight stays continuous. Without any
@@ -142,6 +148,9 @@ _MPH_MPS: Final = 0.44704  # statute mile (1609.344 m) per hour
 _WIND_UNITS: Final = {"N": _KNOT_MPS, "M": 1.0, "K": _KMH_MPS, "S": _MPH_MPS}
 """MWV wind speed units → m/s."""
 _OPTIONAL: Final = (WIND_SPEED, WIND_ANGLE, STW, STW_TRANSVERSE)
+_GNS_MODES: Final = frozenset("ADEFMNPRS")
+"""GNS modes (NMEA 4.1): autonomous, differential, estimated, float RTK, manual, no fix,
+precise, RTK, simulator."""
 
 
 class _MalformedError(Exception):
@@ -150,7 +159,7 @@ class _MalformedError(Exception):
 
 @dataclass(frozen=True)
 class _Timed:
-    """A time-stamped sentence: GGA, RMC or ZDA."""
+    """A time-stamped sentence: GGA, RMC, GNS or ZDA."""
 
     line: int
     talker: str
@@ -331,6 +340,7 @@ class _NmeaReader:
         handlers: dict[str, Callable[[int, str, Callable[[str, int], str]], None]] = {
             "GGA": self.gga,
             "RMC": self.rmc,
+            "GNS": self.gns,
             "ZDA": self.zda,
             "HDT": self.hdt,
             "THS": self.ths,
@@ -390,6 +400,25 @@ class _NmeaReader:
         else:
             self.tally["RMC sentences without a fix (status V)"] += 1
         self.timed.append(_Timed(number, talker, "RMC", time_of_day, date, fix))
+
+    def gns(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--GNS,hhmmss.ss,llll.ll,a,yyyyy.yy,a,c--c,...`` (c--c: a mode per system)."""
+        time_text, modes = get("timestamp", 0), get("mode_indicator", 5)
+        if not time_text:
+            self.tally["GNS sentences without a time"] += 1
+            return
+        time_of_day = _time_of_day(time_text)
+        if not modes or not set(modes) <= _GNS_MODES:
+            raise _MalformedError
+        fix = None
+        if set(modes) != {"N"}:
+            fix = (
+                _latitude(get("lat", 1), get("lat_dir", 2)),
+                _longitude(get("lon", 3), get("lon_dir", 4)),
+            )
+        else:
+            self.tally["GNS sentences without a fix (mode N)"] += 1
+        self.timed.append(_Timed(number, talker, "GNS", time_of_day, None, fix))
 
     def zda(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
         """Read ``$--ZDA,hhmmss.ss,dd,mm,yyyy,zh,zm``."""
@@ -548,10 +577,10 @@ def read_nmea(
     fixes_by_talker = Counter(record.talker for record in reader.timed if record.fix is not None)
     if not fixes_by_talker:
         raise LogFormatError(
-            "no valid position fix; expected GGA sentences with a fix quality above 0 or RMC "
-            f"sentences with status A ({counts})",
+            "no valid position fix; expected GGA sentences with a fix quality above 0, RMC "
+            f"sentences with status A or GNS sentences with a mode other than N ({counts})",
             path=path,
-            expected="valid GGA or RMC position fixes",
+            expected="valid GGA, RMC or GNS position fixes",
         )
     talker = _most_common(fixes_by_talker, "position fixes", notes)
     timed = _prefer_rmc_dates(
