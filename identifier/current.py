@@ -199,6 +199,13 @@ RMS heading spread: a compass's noise (0.5° is ordinary for a GNSS compass) wou
 otherwise "resolve" the along component as v_g divided by noise (7 m/s on the KVLCC2
 logs at 0.5°, benchmarks/sensitivity.md)."""
 
+ALONG_COURSE_STARTS = (0.1, 0.2)
+"""Along-course components of the current's start, as shares of the approach speed [-],
+that the alternation tries either way when the start the approaches show (none along
+their common heading) makes the EKF diverge (``identifier.identify``): a current of 0.7
+to 1.5 m/s along a 7.7 m/s Mariner's course is 10 to 20 % of its speed; the first share
+with a start that settles is kept."""
+
 ALTERNATION_WINDOWS = 4
 """Windows of the alternation's samples on long logs (:data:`ALTERNATION_MAX_SAMPLES`):
 few and long (12,500 samples: 21 min at 10 Hz, a KVLCC2 zig-zag or turn), as short
@@ -476,6 +483,27 @@ def initial_current(logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]
     if b.size < 2:
         return np.zeros(2)
     return np.linalg.lstsq(a, b, rcond=math.sin(MIN_APPROACH_SPREAD_RAD))[0]
+
+
+def approach_course(
+    logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack]
+) -> np.ndarray | None:
+    """Return the unit vector (North, East) of the logs' approach heading, or None.
+
+    The mean of (cos ψ, sin ψ) over every log's approach (before execute), normalised:
+    the direction along which :func:`initial_current` cannot see the current when the
+    approaches share a heading. None without approaches or when they point every way
+    (the mean shorter than a half).
+    """
+    headings = np.concatenate([
+        np.asarray(track.heading_rad)[: execute_index(log)]
+        for log, track in zip(logs, tracks, strict=True)
+    ])  # fmt: skip
+    if headings.size < 2:
+        return None
+    mean = np.array([np.mean(np.cos(headings)), np.mean(np.sin(headings))])
+    length = float(np.hypot(*mean))
+    return mean / length if length >= 0.5 else None
 
 
 def _approach_rows(log: ManeuverLog, track: SmoothedTrack) -> tuple[np.ndarray, np.ndarray]:

@@ -71,6 +71,7 @@ from fmu_model.variants import (
     parse_family,
 )
 from identifier.current import (
+    ALONG_COURSE_STARTS,
     ALTERNATION_MAX_SAMPLES,
     ALTERNATION_WINDOWS,
     CURRENT_EVIDENCE_RATIO,
@@ -86,6 +87,7 @@ from identifier.current import (
     CurrentEstimate,
     SpeedLogFit,
     SpeedLogInEkf,
+    approach_course,
     choose_current,
     current_disagreement,
     current_model_form,
@@ -403,6 +405,7 @@ def _estimate_current(
     length_m: float,
     progress: Callable[[int], None] | None,
     stage: Callable[[str], None],
+    notes: list[str],
 ) -> tuple[ShapeSelection | None, ModelStructure, EquationErrorFit, EkfResult, CurrentEstimate]:
     """Estimate current and coefficients together (``identifier.current``).
 
@@ -412,7 +415,9 @@ def _estimate_current(
     the coefficients from it, until the current settles (:func:`_alternate`). A speed log
     (a plausible one, :meth:`SpeedLogFit.implausible`) is a measurement of every pass,
     its scale error a state (:func:`_with_speed_log`). A last EKF pass over every sample
-    (with progress, and the random walk of a drifting current) gives the estimate.
+    (with progress, and the random walk of a drifting current) gives the estimate. A start
+    from the approaches alone that the EKF cannot follow is retried along their course
+    (:func:`_alternate_from_the_approaches`; its note goes to ``notes``).
     """
     per_log = settings.current == PER_LOG
     alone, ignored, measurement, segments = _with_speed_log(settings, segments, tracks, logs)
@@ -423,9 +428,16 @@ def _estimate_current(
         ])  # fmt: skip
     else:
         current = initial_current(logs, tracks) if alone[0] is None else alone[0].current_ne
-    shape, structure, ls, current, iterations = _alternate(
-        settings, segments, tracks, logs, length_m, current, measurement, stage
-    )
+    if per_log or measurement is not None or alone[0] is not None:
+        settled = _alternate(
+            settings, segments, tracks, logs, length_m, current, measurement, stage
+        )
+    else:
+        settled = _alternate_from_the_approaches(
+            settings, segments, tracks, logs, length_m, current, stage, notes
+        )
+    shape, structure, ls = settled.shape, settled.structure, settled.start
+    current, iterations = settled.current, settled.iterations
     stage("EKF on every sample")
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
     ekf = _run_ekf(
@@ -515,6 +527,23 @@ def _with_speed_log(
     return alone, ignored, measurement, measured
 
 
+@dataclass(frozen=True)
+class _Settled:
+    """Where :func:`_alternate` settled.
+
+    The shape, structure and start, the current (North, East) [m/s], the EKF passes
+    made, and the last converged pass's RMS distance of its filtered positions from the
+    logged ones, summed over its windows [m].
+    """
+
+    shape: ShapeSelection | None
+    structure: ModelStructure
+    start: EquationErrorFit
+    current: np.ndarray
+    iterations: int
+    track_rms_m: float
+
+
 def _alternate(
     settings: FitSettings,
     segments: Sequence[EkfSegment],
@@ -524,7 +553,7 @@ def _alternate(
     current: np.ndarray,
     measurement: SpeedLogMeasurement | None,
     stage: Callable[[str], None],
-) -> tuple[ShapeSelection | None, ModelStructure, EquationErrorFit, np.ndarray, int]:
+) -> _Settled:
     """Alternate the equation-error start and the EKF's current until the current settles.
 
     From ``current`` (North, East) [m/s], (2,) or one row per log with ``per-log``: the
@@ -535,13 +564,13 @@ def _alternate(
     (:data:`SHAPE_PASSES`). The passes run on windows of long logs
     (:data:`ALTERNATION_MAX_SAMPLES`) and report no progress; when one diverges (a start
     the filter cannot follow) the alternation stops where the last pass that converged
-    started. Returns the shape, structure and start, the current and the EKF passes made.
+    started.
     """
     per_log = settings.current == PER_LOG
     iterations = 0
     settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
     sources = [source for source, _ in settling]
-    settled = None  # (shape, structure, start, current) of the last pass that converged
+    settled = None  # the last pass that converged
     for _ in range(SHAPE_PASSES):
         water = water_segments(segments, tracks, current)
         speed_mps, n_rps = _nominal(logs, water)
@@ -565,10 +594,10 @@ def _alternate(
                 if settled is None:
                     raise
                 # A start the EKF cannot follow: keep the last it followed.
-                shape, structure, ls, current = settled
-                return shape, structure, ls, current, iterations
+                return replace(settled, iterations=iterations)
             assert ekf.current is not None and ekf.current_covariance is not None
-            settled = (shape, structure, ls, current)
+            track_rms_m = sum(position for position, _ in ekf.track_rms)
+            settled = _Settled(shape, structure, ls, current, iterations, track_rms_m)
             found = ekf.current
             if per_log:  # each log's from its last window (a log without one keeps its own)
                 found = current.copy()
@@ -585,7 +614,57 @@ def _alternate(
             )
             if change < current_tolerance_mps(ekf.current_covariance):
                 break
-    return shape, structure, ls, current, iterations
+    assert settled is not None
+    return _Settled(shape, structure, ls, current, iterations, settled.track_rms_m)
+
+
+def _alternate_from_the_approaches(
+    settings: FitSettings,
+    segments: Sequence[EkfSegment],
+    tracks: Sequence[SmoothedTrack],
+    logs: Sequence[ManeuverLog],
+    length_m: float,
+    current: np.ndarray,
+    stage: Callable[[str], None],
+    notes: list[str],
+) -> _Settled:
+    """:func:`_alternate` from what the approaches show (``initial_current``, no speed log).
+
+    Approaches on one heading do not show the current along it, and the start takes that
+    component 0. When the EKF cannot follow that start (its first pass diverges: the
+    hull fitted through water that runs at the wrong speed), the alternation starts
+    again with the along component at ∓ and ± each share of the approach speed in
+    :data:`ALONG_COURSE_STARTS` in turn, and keeps of the starts of one share that
+    settle the one whose EKF follows the logged track closest; a note says so.
+    """
+    try:
+        return _alternate(settings, segments, tracks, logs, length_m, current, None, stage)
+    except IdentificationError:
+        course = approach_course(logs, tracks)
+        if course is None:
+            raise
+        speed_mps, _ = _nominal(logs, segments)
+        for share in ALONG_COURSE_STARTS:
+            settled = []
+            for along_mps in (-share * speed_mps, share * speed_mps):
+                try:
+                    start = current + along_mps * course
+                    settled.append(
+                        _alternate(settings, segments, tracks, logs, length_m, start, None, stage)
+                    )
+                except IdentificationError:
+                    continue
+            if settled:
+                best = min(settled, key=lambda s: s.track_rms_m)
+                notes.append(
+                    "current: the EKF diverged from the start the approaches show "
+                    f"({current[0]:+.2f} / {current[1]:+.2f} m/s North / East, none along "
+                    f"their course); started again {share:.0%} of the approach speed along "
+                    f"it either way, settled at {best.current[0]:+.2f} / "
+                    f"{best.current[1]:+.2f} m/s"
+                )
+                return best
+        raise
 
 
 def _per_log_estimate(
@@ -942,6 +1021,7 @@ def _fit(
     """Identify ``settings.model`` from the smoothed logs (:func:`identify`'s fit)."""
     logs, tracks, segments = data.logs, data.tracks, data.segments
     warnings = list(data.warnings)
+    notes = list(data.notes)
     current = None
     if settings.current == "none":
         nominal_speed_mps, nominal_n_rps = _nominal(logs, segments)
@@ -954,7 +1034,7 @@ def _fit(
         ekf = _run_ekf(settings, structure, ls, segments, length, progress)
     else:
         shape, structure, ls, ekf, current = _estimate_current(
-            settings, segments, tracks, logs, length, progress, stage
+            settings, segments, tracks, logs, length, progress, stage, notes
         )
         water = water_segments(segments, tracks, current.vectors(len(segments)))
         nominal_speed_mps, nominal_n_rps = _nominal(logs, water)
@@ -1031,7 +1111,7 @@ def _fit(
         ekf=ekf,
         coefficients=reports,
         warnings=tuple(warnings),
-        notes=data.notes,
+        notes=tuple(notes),
         settings=settings,
         refinement=refinement,
         current=current,

@@ -25,6 +25,7 @@ from identifier.current import (
     CURRENT_TOLERANCE_SIGMAS,
     CurrentEstimate,
     SpeedLogFit,
+    approach_course,
     current_model_form,
     current_tolerance_mps,
     heading_span_rad,
@@ -202,7 +203,8 @@ def test_a_drifting_current_follows_a_change(calm_logs: list[ManeuverLog]) -> No
 def test_a_diverging_alternation_pass_keeps_the_last_settled_start(
     calm_logs: list[ManeuverLog], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A pass of the current's alternation that diverges stops it; the first one raises.
+    """A pass of the current's alternation that diverges stops it; the first one raises
+    (when no start along the course settles either: every pass diverges here).
 
     (Seen on the batch benchmark's demo ship: from the current one pass moved to, the
     next pass diverged, and with it the whole default fit.) The estimate's pass then
@@ -288,6 +290,38 @@ def test_velocities_through_the_water_and_the_water_frame(calm_logs: list[Maneuv
     assert heading_span_rad([calm_track]) > math.radians(350.0)  # a turning circle
 
 
+def test_a_start_the_ekf_cannot_follow_is_retried_along_the_course(
+    calm_logs: list[ManeuverLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The approaches (heading North) show the current's East part, not its North part,
+    and the alternation starts with none North. Where the EKF diverges from that start
+    (here: made to, as it did on the Mariner in 1 m/s, ``test_mariner``), it starts again
+    ∓ and ± 10 % of the approach speed along the course, keeps the start whose EKF
+    follows the track closest, and says so; the current comes out as from the truth."""
+    logs = [_with_current(log, CURRENT_NE) for log in calm_logs]
+    run_ekf = identify_module._run_ekf
+    starts: list[np.ndarray] = []
+
+    def the_approaches_start_diverges(*args: Any, **kwargs: Any) -> Any:
+        prior = np.asarray(args[6])
+        starts.append(prior)
+        if abs(prior[0]) < 0.01:  # (nearly) none along the course: the approaches' start
+            raise IdentificationError("state or covariance became non-finite", log="x")
+        return run_ekf(*args, **kwargs)
+
+    monkeypatch.setattr(identify_module, "_run_ekf", the_approaches_start_diverges)
+    result = identify(logs, SEED)
+    assert result.current is not None
+    np.testing.assert_allclose(result.current.vector, CURRENT_NE, atol=0.05)
+    (note,) = [n for n in result.notes if n.startswith("current: the EKF diverged")]
+    assert "started again 10% of the approach speed along it either way" in note
+    # the approaches' start, then an alternation from each side of it along North
+    assert abs(starts[0][0]) < 0.01 and starts[0][1] == pytest.approx(CURRENT_NE[1], abs=0.02)
+    along = starts[1] - starts[0]
+    assert along[0] < -0.1 and abs(along[1]) < 0.01 * abs(along[0])
+    assert any(np.allclose(start, starts[0] - along, rtol=0, atol=1e-12) for start in starts[2:])
+
+
 def test_the_approach_shows_the_cross_current(calm_logs: list[ManeuverLog]) -> None:
     """The alternation starts from the straight approaches: their drift is c's cross part."""
     log = _with_current(calm_logs[1], CURRENT_NE)  # a zig-zag, approach heading North
@@ -296,6 +330,10 @@ def test_the_approach_shows_the_cross_current(calm_logs: list[ManeuverLog]) -> N
     # Heading North: the cross component is c_E; the along one is not seen (minimum norm).
     assert start[1] == pytest.approx(CURRENT_NE[1], abs=0.02)
     assert start[0] == pytest.approx(0.0, abs=1e-3)
+    # ... which is the approach's course, North
+    course = approach_course([log], [track])
+    assert course is not None
+    np.testing.assert_allclose(course, [1.0, 0.0], atol=1e-3)
 
 
 def _with_speed_log(
