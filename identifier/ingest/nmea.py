@@ -359,24 +359,46 @@ class _NmeaReader:
         except _MalformedError:
             self.skipped += 1
 
-    def gga(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
-        """Read ``$--GGA,hhmmss.ss,llll.ll,a,yyyyy.yy,a,q,...``."""
-        time_text, quality = get("timestamp", 0), get("gps_qual", 5)
+    def _undated_fix(
+        self,
+        number: int,
+        talker: str,
+        get: Callable[[str, int], str],
+        kind: str,
+        has_fix: Callable[[], bool],
+        without: str,
+    ) -> None:
+        """Read a fix with the time of day and position in fields 0 to 4 and no date.
+
+        GGA and GNS: ``has_fix`` reads the sentence's own validity field (raising
+        :class:`_MalformedError` for a malformed one); ``without`` names the value that
+        means no fix, for the tally.
+        """
+        time_text = get("timestamp", 0)
         if not time_text:
-            self.tally["GGA sentences without a time"] += 1
+            self.tally[f"{kind} sentences without a time"] += 1
             return
         time_of_day = _time_of_day(time_text)
-        if not (quality.isdigit() and len(quality) == 1):
-            raise _MalformedError
         fix = None
-        if quality != "0":
+        if has_fix():
             fix = (
                 _latitude(get("lat", 1), get("lat_dir", 2)),
                 _longitude(get("lon", 3), get("lon_dir", 4)),
             )
         else:
-            self.tally["GGA sentences without a fix (quality 0)"] += 1
-        self.timed.append(_Timed(number, talker, "GGA", time_of_day, None, fix))
+            self.tally[f"{kind} sentences without a fix ({without})"] += 1
+        self.timed.append(_Timed(number, talker, kind, time_of_day, None, fix))
+
+    def gga(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--GGA,hhmmss.ss,llll.ll,a,yyyyy.yy,a,q,...`` (a fix when q > 0)."""
+
+        def has_fix() -> bool:
+            quality = get("gps_qual", 5)
+            if not (quality.isdigit() and len(quality) == 1):
+                raise _MalformedError
+            return quality != "0"
+
+        self._undated_fix(number, talker, get, "GGA", has_fix, "quality 0")
 
     def rmc(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
         """Read ``$--RMC,hhmmss.ss,A,llll.ll,a,yyyyy.yy,a,sog,cog,ddmmyy,...``."""
@@ -403,22 +425,14 @@ class _NmeaReader:
 
     def gns(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
         """Read ``$--GNS,hhmmss.ss,llll.ll,a,yyyyy.yy,a,c--c,...`` (c--c: a mode per system)."""
-        time_text, modes = get("timestamp", 0), get("mode_indicator", 5)
-        if not time_text:
-            self.tally["GNS sentences without a time"] += 1
-            return
-        time_of_day = _time_of_day(time_text)
-        if not modes or not set(modes) <= _GNS_MODES:
-            raise _MalformedError
-        fix = None
-        if set(modes) != {"N"}:
-            fix = (
-                _latitude(get("lat", 1), get("lat_dir", 2)),
-                _longitude(get("lon", 3), get("lon_dir", 4)),
-            )
-        else:
-            self.tally["GNS sentences without a fix (mode N)"] += 1
-        self.timed.append(_Timed(number, talker, "GNS", time_of_day, None, fix))
+
+        def has_fix() -> bool:
+            modes = get("mode_indicator", 5)
+            if not modes or not set(modes) <= _GNS_MODES:
+                raise _MalformedError
+            return set(modes) != {"N"}
+
+        self._undated_fix(number, talker, get, "GNS", has_fix, "mode N")
 
     def zda(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
         """Read ``$--ZDA,hhmmss.ss,dd,mm,yyyy,zh,zm``."""
