@@ -428,13 +428,14 @@ def _estimate_current(
         ])  # fmt: skip
     else:
         current = initial_current(logs, tracks) if alone[0] is None else alone[0].current_ne
-    if per_log or measurement is not None or alone[0] is not None:
-        settled = _alternate(
-            settings, segments, tracks, logs, length_m, current, measurement, stage
-        )
-    else:
+    from_the_approaches = not per_log and alone[0] is None and measurement is None
+    if from_the_approaches:
         settled = _alternate_from_the_approaches(
             settings, segments, tracks, logs, length_m, current, stage, notes
+        )
+    else:
+        settled = _alternate(
+            settings, segments, tracks, logs, length_m, current, measurement, stage
         )
     shape, structure, ls = settled.shape, settled.structure, settled.start
     current, iterations = settled.current, settled.iterations

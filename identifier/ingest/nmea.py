@@ -65,10 +65,10 @@ sentences and they cover the log (see :mod:`identifier.ingest.assemble`).
   Neither is fatal. Other sentence types (GSV, VTG, AIS ``!`` lines, proprietary
   ``$P...`` sentences) are ignored and only counted in the notes.
 - **Time.** GGA, RMC, GNS and ZDA carry the UTC time of day; RMC and ZDA also the
-  date. A GGA (or GNS) time takes its day from the time-stamped sentence before it (at the start
-  of the file: after it), the day that puts it within 12 hours of that one; so a
-  time of day more than 12 hours before the previous one means midnight has passed
-  (rollover), and a GGA-only stretch across midnight stays continuous. Without any
+  date. A GGA (or GNS) time takes its day from the time-stamped sentence before it
+  (at the start of the file: after it), the day that puts it within 12 hours of that
+  one; so a time of day more than 12 hours before the previous one means midnight has
+  passed (rollover), and a GGA-only stretch across midnight stays continuous. Without any
   date the time origin is unknown and ``time_origin_utc`` is left out. Heading,
   rudder, RPM, wind and water-speed sentences have no time of their own: each gets a
   time interpolated linearly over the line number between the two time-stamped
