@@ -546,6 +546,43 @@ def test_a_gns_mode_that_is_none_of_nmea_s_is_a_malformed_sentence(tmp_path: Pat
     np.testing.assert_array_equal(log.time_s, np.setdiff1d(np.arange(20.0), [7.0]))
 
 
+def _as_hdg(line: str, deviation: str, variation: str) -> str:
+    """An HDT sentence's true heading as the magnetic one of an HDG sentence.
+
+    ``deviation`` and ``variation`` as HDG writes them (``1.5,E``, ``12.6,W``, or ``,``).
+    """
+    true_deg = float(line[line.index("HDT,") + 4 : line.index(",T")])
+    east = sum(
+        float(value) * (1.0 if side == "E" else -1.0)
+        for value, side in (deviation.split(","), variation.split(","))
+        if value
+    )
+    return _sentence(f"HCHDG,{(true_deg - east) % 360.0:.3f},{deviation},{variation}")
+
+
+def test_hdg_magnetic_headings_made_true_when_there_is_no_hdt(
+    tmp_path: Path, clean_nmea: Path
+) -> None:
+    """A magnetic compass's HDG in place of every HDT: its heading plus the deviation and
+    the variation, east positive, is the true heading (to the text's 0.001 deg)."""
+    lines, _ = nmea_trial(corrupt=False)
+    magnetic = [_as_hdg(line, "1.5,E", "12.6,W") if "HDT," in line else line for line in lines]
+    result = convert_nmea(_nmea_file(tmp_path, magnetic))
+    expected = convert_nmea(clean_nmea)
+    for log, reference in zip(result.logs, expected.logs, strict=True):
+        np.testing.assert_allclose(
+            log.heading_rad, reference.heading_rad, rtol=0, atol=math.radians(0.002)
+        )
+    assert any(note.startswith("heading from HDG") for note in result.notes)
+    # beside HDT it is not used; without a variation it cannot be made true
+    both = [_as_hdg(line, ",", "3.0,E") for line in lines if "HDT," in line] + lines
+    result = convert_nmea(_nmea_file(tmp_path, both, "both.nmea"))
+    assert "HDG headings ignored (HDT or THS used): 320" in result.notes
+    unvaried = [_as_hdg(line, "1.5,E", ",") if "HDT," in line else line for line in lines]
+    with pytest.raises(LogFormatError, match=r"no heading samples; expected HDT or THS .*HDG"):
+        convert_nmea(_nmea_file(tmp_path, unvaried, "unvaried.nmea"))
+
+
 def test_gga_only_time_rolls_over_midnight_without_a_date(tmp_path: Path) -> None:
     path = _nmea_file(tmp_path, _simple_nmea(30, date=False, start="235950"))
     result = convert_nmea(path)

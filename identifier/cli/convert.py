@@ -55,7 +55,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "convert",
         help="convert NMEA 0183 or lat/lon CSV recordings into trial logs",
         description=(
-            "Convert NMEA 0183 (GGA/RMC/GNS/ZDA, HDT/THS, RSA, RPM) or latitude/longitude CSV "
+            "Convert NMEA 0183 (GGA/RMC/GNS/ZDA, HDT/THS/HDG, RSA, RPM) or latitude/longitude CSV "
             "recordings into trial logs: x North, y East [m] about the first fix, split at "
             "gaps. Heading, rudder and rpm are interpolated linearly at the fix times (or the "
             "--rate-hz grid); at the ends of a piece, a stream is extrapolated along its edge "

@@ -16,6 +16,7 @@ GNS   UTC time of day, latitude, longitude, a mode per system      a mode not ``
 ZDA   UTC time of day, day, month, year (time and date only)       always
 HDT   true heading [deg], ``T``                                    always
 THS   true heading [deg], mode indicator                           mode ``A``
+HDG   magnetic heading, deviation, variation [deg] (each E or W)   a variation
 RSA   starboard (or single) rudder sensor [deg], its status        status ``A``
 RPM   source ``S`` (shaft), shaft number, speed [rpm], status      status ``A``
 MWV   wind angle [deg], reference ``R``, wind speed, unit, status  status ``A``,
@@ -25,6 +26,10 @@ VBW   longitudinal and transverse water speeds [kn], their status  status ``A``
 ===== ============================================================ ===============
 
 .. [#] and a mode indicator (NMEA 2.3) other than ``N``.
+
+HDG is a magnetic compass's: its heading plus the deviation and the variation (east
+positive) is the true heading. It is used only in a recording without HDT and THS
+headings (noted); an HDG without a variation cannot be made true and is skipped (noted).
 
 GNS is the multi-constellation fix (NMEA 2.3, talker ``GN`` when it combines systems):
 one mode character per satellite system (GPS, GLONASS, Galileo, BeiDou, ...), ``N``
@@ -225,6 +230,16 @@ def _decimal(text: str, low: float = -math.inf, high: float = math.inf) -> float
     return value
 
 
+def _east_positive(text: str, direction: str) -> float | None:
+    """Return an HDG angle [deg] east positive (``E`` or ``W`` after it), None when empty."""
+    if not text and not direction:
+        return None
+    if direction not in ("E", "W"):
+        raise _MalformedError
+    angle = _decimal(text, 0.0, 180.0)
+    return angle if direction == "E" else -angle
+
+
 def _rmc_date(text: str, near: dt.date | None) -> dt.date | None:
     """``ddmmyy`` → date; empty → None.
 
@@ -274,6 +289,7 @@ class _NmeaReader:
         self.timed: list[_Timed] = []
         self.last_date: dt.date | None = None  # of the last RMC (or ZDA) with a date
         self.last_rmc_date: dt.date | None = None
+        self.magnetic: list[_Sample] = []  # true headings of HDG, for want of HDT and THS
         self.samples: dict[str, list[_Sample]] = {
             HEADING: [],
             RUDDER: [],
@@ -344,6 +360,7 @@ class _NmeaReader:
             "ZDA": self.zda,
             "HDT": self.hdt,
             "THS": self.ths,
+            "HDG": self.hdg,
             "RSA": self.rsa,
             "RPM": self.rpm,
             "MWV": self.mwv,
@@ -458,6 +475,17 @@ class _NmeaReader:
             self.tally[f"THS headings with mode {mode}, not A (ignored)"] += 1
             return
         self.samples[HEADING].append(_Sample(number, f"{talker}THS", math.radians(heading)))
+
+    def hdg(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
+        """Read ``$--HDG,x.x,x.x,a,x.x,a`` (magnetic heading, deviation, variation)."""
+        heading = _decimal(get("heading", 0), 0.0, 360.0)
+        deviation = _east_positive(get("deviation", 1), get("dev_dir", 2))
+        variation = _east_positive(get("variation", 3), get("var_dir", 4))
+        if variation is None:
+            self.tally["HDG headings without a magnetic variation (not made true)"] += 1
+            return
+        true_deg = (heading + (deviation or 0.0) + variation) % 360.0
+        self.magnetic.append(_Sample(number, f"{talker}HDG", math.radians(true_deg)))
 
     def rsa(self, number: int, talker: str, get: Callable[[str, int], str]) -> None:
         """Read ``$--RSA,x.x,A,x.x,A`` (starboard or single rudder, status; port, status)."""
@@ -632,6 +660,14 @@ def read_nmea(
         epoch -= dt.timedelta(seconds=sum(leap <= fix_t[0] for leap in leaps))
     lines = np.array(anchor_lines, dtype=np.float64)
     clock = np.array(anchor_times, dtype=np.float64)
+    if reader.magnetic and reader.samples[HEADING]:
+        notes.append(f"HDG headings ignored (HDT or THS used): {len(reader.magnetic)}")
+    elif reader.magnetic:
+        reader.samples[HEADING] = reader.magnetic
+        notes.append(
+            "heading from HDG, a magnetic compass's corrected by its deviation and variation "
+            "(no HDT or THS in the recording)"
+        )
     streams: dict[str, tuple[FloatArray, FloatArray]] = {}
     optional: dict[str, tuple[FloatArray, FloatArray]] = {}
     used: dict[str, str] = {}  # stream -> the source chosen
@@ -678,7 +714,7 @@ def read_nmea(
         lon_deg=lon,
         streams=streams,
         sources={
-            HEADING: "HDT or THS (mode A) sentences",
+            HEADING: "HDT or THS (mode A) sentences, or HDG sentences with a variation",
             RUDDER: "RSA sentences with status A",
             RPM: "RPM sentences of a shaft (source S) with status A",
             WIND_SPEED: "MWV sentences with reference R and status A",
