@@ -490,18 +490,25 @@ def approach_course(
 ) -> np.ndarray | None:
     """Return the unit vector (North, East) of the logs' approach heading, or None.
 
-    The mean of (cos ψ, sin ψ) over every log's approach (before execute), normalised:
-    the direction along which :func:`initial_current` cannot see the current when the
-    approaches share a heading. None without approaches or when they point every way
-    (the mean shorter than a half).
+    The mean heading (cos ψ, sin ψ) of every log's approach (before execute): the
+    direction along which :func:`initial_current` cannot see the current when the
+    approaches share a heading; None as :func:`_unit_mean` (the across direction of the
+    same samples, turned a quarter back).
     """
-    headings = np.concatenate([
-        np.asarray(track.heading_rad)[: execute_index(log)]
-        for log, track in zip(logs, tracks, strict=True)
-    ])  # fmt: skip
-    if headings.size < 2:
+    rows = [_approach_rows(log, track)[0] for log, track in zip(logs, tracks, strict=True)]
+    across = _unit_mean(np.concatenate(rows))
+    return None if across is None else np.array([across[1], -across[0]])
+
+
+def _unit_mean(directions: np.ndarray) -> np.ndarray | None:
+    """Return the mean of unit vectors ``directions`` (M, 2), normalised.
+
+    None for fewer than two, or when they point every way (the mean shorter than a half):
+    no approach, or not a straight one.
+    """
+    if directions.shape[0] < 2:
         return None
-    mean = np.array([np.mean(np.cos(headings)), np.mean(np.sin(headings))])
+    mean = directions.mean(axis=0)
     length = float(np.hypot(*mean))
     return mean / length if length >= 0.5 else None
 
@@ -524,10 +531,9 @@ def with_approach_cross(
     approach, ``current_ne`` itself.
     """
     a, v_g = _approach_rows(log, track)
-    across = a.mean(axis=0) if v_g.size >= 2 else np.zeros(2)
-    if np.hypot(*across) < 0.5:  # no approach, or not a straight one
+    across = _unit_mean(a)
+    if across is None:
         return np.asarray(current_ne, dtype=float)
-    across /= np.hypot(*across)
     return current_ne + across * (float(np.mean(v_g)) - float(across @ current_ne))
 
 

@@ -417,7 +417,7 @@ def _estimate_current(
     its scale error a state (:func:`_with_speed_log`). A last EKF pass over every sample
     (with progress, and the random walk of a drifting current) gives the estimate. A start
     from the approaches alone that the EKF cannot follow is retried along their course
-    (:func:`_alternate_from_the_approaches`; its note goes to ``notes``).
+    (:func:`_retried_along_the_course`; its note goes to ``notes``).
     """
     per_log = settings.current == PER_LOG
     alone, ignored, measurement, segments = _with_speed_log(settings, segments, tracks, logs)
@@ -428,15 +428,14 @@ def _estimate_current(
         ])  # fmt: skip
     else:
         current = initial_current(logs, tracks) if alone[0] is None else alone[0].current_ne
-    from_the_approaches = not per_log and alone[0] is None and measurement is None
-    if from_the_approaches:
-        settled = _alternate_from_the_approaches(
-            settings, segments, tracks, logs, length_m, current, stage, notes
-        )
+    alternate = partial(
+        _alternate, settings, segments, tracks, logs, length_m,
+        measurement=measurement, stage=stage,
+    )  # fmt: skip
+    if not per_log and alone[0] is None and measurement is None:  # the approaches' start
+        settled = _retried_along_the_course(alternate, current, logs, tracks, segments, notes)
     else:
-        settled = _alternate(
-            settings, segments, tracks, logs, length_m, current, measurement, stage
-        )
+        settled = alternate(current)
     shape, structure, ls = settled.shape, settled.structure, settled.start
     current, iterations = settled.current, settled.iterations
     stage("EKF on every sample")
@@ -619,27 +618,26 @@ def _alternate(
     return _Settled(shape, structure, ls, current, iterations, settled.track_rms_m)
 
 
-def _alternate_from_the_approaches(
-    settings: FitSettings,
-    segments: Sequence[EkfSegment],
-    tracks: Sequence[SmoothedTrack],
-    logs: Sequence[ManeuverLog],
-    length_m: float,
+def _retried_along_the_course(
+    alternate: Callable[[np.ndarray], _Settled],
     current: np.ndarray,
-    stage: Callable[[str], None],
+    logs: Sequence[ManeuverLog],
+    tracks: Sequence[SmoothedTrack],
+    segments: Sequence[EkfSegment],
     notes: list[str],
 ) -> _Settled:
-    """:func:`_alternate` from what the approaches show (``initial_current``, no speed log).
+    """``alternate`` (:func:`_alternate` bound to the fit) from the approaches' ``current``.
 
-    Approaches on one heading do not show the current along it, and the start takes that
-    component 0. When the EKF cannot follow that start (its first pass diverges: the
-    hull fitted through water that runs at the wrong speed), the alternation starts
-    again with the along component at ∓ and ± each share of the approach speed in
-    :data:`ALONG_COURSE_STARTS` in turn, and keeps of the starts of one share that
-    settle the one whose EKF follows the logged track closest; a note says so.
+    Approaches on one heading do not show the current along it, and the start
+    (``initial_current``, no speed log) takes that component 0. When the EKF cannot
+    follow that start (its first pass diverges: the hull fitted through water that runs
+    at the wrong speed), the alternation starts again with the along component at ∓ and
+    ± each share of the approach speed in :data:`ALONG_COURSE_STARTS` in turn, and keeps
+    of the starts of one share that settle the one whose EKF follows the logged track
+    closest; a note says so.
     """
     try:
-        return _alternate(settings, segments, tracks, logs, length_m, current, None, stage)
+        return alternate(current)
     except IdentificationError:
         course = approach_course(logs, tracks)
         if course is None:
@@ -649,10 +647,7 @@ def _alternate_from_the_approaches(
             settled = []
             for along_mps in (-share * speed_mps, share * speed_mps):
                 try:
-                    start = current + along_mps * course
-                    settled.append(
-                        _alternate(settings, segments, tracks, logs, length_m, start, None, stage)
-                    )
+                    settled.append(alternate(current + along_mps * course))
                 except IdentificationError:
                     continue
             if settled:
