@@ -246,9 +246,12 @@ def _despiked_inputs(log: ManeuverLog, name: str, length_m: float, notes: list[s
     """Return the log with the spikes of its rudder angle and propeller speed interpolated.
 
     (``trials.spikes.despiked_inputs``: out and back faster than a ship of ``length_m``
-    [m] moves them.) Adds a note of the counts.
+    [m] moves them.) Adds a note of the counts. The log's ``length_m`` becomes the fit's,
+    so that the fit's own readings of it (``trials.conditions``) judge its inputs as here,
+    not by a header's length that ``--length-m`` overrides.
     """
     log, rudder, propeller = despiked_inputs(log, length_m)
+    log = replace(log, metadata={**log.metadata, "length_m": repr(length_m)})
     if rudder or propeller:
         notes.append(
             f"{name}: {rudder} rudder angles and {propeller} propeller speeds taken for "

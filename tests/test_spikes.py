@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.constants
 
 from identifier.preparation import smooth_logs
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
@@ -27,7 +28,6 @@ from trials.conditions import (
 from trials.logs import ManeuverLog, read_log
 from trials.spikes import (
     FROUDE_RATE,
-    GRAVITY_MPS2,
     MAX_SPIKE_SAMPLES,
     despiked,
     input_rate_bound,
@@ -49,7 +49,7 @@ def _rudder() -> np.ndarray:
 
 
 def test_the_bound_is_froude_scaled() -> None:
-    assert FROUDE_RATE * math.sqrt(GRAVITY_MPS2 / LENGTH_M) == RATE
+    assert FROUDE_RATE * math.sqrt(scipy.constants.g / LENGTH_M) == RATE
     assert input_rate_bound(7.0) == pytest.approx(RATE * math.sqrt(LENGTH_M / 7.0))
     assert math.degrees(RATE) == pytest.approx(10.03, abs=0.01)
 
@@ -132,9 +132,9 @@ def test_measured_model_tests_have_no_spike(run: str) -> None:
     assert out_and_back(log.time_s, log.n_rps, rate * typical).size == 0
 
 
-def _prepared(log: ManeuverLog) -> tuple[ManeuverLog, tuple[str, ...]]:
+def _prepared(log: ManeuverLog, length_m: float = LENGTH_M) -> tuple[ManeuverLog, tuple[str, ...]]:
     data = smooth_logs(
-        [log], length_m=LENGTH_M, position_noise_m=None, heading_noise_rad=None,
+        [log], length_m=length_m, position_noise_m=None, heading_noise_rad=None,
         measurements="track", windage=None, drifting=False, progress=None,
         stage=lambda _: None,
     )  # fmt: skip
@@ -182,3 +182,22 @@ def test_a_logged_condition_is_read_through_the_spikes() -> None:
     assert zigzag_angles(spiked) == zigzag_angles(clean)
     assert approach_helm_rad(spiked) == approach_helm_rad(clean)
     assert logged_condition(spiked) == logged_condition(clean)
+
+
+def test_the_fit_reads_its_logs_at_the_length_it_was_given() -> None:
+    """A 15° rudder pulse of one sample (1 Hz) 40 s before execute: a spike of a 320 m
+    ship (bound 10 °/s), a real movement of a 100 m one (18 °/s). The log's header says
+    320 m, the fit is given 100 m: the cleaned log keeps the pulse, and the fit's own
+    reading of its execute point takes it there, not at the header's length."""
+    clean = synthesize_log(reference_ship("kvlcc2"), MANEUVERS["zigzag-10"](), seed=1)
+    metadata = {k: v for k, v in clean.metadata.items() if k != "execute_time_s"}
+    k = execute_index(replace(clean, metadata=metadata))
+    rudder = clean.rudder_rad.copy()
+    rudder[k - 40] = math.radians(15.0)
+    pulsed = replace(clean, rudder_rad=rudder, metadata=metadata)
+    assert pulsed.length_m == LENGTH_M
+    assert execute_index(pulsed) == k
+    log, _ = _prepared(pulsed, length_m=100.0)
+    assert log.length_m == 100.0
+    assert log.rudder_rad[k - 40] == rudder[k - 40]
+    assert execute_index(log) == k - 40

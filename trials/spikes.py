@@ -31,13 +31,13 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import scipy.constants
 from numpy.typing import ArrayLike, NDArray
 
 from trials.logs import ManeuverLog
 
 __all__ = [
     "FROUDE_RATE",
-    "GRAVITY_MPS2",
     "MAX_SPIKE_SAMPLES",
     "despiked",
     "despiked_inputs",
@@ -46,9 +46,6 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-
-GRAVITY_MPS2 = 9.80665
-"""Standard gravity [m/s²]."""
 
 FROUDE_RATE = 1.0
 """The fastest input rate a ship can have, in units of √(g/L) [1/s] (module notes)."""
@@ -63,7 +60,7 @@ def input_rate_bound(length_m: float) -> float:
     In rad/s for the rudder angle; for the propeller speed, a fraction of its median
     per second.
     """
-    return FROUDE_RATE * math.sqrt(GRAVITY_MPS2 / length_m)
+    return FROUDE_RATE * math.sqrt(scipy.constants.g / length_m)
 
 
 def out_and_back(t_s: ArrayLike, values: ArrayLike, max_rate: float) -> NDArray[np.intp]:
