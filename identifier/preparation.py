@@ -2,7 +2,8 @@
 
 Every fit starts from the same :class:`SmoothedLogs` (``identifier.identify``): the logs
 checked for what no fit can mend (sampling, a ship that does not move or moves faster
-than a ship, no rudder excitation; the vessel's length and name agreed), the GNSS
+than a ship, a heading, track or rudder in another convention
+(``identifier.conventions``), no rudder excitation; the vessel's length and name agreed), the GNSS
 antenna's track reduced to midship, each log smoothed by ``identifier.smoothing`` (the
 seed paper's Kalman filter and RTS smoother, with its innovation gate against GNSS
 glitches) and the glitches it rejected replaced by its estimates, the spikes of the rudder
@@ -25,6 +26,7 @@ import numpy as np
 from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
+from identifier.conventions import heading_course_problem, rudder_side_problem
 from identifier.ekf import EkfSegment
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
@@ -306,6 +308,25 @@ def sailed_order(logs: Sequence[ManeuverLog]) -> tuple[list[int], list[float]]:
     return order, gaps
 
 
+def _check_conventions(log: ManeuverLog, track: SmoothedTrack, name: str) -> None:
+    """Reject a log whose heading, track or rudder sign is in another convention.
+
+    Raises
+    ------
+    IdentificationError
+        Of :func:`identifier.conventions.heading_course_problem` (the heading against the
+        course over ground) or :func:`~identifier.conventions.rudder_side_problem` (a ship
+        that turns against its rudder; at the execute sample).
+
+    """
+    problem = heading_course_problem(track)
+    if problem is not None:
+        raise IdentificationError(problem, log=name)
+    rudder = rudder_side_problem(log, track)
+    if rudder is not None:
+        raise IdentificationError(rudder[0], log=name, sample=rudder[1])
+
+
 def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
     """Reject logs in which the rudder never leaves midship (nothing to identify)."""
     if any(np.max(np.abs(log.rudder_rad)) > EXECUTE_RUDDER_RAD for log in logs):
@@ -394,6 +415,7 @@ def smooth_logs(
         _check_track(track, name)
         log = _deglitched(log, track, name, notes, warnings)
         log = _despiked_inputs(log, name, length_m, notes)
+        _check_conventions(log, track, name)
         if log.stw_transverse_mps is not None and log.on_board_m("speed_log_x_m") is None:
             warnings.append(
                 f"{name}: the speed log's transverse axis (stw_transverse_mps) was not used: "

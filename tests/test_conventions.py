@@ -1,0 +1,186 @@
+"""A log in another convention is a one-line data error, and no ship's own log is one.
+
+Before ``identifier.conventions``, ``identifier fit`` on the KVLCC2 zig-zags with the
+heading as the mathematical angle (90° − ψ) or x and y swapped ended in a traceback
+(``ValueError: speed_mps and rudder_rate_radps must be positive``), with the rudder's sign
+flipped or the heading counter-clockwise it wrote a model (the latter with a phantom
+current of 0.59 m/s).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from identifier.cli import main
+from identifier.conventions import heading_course_problem, rudder_side_problem
+from identifier.smoothing import smooth_track
+from scenarios.sea import SeaEnvironment
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from trials.conditions import execute_index
+from trials.logs import ManeuverLog, format_log, read_log
+
+HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
+FRAME = r"expected x_m North, y_m East and heading_deg clockwise from North"
+
+
+def _problems(log: ManeuverLog) -> tuple[str | None, tuple[str, int] | None]:
+    track = smooth_track(
+        log.time_s, log.x_m, log.y_m, log.heading_rad, position_noise_m=None,
+        heading_noise_rad=None,
+    )  # fmt: skip
+    return heading_course_problem(track), rudder_side_problem(log, track)
+
+
+@pytest.fixture(scope="module")
+def zigzag() -> ManeuverLog:
+    return synthesize_log(reference_ship("kvlcc2"), MANEUVERS["zigzag-10"](), seed=1)
+
+
+def _counter_clockwise(log: ManeuverLog) -> ManeuverLog:
+    return replace(log, heading_rad=-log.heading_rad)
+
+
+def _swapped(log: ManeuverLog) -> ManeuverLog:
+    return replace(log, x_m=log.y_m, y_m=log.x_m)
+
+
+def _from_east(log: ManeuverLog) -> ManeuverLog:
+    return replace(log, heading_rad=log.heading_rad + math.pi / 2.0)
+
+
+def _mathematical(log: ManeuverLog) -> ManeuverLog:
+    return replace(log, heading_rad=math.pi / 2.0 - log.heading_rad)
+
+
+def _radians_as_degrees(log: ManeuverLog) -> ManeuverLog:
+    return replace(log, heading_rad=np.radians(log.heading_rad))
+
+
+@pytest.mark.parametrize(
+    ("edit", "pattern"),
+    [
+        pytest.param(_counter_clockwise, r"the heading turns against the course over ground "
+                     r"\(slope -1\.0\d\): a heading counter-clockwise, or x_m and y_m swapped\? "
+                     + FRAME, id="counter-clockwise"),
+        pytest.param(_swapped, r"the heading turns against the course over ground \(slope "
+                     r"-1\.0\d\)", id="x and y swapped"),
+        pytest.param(_mathematical, r"the heading turns against the course over ground",
+                     id="from the x axis, anticlockwise"),
+        pytest.param(_from_east, r"the heading is 90 deg off the course over ground in the "
+                     r"median, expected at most 45 deg \(a drift angle or crab\): a heading "
+                     r"from East, or a heading sensor's mounting offset\? " + FRAME,
+                     id="from East"),
+        pytest.param(_radians_as_degrees, r"the heading turns 0\.017\d times as far as the "
+                     r"course over ground, expected about once: is heading_deg in degrees\?",
+                     id="radians under heading_deg"),
+    ],
+)  # fmt: skip
+def test_a_heading_in_another_frame_is_named(
+    zigzag: ManeuverLog, edit: Callable[[ManeuverLog], ManeuverLog], pattern: str
+) -> None:
+    assert _problems(zigzag) == (None, None)
+    heading, _ = _problems(edit(zigzag))
+    assert heading is not None and re.fullmatch(pattern + ".*", heading), heading
+
+
+@pytest.mark.parametrize(
+    ("maneuver", "amplitude_deg"),
+    [("zigzag-10", 10), ("zigzag-20-port", 20), ("turning-35", 35), ("turning-35-port", 35)],
+)
+def test_a_rudder_of_the_other_sign_is_named_at_execute(maneuver: str, amplitude_deg: int) -> None:
+    log = synthesize_log(reference_ship("kvlcc2"), MANEUVERS[maneuver](), seed=2)
+    flipped = replace(log, rudder_rad=-log.rudder_rad)
+    heading, rudder = _problems(flipped)
+    assert heading is None  # the frame is right: only the rudder is not
+    assert rudder is not None
+    message, sample = rudder
+    assert sample == execute_index(log)
+    to, against = ("port", "starboard") if maneuver.endswith("port") else ("starboard", "port")
+    assert message.startswith(
+        f"the ship turns {message.split()[3]} deg to {to} under its first rudder command, "
+        f"{amplitude_deg} deg to {against}: expected a positive rudder_deg to turn it to starboard"
+    ), message
+    assert float(message.split()[3]) >= 5.0
+
+
+def test_an_autopilots_movements_before_the_command_are_not_judged(zigzag: ManeuverLog) -> None:
+    """±2° of helm every 10 s of the approach (logged, the motion as it was) and no
+    ``# execute_time_s:``: the execute point reads at the first of them, and the first
+    command of 5° or more, the zig-zag's, is judged from where it began."""
+    metadata = {k: v for k, v in zigzag.metadata.items() if k != "execute_time_s"}
+    k = execute_index(zigzag)
+    rudder = zigzag.rudder_rad.copy()
+    rudder[5:k:10] = np.radians(2.0)
+    rudder[10:k:10] = np.radians(-2.0)
+    steered = replace(zigzag, rudder_rad=rudder, metadata=metadata)
+    assert execute_index(steered) == 5
+    assert _problems(steered) == (None, None)
+    heading, rudder_problem = _problems(replace(steered, rudder_rad=-rudder))
+    assert heading is None and rudder_problem is not None
+    assert rudder_problem[1] == k
+    assert rudder_problem[0].endswith("rudder command, 10 deg to port: expected a positive "
+                                      "rudder_deg to turn it to starboard (identifier convert "
+                                      "--rudder-positive port flips a log's sign)")  # fmt: skip
+
+
+def _at_sea(scale: str, current_mps: float, to_deg: float, maneuver: str) -> ManeuverLog:
+    environment = SeaEnvironment(current_speed_mps=current_mps,
+                                 current_to_rad=math.radians(to_deg))  # fmt: skip
+    ship = reference_ship("kvlcc2", scale, environment)
+    return synthesize_log(ship, MANEUVERS[maneuver](), seed=3)
+
+
+@pytest.mark.parametrize("vessel", ["kvlcc2", "mariner", "tanker"])
+@pytest.mark.parametrize("maneuver", ["zigzag-10", "zigzag-20-port", "turning-35",
+                                      "turning-35-port"])  # fmt: skip
+def test_the_reference_ships_logs_are_in_the_conventions(vessel: str, maneuver: str) -> None:
+    log = synthesize_log(reference_ship(vessel), MANEUVERS[maneuver](), seed=4)
+    assert _problems(log) == (None, None)
+
+
+@pytest.mark.parametrize(
+    ("scale", "current_mps", "to_deg"),
+    [("full", 1.0, 180.0), ("full", 1.0, 90.0), ("model", 0.6, 0.0), ("model", 0.6, 90.0),
+     ("model", 0.6, 180.0)],
+)  # fmt: skip
+@pytest.mark.parametrize("maneuver", ["zigzag-10", "turning-35"])
+def test_logs_in_a_current_are_in_the_conventions(
+    scale: str, current_mps: float, to_deg: float, maneuver: str
+) -> None:
+    """Up to a current of half the 7 m model's approach speed (1.18 m/s): in its turn the
+    model slows to about the current's speed, and the course over ground follows the
+    current more than the heading (slopes 0.45 to 3.1)."""
+    assert _problems(_at_sea(scale, current_mps, to_deg, maneuver)) == (None, None)
+
+
+@pytest.mark.skipif(not HSVA.is_dir(), reason="HSVA model-test data not present")
+@pytest.mark.parametrize("run", ["hsva_zz10_stbd", "hsva_zz10_port", "hsva_zz20_10_stbd",
+                                 "hsva_zz20_10_port"])  # fmt: skip
+def test_the_measured_runs_are_in_the_conventions(run: str) -> None:
+    assert _problems(read_log(HSVA / f"{run}.csv")) == (None, None)
+
+
+def test_fit_rejects_a_rudder_of_the_other_sign_in_one_line(
+    zigzag: ManeuverLog, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = tmp_path / "zigzag.csv"
+    log.write_text(format_log(replace(zigzag, rudder_rad=-zigzag.rudder_rad)))
+    out = tmp_path / "params.json"
+    status = main(["fit", str(log), "-o", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert status == 1, err
+    assert err.count("\n") == 1, err
+    expected = (
+        rf"error: {re.escape(str(log))}: sample {execute_index(zigzag)}: the ship turns \d+ deg "
+        r"to starboard under its first rudder command, 10 deg to port: .* \(identifier "
+        r"convert --rudder-positive port flips a log's sign\)"
+    )
+    assert re.fullmatch(expected, err.rstrip("\n")), err
+    assert not out.exists()
