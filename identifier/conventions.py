@@ -14,7 +14,7 @@ KVLCC2 zig-zags). The log's motion tells each of these apart from a real ship's:
   either way. The least-squares slope of ψ on χ is then about 1/(1 ± c/U), about 1 but
   where the current is as fast as the ship. A heading counter-clockwise, or x and y
   swapped (one frame mirrored against the other), makes it −1; a heading logged in
-  radians under ``heading_deg`` 1/57.3.
+  radians under ``heading_deg`` 1/57.3, a frozen sensor's 0.
   :func:`heading_course_problem` rejects a slope outside
   [:data:`MIN_HEADING_PER_COURSE`, :data:`MAX_HEADING_PER_COURSE`], judged when the
   course spreads over :data:`MIN_COURSE_SPREAD_RAD` or more.
@@ -31,12 +31,31 @@ KVLCC2 zig-zags). The log's motion tells each of these apart from a real ship's:
   side. :func:`rudder_side_problem` rejects a change of at least :data:`MIN_TURN_RAD`
   to the other side.
 
+- **A manoeuvre starts from a straight approach** (ITTC, IMO: the execute point ends a
+  steady straight run). The nominal speed, the current's start and the approach's helm
+  come from the samples before execute; a log cut after it (a turn from its first
+  sample, whose rudder then never moves and whose "approach" is the whole log) gave the
+  KVLCC2 a phantom current of 0.95 m/s. :func:`approach_problem` rejects an approach whose
+  median non-dimensional yaw rate r′ = |r| L / U exceeds :data:`MAX_APPROACH_YAW_RATE`
+  (every reference log's and HSVA run's is below 0.004, a 35° turn's about 0.9).
+
 Each check returns a one-line message (what is wrong and what was expected) or None.
+Two units are judged but only warned of (:func:`unit_warnings`), for a real ship may
+come near: a rudder of at most :data:`RUDDER_UNIT_MAX_RAD` in every log while the ship
+turns at r′ above :data:`HARD_TURN_YAW_RATE` (radians under ``rudder_deg``: a 35° turn's
+rudder reads 0.6°; a directionally unstable ship in a spiral test turns at small
+angles), and a ship that advances more than :data:`MAX_ADVANCE_PER_REVOLUTION_L` of its
+length per propeller revolution in the median (rev/s under ``rpm``: 0.34 L in the
+KVLCC2's turn, 0.78 L in its zig-zag, whose own 0.006–0.013 L, the Mariner's
+0.022–0.028 L and the HSVA model's 0.012–0.016 L are a propeller's pitch, about its
+diameter; a fast craft's a few times the Mariner's). A model fitted in either unit is consistent in
+it, but the scenarios and the FMU read degrees and rpm.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -45,14 +64,20 @@ from trials.conditions import execute_index
 from trials.logs import ManeuverLog
 
 __all__ = [
+    "HARD_TURN_YAW_RATE",
+    "MAX_ADVANCE_PER_REVOLUTION_L",
+    "MAX_APPROACH_YAW_RATE",
     "MAX_HEADING_PER_COURSE",
     "MAX_MEDIAN_DRIFT_RAD",
     "MIN_COMMAND_RAD",
     "MIN_COURSE_SPREAD_RAD",
     "MIN_HEADING_PER_COURSE",
     "MIN_TURN_RAD",
+    "RUDDER_UNIT_MAX_RAD",
+    "approach_problem",
     "heading_course_problem",
     "rudder_side_problem",
+    "unit_warnings",
 ]
 
 MIN_COURSE_SPREAD_RAD = math.radians(3.0)
@@ -77,7 +102,27 @@ MIN_COMMAND_RAD = math.radians(5.0)
 MIN_TURN_RAD = math.radians(5.0)
 """Least heading change against the rudder that rejects a log [rad]."""
 
+MAX_APPROACH_YAW_RATE = 0.05
+"""Largest median r′ = |r| L / U of the approach before execute (a circle of 40 L)."""
+
+RUDDER_UNIT_MAX_RAD = math.radians(2.0)
+"""Largest rudder angle [rad] of logs with a hard turn that is warned of (radians read as
+degrees?)."""
+
+HARD_TURN_YAW_RATE = 0.3
+"""r′ of a hard turn, which such a rudder does not give."""
+
+MAX_ADVANCE_PER_REVOLUTION_L = 0.1
+"""Largest median speed over ground per propeller revolution, in ship lengths, not warned
+of (rev/s read as rpm?)."""
+
 _EXPECTED_FRAME = "expected x_m North, y_m East and heading_deg clockwise from North"
+
+
+def _yaw_rate_prime(track: SmoothedTrack, length_m: float) -> np.ndarray:
+    """Return r′ = |r| L / U over ground of every sample of ``track``."""
+    speed = np.maximum(np.asarray(track.speed_mps), np.finfo(float).tiny)
+    return np.abs(np.asarray(track.r_radps)) * length_m / speed
 
 
 def _under_way(track: SmoothedTrack) -> np.ndarray:
@@ -106,7 +151,7 @@ def heading_course_problem(track: SmoothedTrack) -> str | None:
         if not MIN_HEADING_PER_COURSE <= slope <= MAX_HEADING_PER_COURSE:
             return (
                 f"the heading turns {slope:.3g} times as far as the course over ground, "
-                f"expected about once: is heading_deg in degrees?"
+                f"expected about once: is heading_deg in degrees, and its sensor not frozen?"
             )
     drift = float(np.median(np.abs(wrap_angle(np.asarray(track.drift_rad)[moving]))))
     if drift > MAX_MEDIAN_DRIFT_RAD:
@@ -152,3 +197,62 @@ def rudder_side_problem(log: ManeuverLog, track: SmoothedTrack) -> tuple[str, in
         "flips a log's sign)",
         start,
     )
+
+
+def approach_problem(
+    log: ManeuverLog, track: SmoothedTrack, length_m: float
+) -> tuple[str, int] | None:
+    """Return what is wrong with the approach before execute and the execute sample, or None.
+
+    The median r′ of the smoothed ``track`` before execute against
+    :data:`MAX_APPROACH_YAW_RATE` (module notes); ``length_m`` the ship's [m].
+    """
+    k = execute_index(log)
+    if k < 1:
+        return None
+    turning = float(np.median(_yaw_rate_prime(track, length_m)[:k]))
+    if turning <= MAX_APPROACH_YAW_RATE:
+        return None
+    never = " (its rudder never moves)" if k == log.n_samples - 1 else ""
+    return (
+        f"the approach before execute turns at r' {turning:.2f} in the median (|r| L/U), "
+        f"expected a straight run (at most {MAX_APPROACH_YAW_RATE:g}): a log that starts "
+        f"after execute{never}? The nominal speed and the current's start come from the "
+        "approach",
+        k,
+    )
+
+
+def unit_warnings(
+    logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack], names: Sequence[str],
+    length_m: float,
+) -> list[str]:  # fmt: skip
+    """Return warnings of a rudder angle in radians or a propeller speed in rev/s.
+
+    Judged on the logs together (the rudder) and on each (the propeller) as the module
+    notes say; ``names`` the logs' for the messages, ``length_m`` the ship's [m].
+    """
+    warnings = []
+    rudder_rad = max(float(np.max(np.abs(log.rudder_rad))) for log in logs)
+    yaw_rate = max(
+        float(np.max(_yaw_rate_prime(track, length_m)[_under_way(track)])) for track in tracks
+    )
+    if rudder_rad < RUDDER_UNIT_MAX_RAD and yaw_rate > HARD_TURN_YAW_RATE:
+        warnings.append(
+            f"the rudder reaches at most {math.degrees(rudder_rad):.2f} deg while the ship "
+            f"turns at r' up to {yaw_rate:.2f}: is rudder_deg in degrees? (radians read as "
+            "degrees are 57 times too small; the scenarios and the FMU read degrees)"
+        )
+    for log, track, name in zip(logs, tracks, names, strict=True):
+        n_rps = float(np.median(log.n_rps))
+        if n_rps <= 0.0:
+            continue
+        advance = float(np.median(track.speed_mps)) / (n_rps * length_m)
+        if advance > MAX_ADVANCE_PER_REVOLUTION_L:
+            warnings.append(
+                f"{name}: the ship advances {advance:.2f} L per propeller revolution at "
+                f"{n_rps * 60.0:.3g} rpm, expected at most {MAX_ADVANCE_PER_REVOLUTION_L:g} L "
+                "(about a propeller's diameter): is rpm in revolutions per minute? (the "
+                "scenarios and the FMU's propeller_rpm then take the logs' unit)"
+            )
+    return warnings

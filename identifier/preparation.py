@@ -2,8 +2,9 @@
 
 Every fit starts from the same :class:`SmoothedLogs` (``identifier.identify``): the logs
 checked for what no fit can mend (sampling, a ship that does not move or moves faster
-than a ship, a heading, track or rudder in another convention
-(``identifier.conventions``), no rudder excitation; the vessel's length and name agreed), the GNSS
+than a ship, a heading, track or rudder in another convention, no straight approach
+(``identifier.conventions``, which also warns of a rudder or propeller speed in another
+unit), no rudder excitation; the vessel's length and name agreed), the GNSS
 antenna's track reduced to midship, each log smoothed by ``identifier.smoothing`` (the
 seed paper's Kalman filter and RTS smoother, with its innovation gate against GNSS
 glitches) and the glitches it rejected replaced by its estimates, the spikes of the rudder
@@ -26,7 +27,12 @@ import numpy as np
 from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
-from identifier.conventions import heading_course_problem, rudder_side_problem
+from identifier.conventions import (
+    approach_problem,
+    heading_course_problem,
+    rudder_side_problem,
+    unit_warnings,
+)
 from identifier.ekf import EkfSegment
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
@@ -308,23 +314,25 @@ def sailed_order(logs: Sequence[ManeuverLog]) -> tuple[list[int], list[float]]:
     return order, gaps
 
 
-def _check_conventions(log: ManeuverLog, track: SmoothedTrack, name: str) -> None:
-    """Reject a log whose heading, track or rudder sign is in another convention.
+def _check_conventions(log: ManeuverLog, track: SmoothedTrack, name: str, length_m: float) -> None:
+    """Reject a log in another convention, or without a straight approach.
 
     Raises
     ------
     IdentificationError
         Of :func:`identifier.conventions.heading_course_problem` (the heading against the
-        course over ground) or :func:`~identifier.conventions.rudder_side_problem` (a ship
-        that turns against its rudder; at the execute sample).
+        course over ground), :func:`~identifier.conventions.rudder_side_problem` (a ship
+        that turns against its rudder; at the command's first sample) or
+        :func:`~identifier.conventions.approach_problem` (an approach that turns, of a ship
+        of ``length_m`` [m]; at the execute sample).
 
     """
     problem = heading_course_problem(track)
     if problem is not None:
         raise IdentificationError(problem, log=name)
-    rudder = rudder_side_problem(log, track)
-    if rudder is not None:
-        raise IdentificationError(rudder[0], log=name, sample=rudder[1])
+    for found in (rudder_side_problem(log, track), approach_problem(log, track, length_m)):
+        if found is not None:
+            raise IdentificationError(found[0], log=name, sample=found[1])
 
 
 def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
@@ -415,7 +423,7 @@ def smooth_logs(
         _check_track(track, name)
         log = _deglitched(log, track, name, notes, warnings)
         log = _despiked_inputs(log, name, length_m, notes)
-        _check_conventions(log, track, name)
+        _check_conventions(log, track, name, length_m)
         if log.stw_transverse_mps is not None and log.on_board_m("speed_log_x_m") is None:
             warnings.append(
                 f"{name}: the speed log's transverse axis (stw_transverse_mps) was not used: "
@@ -439,6 +447,7 @@ def smooth_logs(
             progress(log.n_samples)
 
     _check_rudder(cleaned)
+    warnings.extend(unit_warnings(cleaned, tracks, [s.name for s in segments], length_m))
     with_wind = [_log_name(log, i) for i, log in enumerate(cleaned) if has_wind(log)]
     if with_wind and windage is None:
         warnings.append(

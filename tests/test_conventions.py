@@ -19,8 +19,13 @@ import numpy as np
 import pytest
 
 from identifier.cli import main
-from identifier.conventions import heading_course_problem, rudder_side_problem
-from identifier.smoothing import smooth_track
+from identifier.conventions import (
+    approach_problem,
+    heading_course_problem,
+    rudder_side_problem,
+    unit_warnings,
+)
+from identifier.smoothing import SmoothedTrack, smooth_track
 from scenarios.sea import SeaEnvironment
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from trials.conditions import execute_index
@@ -30,11 +35,20 @@ HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
 FRAME = r"expected x_m North, y_m East and heading_deg clockwise from North"
 
 
-def _problems(log: ManeuverLog) -> tuple[str | None, tuple[str, int] | None]:
-    track = smooth_track(
+def _track(log: ManeuverLog) -> SmoothedTrack:
+    return smooth_track(
         log.time_s, log.x_m, log.y_m, log.heading_rad, position_noise_m=None,
         heading_noise_rad=None,
     )  # fmt: skip
+
+
+def _problems(log: ManeuverLog) -> tuple[str | None, tuple[str, int] | None]:
+    """The heading's and the rudder's; a log in the conventions has neither, nor a turning
+    approach or a unit to warn of."""
+    track = _track(log)
+    assert log.length_m is not None
+    if approach_problem(log, track, log.length_m) is None:
+        assert unit_warnings([log], [track], ["log"], log.length_m) == []
     return heading_course_problem(track), rudder_side_problem(log, track)
 
 
@@ -78,7 +92,8 @@ def _radians_as_degrees(log: ManeuverLog) -> ManeuverLog:
                      r"from East, or a heading sensor's mounting offset\? " + FRAME,
                      id="from East"),
         pytest.param(_radians_as_degrees, r"the heading turns 0\.017\d times as far as the "
-                     r"course over ground, expected about once: is heading_deg in degrees\?",
+                     r"course over ground, expected about once: is heading_deg in degrees, "
+                     r"and its sensor not frozen\?",
                      id="radians under heading_deg"),
     ],
 )  # fmt: skip
@@ -184,3 +199,66 @@ def test_fit_rejects_a_rudder_of_the_other_sign_in_one_line(
     )
     assert re.fullmatch(expected, err.rstrip("\n")), err
     assert not out.exists()
+
+
+@pytest.fixture(scope="module")
+def turn() -> ManeuverLog:
+    return synthesize_log(reference_ship("kvlcc2"), MANEUVERS["turning-35"](), seed=1)
+
+
+def test_a_log_cut_after_execute_has_no_approach(
+    turn: ManeuverLog, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The 35° turn from t = 200 s on, without ``# execute_time_s:`` (the fit kept a
+    current of 0.95 m/s and a nominal speed of 3.3 m/s from it): the message, and
+    ``fit``'s one line."""
+    metadata = {k: v for k, v in turn.metadata.items() if k != "execute_time_s"}
+    assert approach_problem(turn, _track(turn), 320.0) is None
+    cut = turn.time_s >= 200.0
+    late = replace(turn, time_s=turn.time_s[cut], x_m=turn.x_m[cut], y_m=turn.y_m[cut],
+                   heading_rad=turn.heading_rad[cut], rudder_rad=turn.rudder_rad[cut],
+                   n_rps=turn.n_rps[cut], metadata=metadata)  # fmt: skip
+    found = approach_problem(late, _track(late), 320.0)
+    assert found is not None
+    message, sample = found
+    assert sample == late.n_samples - 1  # the rudder never moves: the execute point
+    assert re.fullmatch(
+        r"the approach before execute turns at r' 0\.8\d in the median \(\|r\| L/U\), "
+        r"expected a straight run \(at most 0\.05\): a log that starts after execute \(its "
+        r"rudder never moves\)\? The nominal speed and the current's start come from the "
+        r"approach",
+        message,
+    ), message
+    path = tmp_path / "late.csv"
+    path.write_text(format_log(late))
+    out = tmp_path / "params.json"
+    status = main(["fit", str(path), "-o", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert status == 1 and err == f"error: {path}: sample {sample}: {message}\n", err
+    assert not out.exists()
+
+
+def test_a_rudder_in_radians_and_a_propeller_in_revolutions_per_second_are_warned_of(
+    zigzag: ManeuverLog, turn: ManeuverLog
+) -> None:
+    logs = [zigzag, turn]
+    tracks = [_track(log) for log in logs]
+    assert unit_warnings(logs, tracks, ["zz", "turn"], 320.0) == []
+    radians = [replace(log, rudder_rad=np.radians(log.rudder_rad)) for log in logs]
+    (rudder,) = unit_warnings(radians, tracks, ["zz", "turn"], 320.0)
+    assert re.fullmatch(
+        r"the rudder reaches at most 0\.61 deg while the ship turns at r' up to 0\.[89]\d: is "
+        r"rudder_deg in degrees\? \(radians read as degrees are 57 times too small; the "
+        r"scenarios and the FMU read degrees\)",
+        rudder,
+    ), rudder
+    per_second = [replace(log, n_rps=log.n_rps / 60.0) for log in logs]
+    found = unit_warnings(per_second, tracks, ["zz", "turn"], 320.0)
+    assert [w.split(":")[0] for w in found] == ["zz", "turn"]
+    for warning in found:
+        assert re.fullmatch(
+            r"\w+: the ship advances 0\.\d\d L per propeller revolution at 1\.75 rpm, expected "
+            r"at most 0\.1 L \(about a propeller's diameter\): is rpm in revolutions per "
+            r"minute\? \(the scenarios and the FMU's propeller_rpm then take the logs' unit\)",
+            warning,
+        ), warning
