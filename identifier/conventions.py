@@ -30,7 +30,6 @@ KVLCC2 zig-zags). The log's motion tells each of these apart from a real ship's:
   on the rudder's side; a turning circle's end), the heading changes to the command's
   side. :func:`rudder_side_problem` rejects a change of at least :data:`MIN_TURN_RAD`
   to the other side.
-
 - **A manoeuvre starts from a straight approach** (ITTC, IMO: the execute point ends a
   steady straight run). The nominal speed, the current's start and the approach's helm
   come from the samples before execute; a log cut after it (a turn from its first
@@ -48,8 +47,8 @@ angles), and a ship that advances more than :data:`MAX_ADVANCE_PER_REVOLUTION_L`
 length per propeller revolution in the median (rev/s under ``rpm``: 0.34 L in the
 KVLCC2's turn, 0.78 L in its zig-zag, whose own 0.006–0.013 L, the Mariner's
 0.022–0.028 L and the HSVA model's 0.012–0.016 L are a propeller's pitch, about its
-diameter; a fast craft's a few times the Mariner's). A model fitted in either unit is consistent in
-it, but the scenarios and the FMU read degrees and rpm.
+diameter; a fast craft's a few times the Mariner's). A model fitted in either unit is
+consistent in it, but the scenarios and the FMU read degrees and rpm.
 """
 
 from __future__ import annotations
