@@ -38,7 +38,9 @@ KVLCC2 zig-zags). The log's motion tells each of these apart from a real ship's:
   median non-dimensional yaw rate r′ = |r| L / U exceeds :data:`MAX_APPROACH_YAW_RATE`
   (every reference log's and HSVA run's is below 0.004, a 35° turn's about 0.9).
 
-Each check returns a one-line message (what is wrong and what was expected) or None.
+Each check returns a one-line message (what is wrong and what was expected) or None;
+:func:`log_problem` the first of them and its sample (``identifier fit`` and the
+scenarios' ``--like`` raise it).
 Two units are judged but only warned of (:func:`unit_warnings`), for a real ship may
 come near: a rudder of at most :data:`RUDDER_UNIT_MAX_RAD` in every log while the ship
 turns at r′ above :data:`HARD_TURN_YAW_RATE` (radians under ``rudder_deg``: a 35° turn's
@@ -58,7 +60,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from identifier.smoothing import SmoothedTrack, wrap_angle
+from identifier.smoothing import SmoothedTrack, smooth_track, wrap_angle
 from trials.conditions import execute_index
 from trials.logs import ManeuverLog
 
@@ -75,6 +77,7 @@ __all__ = [
     "RUDDER_UNIT_MAX_RAD",
     "approach_problem",
     "heading_course_problem",
+    "log_problem",
     "rudder_side_problem",
     "unit_warnings",
 ]
@@ -220,6 +223,26 @@ def approach_problem(
         "approach",
         k,
     )
+
+
+def log_problem(
+    log: ManeuverLog, length_m: float, track: SmoothedTrack | None = None
+) -> tuple[str, int | None] | None:
+    """Return the first problem of ``log`` and its sample (None: of the whole log), or None.
+
+    The heading against the course, the rudder's side and the approach, in that order,
+    of a ship of ``length_m`` [m]; ``track`` the log's smoothed track (default: smoothed
+    here, with the noise estimated).
+    """
+    if track is None:
+        track = smooth_track(
+            log.time_s, log.x_m, log.y_m, log.heading_rad, position_noise_m=None,
+            heading_noise_rad=None,
+        )  # fmt: skip
+    heading = heading_course_problem(track)
+    if heading is not None:
+        return heading, None
+    return rudder_side_problem(log, track) or approach_problem(log, track, length_m)
 
 
 def unit_warnings(

@@ -27,12 +27,7 @@ import numpy as np
 from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
-from identifier.conventions import (
-    approach_problem,
-    heading_course_problem,
-    rudder_side_problem,
-    unit_warnings,
-)
+from identifier.conventions import log_problem, unit_warnings
 from identifier.ekf import EkfSegment
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
@@ -320,19 +315,14 @@ def _check_conventions(log: ManeuverLog, track: SmoothedTrack, name: str, length
     Raises
     ------
     IdentificationError
-        Of :func:`identifier.conventions.heading_course_problem` (the heading against the
-        course over ground), :func:`~identifier.conventions.rudder_side_problem` (a ship
-        that turns against its rudder; at the command's first sample) or
-        :func:`~identifier.conventions.approach_problem` (an approach that turns, of a ship
-        of ``length_m`` [m]; at the execute sample).
+        Of :func:`identifier.conventions.log_problem` (the heading against the course
+        over ground, a ship that turns against its rudder, an approach that turns; a
+        ship of ``length_m`` [m]), at its sample.
 
     """
-    problem = heading_course_problem(track)
-    if problem is not None:
-        raise IdentificationError(problem, log=name)
-    for found in (rudder_side_problem(log, track), approach_problem(log, track, length_m)):
-        if found is not None:
-            raise IdentificationError(found[0], log=name, sample=found[1])
+    found = log_problem(log, length_m, track)
+    if found is not None:
+        raise IdentificationError(found[0], log=name, sample=found[1])
 
 
 def _check_rudder(logs: Sequence[ManeuverLog]) -> None:

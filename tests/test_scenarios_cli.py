@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 import zipfile
@@ -658,3 +659,15 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
     assert main(["zigzag", "--fmu", str(fmu), "--like", str(turn), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "is a turning manoeuvre, not a zigzag" in err
+    # A log whose rudder's sign is the other way round is not sailed again.
+    flipped = tmp_path / "flipped.csv"
+    write_log(flipped, replace(read_log(log), rudder_rad=-read_log(log).rudder_rad))
+    assert main(["zigzag", "--fmu", str(fmu), "--like", str(flipped), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert re.fullmatch(
+        rf"python -m scenarios zigzag: error: {re.escape(str(flipped))}: sample {execute}: the "
+        r"ship turns \d+ deg to port under its first rudder command, 15 deg to starboard: "
+        r"expected a positive rudder_deg to turn it to starboard .*",
+        err.rstrip("\n"),
+    ), err

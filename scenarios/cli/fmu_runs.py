@@ -52,6 +52,7 @@ import numpy as np
 from fmu_model import argtypes, load_params
 from fmu_model.envelope import Envelope, trajectory_envelope
 from fmu_model.interface import logged_envelope
+from identifier.conventions import log_problem
 from scenarios.cli.common import (
     EXIT_GATE_FAILED,
     PROG,
@@ -424,7 +425,9 @@ def _measured_run(
     """Run a turning circle or zig-zag after ``--approach-s``; its JSON record of metrics.
 
     With ``--like LOG.csv`` the program and condition are the log's
-    (``trials.conditions.logged_condition``), and the record gains the log's own
+    (``trials.conditions.logged_condition``; a log in another convention, or without a
+    straight approach, is a data error: ``identifier.conventions.log_problem``), and the
+    record gains the log's own
     indices under ``"logged"``. A logged turning circle of 720° or more is corrected for
     its current (:func:`_corrected_log`): the record's ``logged`` gains
     ``current_corrected``, and when the drift counts the ship sails the corrected log's
@@ -435,6 +438,11 @@ def _measured_run(
     lines: list[str] = []
     if args.like:
         log = read_log(args.like)
+        problem = log_problem(log, info.length_m)
+        if problem is not None:
+            message, sample = problem
+            at = "" if sample is None else f"sample {sample}: "
+            raise ScenarioError(f"{args.like}: {at}{message}")
         limit_s = _limit_s(args, info, condition)
         like = logged_condition(log, max_time_s=limit_s)
         if like.program.kind != program.kind:
