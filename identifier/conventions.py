@@ -79,6 +79,7 @@ __all__ = [
     "heading_course_problem",
     "log_problem",
     "rudder_side_problem",
+    "turning_yaw_rate",
     "unit_warnings",
 ]
 
@@ -245,6 +246,13 @@ def log_problem(
     return rudder_side_problem(log, track) or approach_problem(log, track, length_m)
 
 
+def turning_yaw_rate(tracks: Sequence[SmoothedTrack], length_m: float) -> float:
+    """Return the largest r′ = |r| L / U of the smoothed ``tracks`` under way (L = ``length_m``)."""
+    return max(
+        float(np.max(_yaw_rate_prime(track, length_m)[_under_way(track)])) for track in tracks
+    )
+
+
 def unit_warnings(
     logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack], names: Sequence[str],
     length_m: float,
@@ -256,9 +264,7 @@ def unit_warnings(
     """
     warnings = []
     rudder_rad = max(float(np.max(np.abs(log.rudder_rad))) for log in logs)
-    yaw_rate = max(
-        float(np.max(_yaw_rate_prime(track, length_m)[_under_way(track)])) for track in tracks
-    )
+    yaw_rate = turning_yaw_rate(tracks, length_m)
     if rudder_rad < RUDDER_UNIT_MAX_RAD and yaw_rate > HARD_TURN_YAW_RATE:
         warnings.append(
             f"the rudder reaches at most {math.degrees(rudder_rad):.2f} deg while the ship "

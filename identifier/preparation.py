@@ -27,7 +27,12 @@ import numpy as np
 from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
 from fmu_model.params import text_problem
-from identifier.conventions import log_problem, unit_warnings
+from identifier.conventions import (
+    MAX_APPROACH_YAW_RATE,
+    log_problem,
+    turning_yaw_rate,
+    unit_warnings,
+)
 from identifier.ekf import EkfSegment
 from identifier.smoothing import SmoothedTrack, smooth_track
 from identifier.wind import has_wind, known_acceleration
@@ -325,15 +330,29 @@ def _check_conventions(log: ManeuverLog, track: SmoothedTrack, name: str, length
         raise IdentificationError(found[0], log=name, sample=found[1])
 
 
-def _check_rudder(logs: Sequence[ManeuverLog]) -> None:
-    """Reject logs in which the rudder never leaves midship (nothing to identify)."""
+def _check_rudder(
+    logs: Sequence[ManeuverLog], tracks: Sequence[SmoothedTrack], length_m: float
+) -> None:
+    """Reject logs in which the rudder never leaves midship (nothing to identify).
+
+    When the ship turns all the same (``identifier.conventions.turning_yaw_rate`` of the
+    smoothed ``tracks``, a ship of ``length_m`` [m]), the message asks for the rudder's
+    unit and sensor.
+    """
     if any(np.max(np.abs(log.rudder_rad)) > EXECUTE_RUDDER_RAD for log in logs):
         return
     limit = math.degrees(EXECUTE_RUDDER_RAD)
     where = "the log" if len(logs) == 1 else "every log"
+    turning = turning_yaw_rate(tracks, length_m)
+    unit = (
+        f"; the ship turns at r' up to {turning:.2f} all the same: is rudder_deg in degrees, "
+        "and its sensor alive?"
+        if turning > MAX_APPROACH_YAW_RATE
+        else ""
+    )
     raise IdentificationError(
         f"no rudder excitation: nothing to identify (the rudder stays within ±{limit:g} deg "
-        f"in {where}); expected a manoeuvre: a zig-zag or a turning circle",
+        f"in {where}); expected a manoeuvre: a zig-zag or a turning circle{unit}",
         log=_log_name(logs[0], 0) if len(logs) == 1 else None,
     )
 
@@ -436,7 +455,7 @@ def smooth_logs(
         if progress is not None:
             progress(log.n_samples)
 
-    _check_rudder(cleaned)
+    _check_rudder(cleaned, tracks, length_m)
     warnings.extend(unit_warnings(cleaned, tracks, [s.name for s in segments], length_m))
     with_wind = [_log_name(log, i) for i, log in enumerate(cleaned) if has_wind(log)]
     if with_wind and windage is None:

@@ -272,7 +272,9 @@ def test_a_track_without_rudder_is_refused(
         out,
         log,
         r": no rudder excitation: nothing to identify \(the rudder stays within "
-        r"±0.5 deg in the log\); expected a manoeuvre: a zig-zag or a turning circle$",
+        r"±0.5 deg in the log\); expected a manoeuvre: a zig-zag or a turning circle; the "
+        r"ship turns at r' up to 0\.\d\d all the same: is rudder_deg in degrees, and its "
+        r"sensor alive\?$",
     )
 
 

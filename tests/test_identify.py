@@ -160,8 +160,11 @@ def _straight_log() -> ManeuverLog:
 def test_straight_run_alone_is_refused_naming_the_missing_manoeuvre() -> None:
     # Nothing excites the rudder and turning terms: no coefficients to report, and the
     # reason is the log, not a setting.
-    with pytest.raises(IdentificationError, match="no rudder excitation: nothing to identify"):
+    with pytest.raises(
+        IdentificationError, match="no rudder excitation: nothing to identify"
+    ) as err:
         identify([_straight_log()], SEED)
+    assert err.value.message.endswith("a zig-zag or a turning circle")  # nor does it turn
 
 
 def test_straight_run_beside_a_manoeuvre_reports_unidentifiable_coefficients(
