@@ -14,6 +14,7 @@ import re
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -42,14 +43,28 @@ def _track(log: ManeuverLog) -> SmoothedTrack:
     )  # fmt: skip
 
 
-def _problems(log: ManeuverLog) -> tuple[str | None, tuple[str, int] | None]:
-    """The heading's and the rudder's; a log in the conventions has neither, nor a turning
-    approach or a unit to warn of."""
+class Found(NamedTuple):
+    """What the checks find in a log: the heading's, the rudder's and the approach's
+    problems, and the unit warnings."""
+
+    heading: str | None
+    rudder: tuple[str, int] | None
+    approach: tuple[str, int] | None
+    units: list[str]
+
+
+IN_CONVENTIONS = Found(None, None, None, [])
+
+
+def _found(log: ManeuverLog) -> Found:
     track = _track(log)
     assert log.length_m is not None
-    if approach_problem(log, track, log.length_m) is None:
-        assert unit_warnings([log], [track], ["log"], log.length_m) == []
-    return heading_course_problem(track), rudder_side_problem(log, track)
+    return Found(
+        heading_course_problem(track),
+        rudder_side_problem(log, track),
+        approach_problem(log, track, log.length_m),
+        unit_warnings([log], [track], ["log"], log.length_m),
+    )
 
 
 @pytest.fixture(scope="module")
@@ -100,8 +115,8 @@ def _radians_as_degrees(log: ManeuverLog) -> ManeuverLog:
 def test_a_heading_in_another_frame_is_named(
     zigzag: ManeuverLog, edit: Callable[[ManeuverLog], ManeuverLog], pattern: str
 ) -> None:
-    assert _problems(zigzag) == (None, None)
-    heading, _ = _problems(edit(zigzag))
+    assert _found(zigzag) == IN_CONVENTIONS
+    heading = _found(edit(zigzag)).heading
     assert heading is not None and re.fullmatch(pattern + ".*", heading), heading
 
 
@@ -112,7 +127,7 @@ def test_a_heading_in_another_frame_is_named(
 def test_a_rudder_of_the_other_sign_is_named_at_execute(maneuver: str, amplitude_deg: int) -> None:
     log = synthesize_log(reference_ship("kvlcc2"), MANEUVERS[maneuver](), seed=2)
     flipped = replace(log, rudder_rad=-log.rudder_rad)
-    heading, rudder = _problems(flipped)
+    heading, rudder, _, _ = _found(flipped)
     assert heading is None  # the frame is right: only the rudder is not
     assert rudder is not None
     message, sample = rudder
@@ -136,8 +151,8 @@ def test_an_autopilots_movements_before_the_command_are_not_judged(zigzag: Maneu
     rudder[10:k:10] = np.radians(-2.0)
     steered = replace(zigzag, rudder_rad=rudder, metadata=metadata)
     assert execute_index(steered) == 5
-    assert _problems(steered) == (None, None)
-    heading, rudder_problem = _problems(replace(steered, rudder_rad=-rudder))
+    assert _found(steered) == IN_CONVENTIONS
+    heading, rudder_problem, _, _ = _found(replace(steered, rudder_rad=-rudder))
     assert heading is None and rudder_problem is not None
     assert rudder_problem[1] == k
     assert rudder_problem[0].endswith("rudder command, 10 deg to port: expected a positive "
@@ -157,7 +172,7 @@ def _at_sea(scale: str, current_mps: float, to_deg: float, maneuver: str) -> Man
                                       "turning-35-port"])  # fmt: skip
 def test_the_reference_ships_logs_are_in_the_conventions(vessel: str, maneuver: str) -> None:
     log = synthesize_log(reference_ship(vessel), MANEUVERS[maneuver](), seed=4)
-    assert _problems(log) == (None, None)
+    assert _found(log) == IN_CONVENTIONS
 
 
 @pytest.mark.parametrize(
@@ -172,14 +187,14 @@ def test_logs_in_a_current_are_in_the_conventions(
     """Up to a current of half the 7 m model's approach speed (1.18 m/s): in its turn the
     model slows to about the current's speed, and the course over ground follows the
     current more than the heading (slopes 0.45 to 3.1)."""
-    assert _problems(_at_sea(scale, current_mps, to_deg, maneuver)) == (None, None)
+    assert _found(_at_sea(scale, current_mps, to_deg, maneuver)) == IN_CONVENTIONS
 
 
 @pytest.mark.skipif(not HSVA.is_dir(), reason="HSVA model-test data not present")
 @pytest.mark.parametrize("run", ["hsva_zz10_stbd", "hsva_zz10_port", "hsva_zz20_10_stbd",
                                  "hsva_zz20_10_port"])  # fmt: skip
 def test_the_measured_runs_are_in_the_conventions(run: str) -> None:
-    assert _problems(read_log(HSVA / f"{run}.csv")) == (None, None)
+    assert _found(read_log(HSVA / f"{run}.csv")) == IN_CONVENTIONS
 
 
 def test_fit_rejects_a_rudder_of_the_other_sign_in_one_line(
