@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+import scipy.constants
 
 from fmu_model.environment import Windage
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, MIN_START_SPEED_MPS
@@ -54,6 +55,10 @@ MAX_SPEED_OVER_GROUND_MPS = 50.0
 # deviations of zero (or below the FMU's least start speed) shows a ship that does not
 # move; the speed-scaled models divide by the speed.
 STILL_SPEED_SIGMAS = 3.0
+# Below this median Froude number U/√(gL) over ground no ship is on a manoeuvring trial
+# (KVLCC2's 15.5 kn: 0.142; a VLCC at 2 kn: 0.018): the positions, times or length are
+# in other units (positions in km: 0.00014).
+MIN_FROUDE_NUMBER = 0.01
 # Above these estimated noise levels the logger is suspect (warning) [m], [rad].
 MAX_POSITION_NOISE_M = 20.0
 MAX_HEADING_NOISE_RAD = math.radians(3.0)
@@ -135,8 +140,8 @@ def vessel_name(logs: Sequence[ManeuverLog]) -> str:
     return next(iter(first), "ship")
 
 
-def _check_track(track: SmoothedTrack, name: str) -> None:
-    """Reject a track too fast for a ship, or of a ship that does not move.
+def _check_track(track: SmoothedTrack, name: str, length_m: float) -> None:
+    """Reject a track too fast for a ship, of a ship that does not move, or too slow for one.
 
     Raises
     ------
@@ -144,7 +149,8 @@ def _check_track(track: SmoothedTrack, name: str) -> None:
         If the smoothed speed over ground exceeds :data:`MAX_SPEED_OVER_GROUND_MPS`
         (wrong units of time or position), or its median is within
         :data:`STILL_SPEED_SIGMAS` standard deviations of zero (or below the FMU's least
-        start speed, :data:`~fmu_model.interface.MIN_START_SPEED_MPS`).
+        start speed, :data:`~fmu_model.interface.MIN_START_SPEED_MPS`), or its median
+        Froude number for a ship of ``length_m`` [m] is below :data:`MIN_FROUDE_NUMBER`.
 
     """
     derived = (track.u_mps, track.v_mps, track.r_radps, track.u_std_mps, track.v_std_mps)
@@ -170,6 +176,15 @@ def _check_track(track: SmoothedTrack, name: str) -> None:
             f"above {threshold:.3g} m/s ({STILL_SPEED_SIGMAS:g} standard deviations of the "
             f"smoothed speed, at least {MIN_START_SPEED_MPS:g} m/s); expected a ship under way "
             "(the models need headway)",
+            log=name,
+        )
+    froude = speed / math.sqrt(scipy.constants.g * length_m)
+    if froude < MIN_FROUDE_NUMBER:
+        raise IdentificationError(
+            f"the ship sails at {speed:.3g} m/s over ground in the median, a Froude number "
+            f"U/sqrt(gL) of {froude:.2g} for L = {length_m:g} m, expected at least "
+            f"{MIN_FROUDE_NUMBER:g} on a trial: check the units of x_m and y_m (metres), "
+            "time_s (seconds) and the ship's length",
             log=name,
         )
 
@@ -429,7 +444,7 @@ def smooth_logs(
             position_noise_m=position_noise_m,
             heading_noise_rad=heading_noise_rad,
         )
-        _check_track(track, name)
+        _check_track(track, name, length_m)
         log = _deglitched(log, track, name, notes, warnings)
         log = _despiked_inputs(log, name, length_m, notes)
         _check_conventions(log, track, name, length_m)

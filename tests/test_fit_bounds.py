@@ -148,6 +148,26 @@ def test_a_ship_that_does_not_move_is_a_data_error(
     )
 
 
+def test_positions_in_kilometres_are_a_data_error_of_units(
+    zigzag_text: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """x_m and y_m in km: a ship of 100 m sailing 5 mm/s, a Froude number of 1.6e-4 (it
+    used to pass as an approach that turns at r' 1.7, or as a model of that)."""
+    km = _rows(lambda cells, k: [cells[0], *(repr(float(c) / 1000.0) for c in cells[1:3]),
+                                 *cells[3:]])(zigzag_text)  # fmt: skip
+    log = _write(tmp_path, "km.csv", km)
+    status, err, out = _fit(tmp_path, capsys, [log])
+    _assert_one_data_error(
+        status,
+        err,
+        out,
+        log,
+        r": the ship sails at 0\.00[45]\d* m/s over ground in the median, a Froude number "
+        r"U/sqrt\(gL\) of 0\.0001[56] for L = 100 m, expected at least 0\.01 on a trial: check "
+        r"the units of x_m and y_m \(metres\), time_s \(seconds\) and the ship's length$",
+    )
+
+
 @pytest.mark.parametrize(
     ("column", "value", "expected"),
     [
