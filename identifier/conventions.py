@@ -60,7 +60,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from identifier.smoothing import SmoothedTrack, smooth_track, wrap_angle
+from identifier.smoothing import SmoothedTrack, smooth_log, wrap_angle
 from trials.conditions import execute_index
 from trials.logs import ManeuverLog
 
@@ -236,10 +236,7 @@ def log_problem(
     here, with the noise estimated).
     """
     if track is None:
-        track = smooth_track(
-            log.time_s, log.x_m, log.y_m, log.heading_rad, position_noise_m=None,
-            heading_noise_rad=None,
-        )  # fmt: skip
+        track = smooth_log(log)
     heading = heading_course_problem(track)
     if heading is not None:
         return heading, None

@@ -42,8 +42,8 @@ from identifier.current import (
     with_approach_cross,
 )
 from identifier.identify import FitSettings, identify
-from identifier.output_error import predict_log, smooth_log
-from identifier.smoothing import SmoothedTrack
+from identifier.output_error import predict_log
+from identifier.smoothing import SmoothedTrack, smooth_log
 from trials.conditions import KINDS, maneuver_indices, maneuver_kind, zigzag_angles
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship

@@ -106,6 +106,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from trials.angles import unwrap_heading
+from trials.logs import ManeuverLog
 
 __all__ = [
     "DEFAULT_TAU_S",
@@ -123,6 +124,7 @@ __all__ = [
     "constant_acceleration_model",
     "estimate_noise",
     "smooth_axis",
+    "smooth_log",
     "smooth_track",
     "wrap_angle",
 ]
@@ -1799,3 +1801,20 @@ def smooth_track(
         position_gate_scale=scales[0],
         heading_gate_scale=scales[1],
     )
+
+
+def smooth_log(log: ManeuverLog) -> SmoothedTrack:
+    """Smooth a log's track with noise levels estimated from it (as ``identify`` does).
+
+    Parameters
+    ----------
+    log : ManeuverLog
+        The log: x, y [m], heading [rad] over time [s].
+
+    Returns
+    -------
+    SmoothedTrack
+        The RTS-smoothed track (:func:`smooth_track`).
+
+    """
+    return smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)

@@ -26,7 +26,7 @@ from identifier.conventions import (
     rudder_side_problem,
     unit_warnings,
 )
-from identifier.smoothing import SmoothedTrack, smooth_track
+from identifier.smoothing import smooth_log
 from scenarios.sea import SeaEnvironment
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from trials.conditions import execute_index
@@ -34,13 +34,6 @@ from trials.logs import ManeuverLog, format_log, read_log
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
 FRAME = r"expected x_m North, y_m East and heading_deg clockwise from North"
-
-
-def _track(log: ManeuverLog) -> SmoothedTrack:
-    return smooth_track(
-        log.time_s, log.x_m, log.y_m, log.heading_rad, position_noise_m=None,
-        heading_noise_rad=None,
-    )  # fmt: skip
 
 
 class Found(NamedTuple):
@@ -57,7 +50,7 @@ IN_CONVENTIONS = Found(None, None, None, [])
 
 
 def _found(log: ManeuverLog) -> Found:
-    track = _track(log)
+    track = smooth_log(log)
     assert log.length_m is not None
     return Found(
         heading_course_problem(track),
@@ -228,12 +221,12 @@ def test_a_log_cut_after_execute_has_no_approach(
     current of 0.95 m/s and a nominal speed of 3.3 m/s from it): the message, and
     ``fit``'s one line."""
     metadata = {k: v for k, v in turn.metadata.items() if k != "execute_time_s"}
-    assert approach_problem(turn, _track(turn), 320.0) is None
+    assert approach_problem(turn, smooth_log(turn), 320.0) is None
     cut = turn.time_s >= 200.0
     late = replace(turn, time_s=turn.time_s[cut], x_m=turn.x_m[cut], y_m=turn.y_m[cut],
                    heading_rad=turn.heading_rad[cut], rudder_rad=turn.rudder_rad[cut],
                    n_rps=turn.n_rps[cut], metadata=metadata)  # fmt: skip
-    found = approach_problem(late, _track(late), 320.0)
+    found = approach_problem(late, smooth_log(late), 320.0)
     assert found is not None
     message, sample = found
     assert sample == late.n_samples - 1  # the rudder never moves: the execute point
@@ -257,7 +250,7 @@ def test_a_rudder_in_radians_and_a_propeller_in_revolutions_per_second_are_warne
     zigzag: ManeuverLog, turn: ManeuverLog
 ) -> None:
     logs = [zigzag, turn]
-    tracks = [_track(log) for log in logs]
+    tracks = [smooth_log(log) for log in logs]
     assert unit_warnings(logs, tracks, ["zz", "turn"], 320.0) == []
     radians = [replace(log, rudder_rad=np.radians(log.rudder_rad)) for log in logs]
     (rudder,) = unit_warnings(radians, tracks, ["zz", "turn"], 320.0)

@@ -33,8 +33,8 @@ from identifier.output_error.guards import (
     training_approach,
     virtual_zigzags,
 )
-from identifier.output_error.initial_state import smooth_log
 from identifier.output_error.objective import Objective, prepare_log
+from identifier.smoothing import smooth_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from trials.conditions import execute_index

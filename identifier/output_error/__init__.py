@@ -25,11 +25,7 @@ from identifier.output_error.guards import (
     turn_spread,
     virtual_turns,
 )
-from identifier.output_error.initial_state import (
-    execute_state,
-    fit_initial_state,
-    smooth_log,
-)
+from identifier.output_error.initial_state import execute_state, fit_initial_state
 from identifier.output_error.prediction import predict_log, track_distance_m
 from identifier.output_error.records import (
     FitSummary,
@@ -51,7 +47,6 @@ __all__ = [
     "newey_west_covariance",
     "predict_log",
     "refine_output_error",
-    "smooth_log",
     "track_distance_m",
     "turn_spread",
     "virtual_turns",

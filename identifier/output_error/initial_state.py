@@ -19,27 +19,10 @@ from fmu_model import ModelParameters
 from fmu_model.replay import replay
 from identifier.output_error.objective import Objective, prepare_log
 from identifier.output_error.records import RefineSettings
-from identifier.smoothing import SmoothedTrack, smooth_track
+from identifier.smoothing import SmoothedTrack, smooth_log
 from identifier.wind import known_acceleration
 from trials.conditions import execute_index
 from trials.logs import ManeuverLog
-
-
-def smooth_log(log: ManeuverLog) -> SmoothedTrack:
-    """Smooth a log's track with noise levels estimated from it (as ``identify`` does).
-
-    Parameters
-    ----------
-    log : ManeuverLog
-        The log: x, y [m], heading [rad] over time [s].
-
-    Returns
-    -------
-    SmoothedTrack
-        The RTS-smoothed track (``identifier.smoothing.smooth_track``).
-
-    """
-    return smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
 
 
 def fit_initial_state(

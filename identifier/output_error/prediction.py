@@ -13,8 +13,8 @@ import numpy as np
 
 from fmu_model import ModelParameters
 from fmu_model.replay import replay
-from identifier.output_error.initial_state import execute_state, smooth_log
-from identifier.smoothing import SmoothedTrack
+from identifier.output_error.initial_state import execute_state
+from identifier.smoothing import SmoothedTrack, smooth_log
 from identifier.wind import known_acceleration
 from trials.logs import ManeuverLog, at_midship
 

@@ -45,7 +45,7 @@ from identifier.output_error.guards import (
     training_approach,
     turn_spread,
 )
-from identifier.output_error.initial_state import execute_state, smooth_log
+from identifier.output_error.initial_state import execute_state
 from identifier.output_error.objective import Objective, prepare_log, whitening
 from identifier.output_error.records import (
     SANITY_FAILURE,
@@ -54,7 +54,7 @@ from identifier.output_error.records import (
     RefineSettings,
     VirtualTurn,
 )
-from identifier.smoothing import SmoothedTrack
+from identifier.smoothing import SmoothedTrack, smooth_log
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
 
