@@ -167,16 +167,19 @@ def heading_course_problem(track: SmoothedTrack) -> str | None:
     return None
 
 
-def rudder_side_problem(log: ManeuverLog, track: SmoothedTrack) -> tuple[str, int] | None:
+def rudder_side_problem(
+    log: ManeuverLog, track: SmoothedTrack, execute: int
+) -> tuple[str, int] | None:
     """Return what is wrong with the rudder's sign and the sample its command began, or None.
 
     The heading change of the smoothed ``track`` under the first rudder command of
-    :data:`MIN_COMMAND_RAD` or more after execute, from the sample it began (the rudder
+    :data:`MIN_COMMAND_RAD` or more after the ``execute`` sample
+    (:func:`trials.conditions.execute_index`), from the sample it began (the rudder
     leaving its approach angle to that side) to its first return past that angle,
     against the command's side (module notes). Smaller movements before it (an
     autopilot's) are not commands.
     """
-    k = execute_index(log)
+    k = execute
     helm = np.asarray(log.rudder_rad) - log.rudder_rad[max(k - 1, 0)]  # from the approach's
     commands = np.flatnonzero(np.abs(helm[k:]) >= MIN_COMMAND_RAD)
     if not commands.size:
@@ -203,14 +206,15 @@ def rudder_side_problem(log: ManeuverLog, track: SmoothedTrack) -> tuple[str, in
 
 
 def approach_problem(
-    log: ManeuverLog, track: SmoothedTrack, length_m: float
+    log: ManeuverLog, track: SmoothedTrack, length_m: float, execute: int
 ) -> tuple[str, int] | None:
     """Return what is wrong with the approach before execute and the execute sample, or None.
 
-    The median r′ of the smoothed ``track`` before execute against
-    :data:`MAX_APPROACH_YAW_RATE` (module notes); ``length_m`` the ship's [m].
+    The median r′ of the smoothed ``track`` before the ``execute`` sample
+    (:func:`trials.conditions.execute_index`) against :data:`MAX_APPROACH_YAW_RATE`
+    (module notes); ``length_m`` the ship's [m].
     """
-    k = execute_index(log)
+    k = execute
     if k < 1:
         return None
     turning = float(np.median(_yaw_rate_prime(track, length_m)[:k]))
@@ -240,7 +244,10 @@ def log_problem(
     heading = heading_course_problem(track)
     if heading is not None:
         return heading, None
-    return rudder_side_problem(log, track) or approach_problem(log, track, length_m)
+    execute = execute_index(log)
+    return rudder_side_problem(log, track, execute) or approach_problem(
+        log, track, length_m, execute
+    )
 
 
 def turning_yaw_rate(tracks: Sequence[SmoothedTrack], length_m: float) -> float:

@@ -51,11 +51,12 @@ IN_CONVENTIONS = Found(None, None, None, [])
 
 def _found(log: ManeuverLog) -> Found:
     track = smooth_log(log)
+    execute = execute_index(log)
     assert log.length_m is not None
     return Found(
         heading_course_problem(track),
-        rudder_side_problem(log, track),
-        approach_problem(log, track, log.length_m),
+        rudder_side_problem(log, track, execute),
+        approach_problem(log, track, log.length_m, execute),
         unit_warnings([log], [track], ["log"], log.length_m),
     )
 
@@ -221,12 +222,12 @@ def test_a_log_cut_after_execute_has_no_approach(
     current of 0.95 m/s and a nominal speed of 3.3 m/s from it): the message, and
     ``fit``'s one line."""
     metadata = {k: v for k, v in turn.metadata.items() if k != "execute_time_s"}
-    assert approach_problem(turn, smooth_log(turn), 320.0) is None
+    assert approach_problem(turn, smooth_log(turn), 320.0, execute_index(turn)) is None
     cut = turn.time_s >= 200.0
     late = replace(turn, time_s=turn.time_s[cut], x_m=turn.x_m[cut], y_m=turn.y_m[cut],
                    heading_rad=turn.heading_rad[cut], rudder_rad=turn.rudder_rad[cut],
                    n_rps=turn.n_rps[cut], metadata=metadata)  # fmt: skip
-    found = approach_problem(late, smooth_log(late), 320.0)
+    found = approach_problem(late, smooth_log(late), 320.0, execute_index(late))
     assert found is not None
     message, sample = found
     assert sample == late.n_samples - 1  # the rudder never moves: the execute point
