@@ -15,9 +15,11 @@ KVLCC2 zig-zags). The log's motion tells each of these apart from a real ship's:
   where the current is as fast as the ship. A heading counter-clockwise, or x and y
   swapped (one frame mirrored against the other), makes it −1; a heading logged in
   radians under ``heading_deg`` 1/57.3, a frozen sensor's 0.
-  :func:`heading_course_problem` rejects a slope outside
-  [:data:`MIN_HEADING_PER_COURSE`, :data:`MAX_HEADING_PER_COURSE`], judged when the
-  course spreads over :data:`MIN_COURSE_SPREAD_RAD` or more.
+  :func:`heading_course_problem` rejects a slope whose size is outside
+  [:data:`MIN_HEADING_PER_COURSE`, :data:`MAX_HEADING_PER_COURSE`] (a frozen sensor's
+  −0.001 is no mirror), then a negative one, judged when the course spreads over
+  :data:`MIN_COURSE_SPREAD_RAD` or more on the samples under way (their speed at least
+  :data:`UNDER_WAY_SPEED_SIGMAS` of its σ: a ship at her berth has a course of noise).
 - **The heading points along the track.** The median of |χ − ψ| over the samples under
   way is a ship's drift angle or crab, tens of degrees at the very most; a heading
   measured from East, or a heading sensor mounted across the ship without its offset,
@@ -75,6 +77,7 @@ __all__ = [
     "MIN_HEADING_PER_COURSE",
     "MIN_TURN_RAD",
     "RUDDER_UNIT_MAX_RAD",
+    "UNDER_WAY_SPEED_SIGMAS",
     "approach_problem",
     "heading_course_problem",
     "log_problem",
@@ -95,6 +98,10 @@ speed); a heading in radians under ``heading_deg`` gives 0.017."""
 
 MAX_HEADING_PER_COURSE = 10.0
 """Largest such slope (a heading in degrees read as radians: 57)."""
+
+UNDER_WAY_SPEED_SIGMAS = 3.0
+"""Least speed over ground, in standard deviations of the smoothed speed, of a sample whose
+course is judged."""
 
 MAX_MEDIAN_DRIFT_RAD = math.radians(45.0)
 """Largest median angle between the course over ground and the heading [rad]."""
@@ -129,9 +136,14 @@ def _yaw_rate_prime(track: SmoothedTrack, length_m: float) -> np.ndarray:
 
 
 def _under_way(track: SmoothedTrack) -> np.ndarray:
-    """Return the samples at half the median speed over ground or more (a course to speak of)."""
+    """Return the samples with a course to speak of.
+
+    At half the median speed over ground or more, and :data:`UNDER_WAY_SPEED_SIGMAS`
+    standard deviations of the smoothed speed (a ship at her berth has a course of noise).
+    """
     speed = np.asarray(track.speed_mps)
-    return speed >= 0.5 * float(np.median(speed))
+    known = speed >= UNDER_WAY_SPEED_SIGMAS * np.asarray(track.speed_std_mps)
+    return known & (speed >= 0.5 * float(np.median(speed)))
 
 
 def heading_course_problem(track: SmoothedTrack) -> str | None:
@@ -141,20 +153,22 @@ def heading_course_problem(track: SmoothedTrack) -> str | None:
     notes), over the samples under way of the smoothed ``track``.
     """
     moving = _under_way(track)
+    if np.count_nonzero(moving) < 2:
+        return None  # no course to speak of
     course = np.unwrap(np.asarray(track.course_rad))[moving]
     heading = np.asarray(track.heading_rad)[moving]
     if float(np.std(course)) >= MIN_COURSE_SPREAD_RAD:
         dc = course - course.mean()
         slope = float(np.dot(heading - heading.mean(), dc) / np.dot(dc, dc))
+        if not MIN_HEADING_PER_COURSE <= abs(slope) <= MAX_HEADING_PER_COURSE:
+            return (
+                f"the heading turns {slope:.3g} times as far as the course over ground, "
+                f"expected about once: is heading_deg in degrees, and its sensor not frozen?"
+            )
         if slope < 0.0:
             return (
                 f"the heading turns against the course over ground (slope {slope:.2f}): "
                 f"a heading counter-clockwise, or x_m and y_m swapped? {_EXPECTED_FRAME}"
-            )
-        if not MIN_HEADING_PER_COURSE <= slope <= MAX_HEADING_PER_COURSE:
-            return (
-                f"the heading turns {slope:.3g} times as far as the course over ground, "
-                f"expected about once: is heading_deg in degrees, and its sensor not frozen?"
             )
     drift = float(np.median(np.abs(wrap_angle(np.asarray(track.drift_rad)[moving]))))
     if drift > MAX_MEDIAN_DRIFT_RAD:
@@ -231,12 +245,13 @@ def approach_problem(
 
 
 def log_problem(
-    log: ManeuverLog, length_m: float, track: SmoothedTrack | None = None
+    log: ManeuverLog, length_m: float | None, track: SmoothedTrack | None = None
 ) -> tuple[str, int | None] | None:
     """Return the first problem of ``log`` and its sample (None: of the whole log), or None.
 
-    The heading against the course, the rudder's side and the approach, in that order,
-    of a ship of ``length_m`` [m]; ``track`` the log's smoothed track (default: smoothed
+    The heading against the course, the rudder's side and, for a ship of ``length_m``
+    [m] (None: not judged, as for a recording's pieces, which need not be manoeuvres),
+    the approach, in that order; ``track`` the log's smoothed track (default: smoothed
     here, with the noise estimated).
     """
     if track is None:
@@ -245,9 +260,10 @@ def log_problem(
     if heading is not None:
         return heading, None
     execute = execute_index(log)
-    return rudder_side_problem(log, track, execute) or approach_problem(
-        log, track, length_m, execute
-    )
+    rudder = rudder_side_problem(log, track, execute)
+    if rudder is not None or length_m is None:
+        return rudder
+    return approach_problem(log, track, length_m, execute)
 
 
 def turning_yaw_rate(tracks: Sequence[SmoothedTrack], length_m: float) -> float:

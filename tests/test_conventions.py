@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import math
 import re
+import subprocess
+import sys
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -33,6 +35,7 @@ from trials.conditions import execute_index
 from trials.logs import ManeuverLog, format_log, read_log
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
+REPO = Path(__file__).resolve().parents[1]
 FRAME = r"expected x_m North, y_m East and heading_deg clockwise from North"
 
 
@@ -86,6 +89,13 @@ def _radians_as_degrees(log: ManeuverLog) -> ManeuverLog:
     return replace(log, heading_rad=np.radians(log.heading_rad))
 
 
+def _frozen(log: ManeuverLog) -> ManeuverLog:
+    """The compass stuck at its first reading, with its noise: a slope of a few
+    thousandths either way, which is no mirror."""
+    noise = np.random.default_rng(3).normal(0.0, math.radians(0.1), log.n_samples)
+    return replace(log, heading_rad=log.heading_rad[0] + noise)
+
+
 @pytest.mark.parametrize(
     ("edit", "pattern"),
     [
@@ -104,6 +114,9 @@ def _radians_as_degrees(log: ManeuverLog) -> ManeuverLog:
                      r"course over ground, expected about once: is heading_deg in degrees, "
                      r"and its sensor not frozen\?",
                      id="radians under heading_deg"),
+        pytest.param(_frozen, r"the heading turns -0\.000\d+ times as far as the course over "
+                     r"ground, expected about once: is heading_deg in degrees, and its sensor "
+                     r"not frozen\?", id="frozen"),
     ],
 )  # fmt: skip
 def test_a_heading_in_another_frame_is_named(
@@ -271,3 +284,50 @@ def test_a_rudder_in_radians_and_a_propeller_in_revolutions_per_second_are_warne
             r"minute\? \(the scenarios and the FMU's propeller_rpm then take the logs' unit\)",
             warning,
         ), warning
+
+
+def test_a_ship_at_her_berth_has_no_course_to_judge(zigzag: ManeuverLog) -> None:
+    """Five minutes alongside, the fixes scattered by 2 m, the compass steady: the course
+    over ground is noise, and before the under-way test's σ it read as a heading that
+    turns against it in one draw of five ("slope -0.00"): a recording's first piece."""
+    rng = np.random.default_rng(0)
+    n = 300
+    for _ in range(5):
+        berth = ManeuverLog(
+            time_s=zigzag.time_s[:n], x_m=rng.normal(0.0, 2.0, n), y_m=rng.normal(0.0, 2.0, n),
+            heading_rad=np.full(n, 0.5) + rng.normal(0.0, 1e-3, n), rudder_rad=np.zeros(n),
+            n_rps=np.zeros(n),
+        )  # fmt: skip
+        assert heading_course_problem(smooth_log(berth)) is None
+
+
+def test_convert_warns_of_a_rudder_of_the_other_sign(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The README walkthrough's NMEA recording converted with the wrong
+    ``--rudder-positive``: the log is written (the conversion is what was asked for), with
+    ``fit``'s reason to refuse it on one line, also with ``--quiet``; converted right, no
+    warning."""
+    recording = tmp_path / "zz10.nmea"
+    subprocess.run(
+        [sys.executable, str(REPO / "examples/own_data/record_nmea.py"), "--maneuver",
+         "zigzag-10", "-o", str(recording)],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    assert main(["convert", str(recording), "-o", str(tmp_path / "right.csv"), "--quiet"]) == 0
+    assert "warning" not in capsys.readouterr().err
+    wrong = tmp_path / "wrong.csv"
+    code = main(
+        ["convert", str(recording), "-o", str(wrong), "--rudder-positive", "port", "--quiet"]
+    )
+    out, err = capsys.readouterr()
+    assert code == 0 and out == "" and wrong.is_file()
+    log = read_log(wrong)
+    k = execute_index(log)
+    assert re.fullmatch(
+        rf"warning: {re.escape(str(wrong))}: sample {k} \(t = {log.time_s[k]:.1f} s\): the ship "
+        r"turns \d+ deg to starboard under its first rudder command, 10 deg to port: expected "
+        r"a positive rudder_deg to turn it to starboard \(identifier convert --rudder-positive "
+        r"port flips a log's sign\); identifier fit refuses such a log\n",
+        err,
+    ), err

@@ -15,6 +15,7 @@ from fmu_model import argtypes
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from fmu_model.params import text_problem
 from identifier.cli.common import error, os_error_text
+from identifier.conventions import log_problem
 from identifier.ingest import (
     DEFAULT_MAX_GAP_S,
     MAX_RATE_HZ,
@@ -23,7 +24,7 @@ from identifier.ingest import (
     output_paths,
 )
 from trials.errors import LogFormatError
-from trials.logs import MAX_ON_BOARD_M, MIN_SAMPLES, ON_BOARD_KEYS, write_log
+from trials.logs import MAX_ON_BOARD_M, MIN_SAMPLES, ON_BOARD_KEYS, ManeuverLog, write_log
 
 __all__ = ["add_parser", "run"]
 
@@ -35,6 +36,23 @@ def _vessel(text: str) -> str:
     if problem is not None:  # an escape sequence, a tab, a lone surrogate from bad bytes
         raise argparse.ArgumentTypeError(f"{problem}, got {text!r}")
     return text
+
+
+def _convention_problem(log: ManeuverLog) -> str | None:
+    """Return the problem of a written log's heading or rudder convention, or None.
+
+    What ``fit`` would refuse it for (``identifier.conventions.log_problem``), the
+    approach not judged (a piece of a recording need not be a manoeuvre); pieces shorter
+    than ``fit`` reads are not judged.
+    """
+    if log.n_samples < MIN_SAMPLES:
+        return None
+    found = log_problem(log, length_m=None)
+    if found is None:
+        return None
+    message, sample = found
+    where = "" if sample is None else f"sample {sample} (t = {log.time_s[sample]:.1f} s): "
+    return f"{where}{message}; identifier fit refuses such a log"
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -203,6 +221,8 @@ def run(args: argparse.Namespace) -> int:
                 write_log(target, log)
                 if not args.quiet:
                     print(f"wrote {target}")
+                if (problem := _convention_problem(log)) is not None:
+                    print(f"warning: {target}: {problem}", file=sys.stderr)
     except OSError as exc:
         return error(os_error_text(exc))
     return 0
