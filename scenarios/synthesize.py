@@ -38,7 +38,7 @@ from fmu_model import ModelParameters
 from fmu_model.atomic import write_atomic
 from scenarios import tanker
 from scenarios.errors import ScenarioError
-from scenarios.kvlcc2 import ReferencePlant, kvlcc2, kvlcc2_windage
+from scenarios.kvlcc2 import FROUDE_SCALE_RATIO, ReferencePlant, kvlcc2, kvlcc2_windage
 from scenarios.mariner import (
     NOMINAL_RPS,
     RUDDER_RATE_RADPS,
@@ -97,6 +97,49 @@ REFERENCE_VESSELS = ("kvlcc2", "mariner", "tanker")
 """The reference ships: KVLCC2 (MMG, ``scenarios.kvlcc2``), the Mariner (Abkowitz,
 ``scenarios.mariner``) and a large tanker (Van Berlekom & Goddard, ``scenarios.tanker``);
 the last two at full scale in calm water."""
+
+
+@dataclass(frozen=True)
+class Logging:
+    """A trial logger: its rate [Hz], position and heading noise [m, deg], approach [s]."""
+
+    rate_hz: float
+    position_noise_m: float
+    heading_noise_deg: float
+    approach_s: float
+
+
+FULL_SCALE_LOGGING = Logging(
+    rate_hz=1.0, position_noise_m=1.0, heading_noise_deg=0.1, approach_s=60.0
+)
+"""A sea trial's: a GNSS fix a second at 1 m, a gyro compass at 0.1°, a minute's approach."""
+
+
+def default_logging(scale: str) -> Logging:
+    """Return the logger of a trial at ``scale``, ``"full"`` or ``"model"``.
+
+    :data:`FULL_SCALE_LOGGING`, Froude-scaled for the model (λ =
+    ``scenarios.kvlcc2.FROUDE_SCALE_RATIO``, 45.7: lengths / λ, times / √λ, angles as
+    they are: 6.8 Hz, 2.2 cm, 8.9 s), so that a model's log is not one of 1 m noise on
+    a 7 m hull.
+
+    Raises
+    ------
+    ValueError
+        An unknown scale.
+
+    """
+    if scale == "full":
+        return FULL_SCALE_LOGGING
+    if scale != "model":
+        raise ValueError(f"unknown scale {scale!r}: expected 'full' or 'model'")
+    root = math.sqrt(FROUDE_SCALE_RATIO)
+    return replace(
+        FULL_SCALE_LOGGING,
+        rate_hz=FULL_SCALE_LOGGING.rate_hz * root,
+        position_noise_m=FULL_SCALE_LOGGING.position_noise_m / FROUDE_SCALE_RATIO,
+        approach_s=FULL_SCALE_LOGGING.approach_s / root,
+    )
 
 
 def reference_ship(
@@ -186,11 +229,11 @@ def synthesize_log(
     ship: TruthShip,
     program: Program,
     *,
-    rate_hz: float = 1.0,
-    position_noise_m: float = 1.0,
-    heading_noise_deg: float = 0.1,
+    rate_hz: float = FULL_SCALE_LOGGING.rate_hz,
+    position_noise_m: float = FULL_SCALE_LOGGING.position_noise_m,
+    heading_noise_deg: float = FULL_SCALE_LOGGING.heading_noise_deg,
     seed: int = 0,
-    approach_s: float = 60.0,
+    approach_s: float = FULL_SCALE_LOGGING.approach_s,
     approach_helm: Helm | None = None,
     truth_dt_s: float | None = None,
     noise_per_channel: bool = False,
@@ -459,11 +502,11 @@ def synthesize_logs(
     *,
     vessel: str = "kvlcc2",
     scale: str = "full",
-    rate_hz: float = 1.0,
-    position_noise_m: float = 1.0,
-    heading_noise_deg: float = 0.1,
+    rate_hz: float = FULL_SCALE_LOGGING.rate_hz,
+    position_noise_m: float = FULL_SCALE_LOGGING.position_noise_m,
+    heading_noise_deg: float = FULL_SCALE_LOGGING.heading_noise_deg,
     seed: int = 0,
-    approach_s: float = 60.0,
+    approach_s: float = FULL_SCALE_LOGGING.approach_s,
     environment: SeaEnvironment | None = None,
     speed_log_axes: int = 1,
     speed_log_x_m: float = 0.0,

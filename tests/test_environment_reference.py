@@ -29,7 +29,7 @@ from scenarios.kvlcc2 import (
     mmg_rhs,
 )
 from scenarios.sea import GustProcess, SeaEnvironment, default_gust_time_s
-from scenarios.synthesize import maneuver_seed, reference_ship, synthesize_log
+from scenarios.synthesize import default_logging, maneuver_seed, reference_ship, synthesize_log
 from trials.logs import LOG_COLUMNS, format_log, read_log
 from trials.maneuvers import Program, turning_circle, zigzag
 from trials.run import run_program
@@ -480,7 +480,7 @@ def test_synthesize_cli_at_sea_writes_the_columns_and_the_source(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], quick_maneuvers: None
 ) -> None:
     common = ["synthesize", "--maneuver", "zigzag-10", "--scale", "model", "--seed", "2"]
-    common += ["--approach-s", "5", "--quiet"]
+    common += ["--approach-s", "5", "--rate-hz", "1", "--quiet"]
     sea = [
         "--current-mps", "0.1", "--current-to-deg", "90",
         "--current-change-mps-per-h", "0.2", "--current-veer-deg-per-h", "-15",
@@ -510,8 +510,9 @@ def test_synthesize_cli_at_sea_writes_the_columns_and_the_source(
     calm_text = (tmp_path / "calm" / "zigzag-10.csv").read_text()
     assert "stw_mps" not in calm_text and "at sea" not in calm_text
     expected = synthesize_log(
-        reference_ship("kvlcc2", "model"), _quick_turn(), seed=seed, approach_s=5.0
-    )
+        reference_ship("kvlcc2", "model"), _quick_turn(), seed=seed, approach_s=5.0,
+        position_noise_m=default_logging("model").position_noise_m,
+    )  # fmt: skip
     assert calm_text == format_log(expected)
     # current only: a speed log, no anemometer
     assert main([*common, *sea[:4], "-o", str(tmp_path / "current")]) == 0

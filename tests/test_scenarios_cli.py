@@ -23,7 +23,7 @@ from scenarios.errors import ScenarioError
 from scenarios.fmu_checks import check_params_match, read_fmu_info
 from scenarios.fmu_plant import FmuPlant
 from scenarios.runs import reference_runs
-from scenarios.synthesize import maneuver_seed
+from scenarios.synthesize import FULL_SCALE_LOGGING, default_logging, maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
 from trials.logs import ManeuverLog, read_log, write_log
@@ -277,6 +277,24 @@ def test_synthesize_writes_logs_with_per_maneuver_seeds(tmp_path, capsys):
     # A manoeuvre's noise does not depend on what else was synthesised with it.
     assert main(["synthesize", "--maneuver", "zigzag-10", *common, "-o", str(alone)]) == 0
     assert (alone / "zigzag-10.csv").read_bytes() == (both / "zigzag-10.csv").read_bytes()
+
+
+def test_synthesize_at_model_scale_logs_as_a_basin_does(tmp_path, capsys):
+    """The logger's defaults Froude-scaled to the 7 m model (λ = 320/7): 1 m of position
+    noise on a 7 m hull, a fix a second and a minute's approach were a sea trial's."""
+    lam = 320.0 / 7.0
+    args = ["synthesize", "--maneuver", "zigzag-10", "--scale", "model", "--quiet"]
+    assert main([*args, "-o", str(tmp_path)]) == 0
+    log = read_log(tmp_path / "zigzag-10.csv")
+    assert np.diff(log.time_s) == pytest.approx(1.0 / math.sqrt(lam))
+    assert float(log.metadata["execute_time_s"]) == pytest.approx(60.0 / math.sqrt(lam), abs=0.15)
+    assert (
+        "; 6.76123 Hz, position noise 0.021875 m, heading noise 0.1 deg" in log.metadata["source"]
+    )
+    assert default_logging("full") == FULL_SCALE_LOGGING
+    assert (FULL_SCALE_LOGGING.rate_hz, FULL_SCALE_LOGGING.position_noise_m) == (1.0, 1.0)
+    with pytest.raises(ValueError, match="unknown scale 'tank': expected 'full' or 'model'"):
+        default_logging("tank")
 
 
 def test_synthesize_glitches_the_logs_it_is_asked_to(tmp_path, capsys):

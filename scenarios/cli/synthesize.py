@@ -26,6 +26,7 @@ from scenarios.synthesize import (
     MANEUVERS,
     REFERENCE_VESSELS,
     SPEED_LOG_AXES,
+    default_logging,
     synthesize_logs,
     write_windage,
 )
@@ -68,13 +69,35 @@ def add_synthesize_command(sub: Any, common: argparse.ArgumentParser) -> None:
         help="manoeuvre to log (repeat for several)",
     )
     p.add_argument("--scale", choices=("full", "model"), default="full")
-    p.add_argument("--rate-hz", type=argtypes.positive, default=1.0, help="logger rate [Hz]")
-    p.add_argument("--position-noise-m", type=argtypes.non_negative, default=1.0, metavar="S")
-    p.add_argument("--heading-noise-deg", type=argtypes.non_negative, default=0.1, metavar="S")
+    full, model = default_logging("full"), default_logging("model")
+    p.add_argument(
+        "--rate-hz",
+        type=argtypes.positive,
+        help=f"logger rate [Hz] (default {full.rate_hz:g}; {model.rate_hz:.2g} at model scale, "
+        "Froude-scaled, as are the position noise and the approach)",
+    )
+    p.add_argument(
+        "--position-noise-m",
+        type=argtypes.non_negative,
+        metavar="S",
+        help=f"position noise, standard deviation [m] (default {full.position_noise_m:g}; "
+        f"{model.position_noise_m:.2g} at model scale)",
+    )
+    p.add_argument(
+        "--heading-noise-deg",
+        type=argtypes.non_negative,
+        default=full.heading_noise_deg,
+        metavar="S",
+        help="heading noise, standard deviation [deg] (default %(default)s)",
+    )
     p.add_argument(
         "--seed", type=argtypes.count(0), default=0, help="run seed; each manoeuvre derives its own"
     )
-    p.add_argument("--approach-s", type=argtypes.non_negative, default=60.0, help="approach [s]")
+    p.add_argument(
+        "--approach-s",
+        type=argtypes.non_negative,
+        help=f"approach [s] (default {full.approach_s:g}; {model.approach_s:.2g} at model scale)",
+    )
     on_board = argtypes.within(-MAX_ON_BOARD_M, MAX_ON_BOARD_M, "m")
     p.add_argument(
         "--gnss-x-m",
@@ -232,8 +255,13 @@ def _environment(args: argparse.Namespace) -> SeaEnvironment | None:
     )
 
 
+def _given(value: float | None, default: float) -> float:
+    return default if value is None else value
+
+
 def run_synthesize_command(args: argparse.Namespace) -> int:
     """Write the logs and print their paths; return the exit status."""
+    logger = default_logging(args.scale)
     bar = make_bars(args.quiet)("synthesize", len(args.maneuver), "log")
     try:
         paths = synthesize_logs(
@@ -241,11 +269,11 @@ def run_synthesize_command(args: argparse.Namespace) -> int:
             args.maneuver,
             vessel=args.vessel,
             scale=args.scale,
-            rate_hz=args.rate_hz,
-            position_noise_m=args.position_noise_m,
+            rate_hz=_given(args.rate_hz, logger.rate_hz),
+            position_noise_m=_given(args.position_noise_m, logger.position_noise_m),
             heading_noise_deg=args.heading_noise_deg,
             seed=args.seed,
-            approach_s=args.approach_s,
+            approach_s=_given(args.approach_s, logger.approach_s),
             environment=_environment(args),
             speed_log_axes=args.speed_log_axes or 1,
             speed_log_x_m=args.speed_log_x_m or 0.0,
