@@ -47,6 +47,9 @@ MAX_SAMPLE_INTERVAL_S = 5.0
 # A sample interval below this fraction of the median one is a wrong time stamp (the
 # constant-acceleration model's T² and T⁵ underflow or dwarf everything else).
 MIN_SAMPLE_INTERVAL_FRACTION = 1e-6
+# An interval this many times the median one is a gap in the log (dropped samples),
+# noted: the smoother's motion model and the EKF's ship model bridge it.
+GAP_INTERVALS = 5.0
 # Plausibility of the track. No ship sails faster than this over ground [m/s] (about 97
 # kn; the fastest high-speed craft make 30-40 m/s): a faster track has wrong units of
 # time or position.
@@ -88,6 +91,27 @@ def _check_sampling(log: ManeuverLog, name: str) -> None:
             log=name,
             sample=k + 1,
         )
+
+
+def _gap_note(log: ManeuverLog, name: str) -> str | None:
+    """Return a note of the gaps in ``log``'s samples, or None.
+
+    A gap is an interval of :data:`GAP_INTERVALS` median ones or more; the note names
+    the longest.
+    """
+    steps = np.diff(log.time_s)
+    interval = float(np.median(steps))
+    gaps = np.flatnonzero(steps >= GAP_INTERVALS * interval * (1.0 - 1e-9))  # summed times
+    if not gaps.size:
+        return None
+    k = int(gaps[np.argmax(steps[gaps])])
+    count = "1 gap" if gaps.size == 1 else f"{gaps.size} gaps"
+    longest = ":" if gaps.size == 1 else ", the longest"
+    return (
+        f"{name}: {count} in the samples{longest} {float(steps[k]):.3g} s from t = "
+        f"{float(log.time_s[k]):.6g} s (sample {k}; the median interval {interval:.3g} s): "
+        "bridged by the smoother's motion model and the EKF's ship model"
+    )
 
 
 def vessel_length(logs: Sequence[ManeuverLog], length_m: float | None) -> float:
@@ -435,6 +459,8 @@ def smooth_logs(
                 f"{abs(across):g} m to {'port' if across < 0.0 else 'starboard'}"
             )
         _check_sampling(log, name)
+        if (gaps_note := _gap_note(log, name)) is not None:
+            notes.append(gaps_note)
         stage(f"smoothing {Path(name).name}")
         track = smooth_track(
             log.time_s,

@@ -202,6 +202,37 @@ def test_a_log_at_the_coarsest_interval_is_smoothed() -> None:
     assert len(smoothed.tracks) == 1
 
 
+def test_gaps_in_the_samples_are_noted() -> None:
+    """Fifteen fixes lost from a 1 Hz zig-zag, and 3 s further on two more: the fit
+    bridges them and says where (an interval of five median ones or more); none in
+    the log as logged."""
+    log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), seed=1)
+
+    def notes(kept: np.ndarray) -> list[str]:
+        cut = ManeuverLog(
+            log.time_s[kept], log.x_m[kept], log.y_m[kept], log.heading_rad[kept],
+            log.rudder_rad[kept], log.n_rps[kept], metadata=log.metadata,
+        )  # fmt: skip
+        data = smooth_logs(
+            [cut], length_m=320.0, position_noise_m=None, heading_noise_rad=None,
+            measurements="track", windage=None, drifting=False, progress=None,
+            stage=lambda _: None,
+        )  # fmt: skip
+        return [n for n in data.notes if "gap" in n]
+
+    everything = np.ones(log.n_samples, dtype=bool)
+    assert notes(everything) == []
+    lost = everything.copy()
+    lost[300:315] = False
+    assert notes(lost) == [
+        "log 1: 1 gap in the samples: 16 s from t = 299 s (sample 299; the median interval "
+        "1 s): bridged by the smoother's motion model and the EKF's ship model"
+    ]
+    lost[318:322] = False  # 5 s: a gap too; 4 s would not be
+    (two,) = notes(lost)
+    assert two.startswith("log 1: 2 gaps in the samples, the longest 16 s from t = 299 s")
+
+
 def test_missing_length_is_an_error() -> None:
     log = _straight_log()
     bare = ManeuverLog(
