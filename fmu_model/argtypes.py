@@ -49,16 +49,21 @@ def positive_or_inf(text: str) -> float:
     return value
 
 
-def within(low: float, high: float, unit: str = "") -> Callable[[str], float]:
+def within(
+    low: float, high: float, unit: str = "", *, low_open: bool = False
+) -> Callable[[str], float]:
     """Return a parser of numbers in the closed range [``low``, ``high``].
 
     ``high`` may be ``math.inf``: then the word ``inf`` itself is accepted (e.g. "no
     limit"), and the message reads "a number >= low or inf". ``unit`` (e.g. ``"m"``) is
-    shown after the bounds in the message.
+    shown after the bounds in the message. ``low_open``: ``low`` itself is rejected
+    (the range (``low``, ``high``], "a number above low and at most high").
     """
     suffix = f" {unit}" if unit else ""
     if math.isinf(high):
-        wanted = f"a number >= {low:g}{suffix} or inf"
+        wanted = f"a number {'>' if low_open else '>='} {low:g}{suffix} or inf"
+    elif low_open:
+        wanted = f"a number above {low:g} and at most {high:g}{suffix}"
     else:
         wanted = f"a number from {low:g} to {high:g}{suffix}"
 
@@ -67,7 +72,8 @@ def within(low: float, high: float, unit: str = "") -> Callable[[str], float]:
             value = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {wanted}, got {text!r}") from None
-        if not low <= value <= high:  # also false for nan
+        above = low < value if low_open else low <= value
+        if not (above and value <= high):  # also false for nan
             raise argparse.ArgumentTypeError(f"expected {wanted}, got {text!r}")
         return value
 

@@ -20,6 +20,8 @@ from fmu_model import argtypes
         (argtypes.positive_or_inf, "0.1", 0.1),
         (argtypes.count(0), "0", 0),
         (argtypes.count(1), "12", 12),
+        (argtypes.within(0.0, 6000.0, "rpm", low_open=True), "1e-9", 1e-9),
+        (argtypes.within(0.0, 6000.0, "rpm", low_open=True), "6000", 6000.0),
     ],
 )
 def test_valid_words_are_parsed(parse, text: str, value: float) -> None:
@@ -38,6 +40,16 @@ def test_valid_words_are_parsed(parse, text: str, value: float) -> None:
         (argtypes.positive_or_inf, "-inf", "expected a positive number or inf, got '-inf'"),
         (argtypes.positive_or_inf, "x", "expected a number or inf, got 'x'"),
         (argtypes.count(1), "0", "expected a whole number >= 1, got '0'"),
+        (
+            argtypes.within(0.0, 60.0, "rpm", low_open=True),
+            "0",
+            "expected a number above 0 and at most 60 rpm, got '0'",
+        ),
+        (
+            argtypes.within(0.0, math.inf, low_open=True),
+            "0",
+            "expected a number > 0 or inf, got '0'",
+        ),
         (argtypes.count(0), "1.5", "expected a whole number, got '1.5'"),
     ],
 )

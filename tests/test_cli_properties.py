@@ -358,6 +358,7 @@ CONVERT_OPTIONS = {
     "--gnss-x-m": (-200.0, 200.0),
     "--gnss-y-m": (-30.0, 30.0),
     "--speed-log-x-m": (-200.0, 200.0),
+    "--rpm": (0.0, 200.0),  # beside the recording's rpm column: a data error
 }
 N_FIXES = 30
 

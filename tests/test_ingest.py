@@ -512,6 +512,54 @@ def _simple_nmea(n: int = 20, *, date: bool = True, start: str = "120000") -> li
     return lines
 
 
+def test_a_recording_without_rpm_takes_the_trials_constant(tmp_path: Path) -> None:
+    """A bridge's NMEA with no RPM sentence: an error that names ``--rpm``; with it the
+    constant at every fix, noted and in the source line; beside logged RPM an error."""
+    logged = _simple_nmea()
+    without = _nmea_file(tmp_path, [line for line in logged if "RPM" not in line])
+    with pytest.raises(LogFormatError) as excinfo:
+        convert_nmea(without)
+    assert str(excinfo.value) == (
+        f"{without}: no propeller speed samples; expected RPM sentences of a shaft (source S) "
+        "with status A (or the trial's constant shaft speed: convert --rpm N)"
+    )
+    result = convert_nmea(without, constant_n_rps=1.75)
+    (log,) = result.logs
+    np.testing.assert_array_equal(log.n_rps, np.full(20, 1.75))
+    assert "propeller speed: none in the recording; 105 rpm at every fix, as given (--rpm)" in (
+        result.notes
+    )
+    assert log.metadata["source"].endswith("; propeller speed 105 rpm as given, not logged")
+    with pytest.raises(LogFormatError, match=r"the recording logs the propeller speed \(RPM "):
+        convert_nmea(_nmea_file(tmp_path, logged, "logged.nmea"), constant_n_rps=1.75)
+    with pytest.raises(ValueError, match="constant_n_rps must be a propeller speed above 0"):
+        convert_nmea(without, constant_n_rps=0.0)
+
+
+def test_a_latlon_csv_without_an_rpm_column_takes_the_trials_constant(tmp_path: Path) -> None:
+    rows = [row.rsplit(",", 1)[0] for row in _csv_rows()]
+    path = _write_csv(tmp_path, rows)
+    with pytest.raises(LogFormatError, match=r"expected an rpm column \(or the trial's constant"):
+        convert_latlon_csv(path)
+    (log,) = convert_latlon_csv(path, constant_n_rps=0.5).logs
+    np.testing.assert_array_equal(log.n_rps, np.full(20, 0.5))
+
+
+def test_cli_convert_rpm(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    without = _nmea_file(tmp_path, [line for line in _simple_nmea() if "RPM" not in line])
+    out = tmp_path / "log.csv"
+    assert main(["convert", str(without), "--rpm", "84", "--quiet", "-o", str(out)]) == 0
+    np.testing.assert_allclose(read_log(out).n_rps, 1.4, rtol=1e-15)
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as excinfo:
+        main(["convert", str(without), "--rpm", "0", "-o", str(tmp_path / "x.csv")])
+    assert excinfo.value.code == 2
+    assert "argument --rpm: expected a number above 0 and at most 6000 rpm, got '0'" in (
+        capsys.readouterr().err
+    )
+    assert not (tmp_path / "x.csv").exists()
+
+
 def _as_gns(line: str, modes: str) -> str:
     """A GGA sentence's fix as a GNS sentence with the mode per system ``modes``."""
     fields = line[1 : line.index("*")].split(",")

@@ -11,6 +11,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import scipy.constants
+
 from fmu_model import argtypes
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from fmu_model.params import text_problem
@@ -24,7 +26,7 @@ from identifier.ingest import (
     output_paths,
 )
 from trials.errors import LogFormatError
-from trials.logs import MAX_ON_BOARD_M, MIN_SAMPLES, ON_BOARD_KEYS, ManeuverLog, write_log
+from trials.logs import MAX_ON_BOARD_M, MAX_RPM, MIN_SAMPLES, ON_BOARD_KEYS, ManeuverLog, write_log
 
 __all__ = ["add_parser", "run"]
 
@@ -146,6 +148,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help=f"drop shorter pieces (default {MIN_SAMPLES})",
     )
     convert.add_argument(
+        "--rpm",
+        type=argtypes.within(0.0, MAX_RPM, "rpm", low_open=True),
+        metavar="N",
+        help="propeller speed [rpm] of a recording that logs none (no RPM sentence or rpm "
+        "column; a trial at a set engine order): written at every fix",
+    )
+    convert.add_argument(
         "--shaft", type=argtypes.count(0), help="NMEA RPM shaft number (default: the only one)"
     )
     convert.add_argument(
@@ -192,6 +201,7 @@ def run(args: argparse.Namespace) -> int:
                 },
                 shaft=args.shaft,
                 require_checksum=not args.allow_missing_checksum,
+                constant_n_rps=None if args.rpm is None else args.rpm / scipy.constants.minute,
             )
             if not result.logs:
                 raise LogFormatError(

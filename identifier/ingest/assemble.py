@@ -20,6 +20,7 @@ import datetime as dt
 import math
 import os
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Final
 
 import numpy as np
@@ -30,6 +31,7 @@ from identifier.ingest.recording import (
     HEADING,
     RPM,
     RUDDER,
+    SECONDS_PER_MINUTE,
     STW,
     STW_TRANSVERSE,
     WIND_ANGLE,
@@ -191,6 +193,35 @@ def _resample(
     return result, farthest
 
 
+def _with_constant_rpm(
+    recording: Recording, constant_n_rps: float | None, notes: list[str]
+) -> Recording:
+    """Return ``recording`` with a propeller speed of ``constant_n_rps`` [rev/s] at every fix.
+
+    For a recording that logs none (a bridge's NMEA often has no RPM sentence, and a
+    trial runs at a set engine order); None: as it is. Noted in ``notes``.
+
+    Raises
+    ------
+    LogFormatError
+        A constant given for a recording that logs the propeller speed.
+
+    """
+    if constant_n_rps is None:
+        return recording
+    if recording.streams[RPM][0].size:
+        raise LogFormatError(
+            f"the recording logs the {RPM} ({recording.sources[RPM]}); expected --rpm only "
+            "for one without",
+            path=recording.path,
+            expected=f"no {RPM} samples with a constant one",
+        )
+    rpm = constant_n_rps * SECONDS_PER_MINUTE
+    notes.append(f"{RPM}: none in the recording; {rpm:g} rpm at every fix, as given (--rpm)")
+    constant = np.full(recording.fix_t.size, constant_n_rps)
+    return replace(recording, streams={**recording.streams, RPM: (recording.fix_t, constant)})
+
+
 def assemble(recording: Recording, options: Options) -> ConversionResult:
     """Project, split at gaps, resample and build the logs of one recording.
 
@@ -220,10 +251,12 @@ def assemble(recording: Recording, options: Options) -> ConversionResult:
             path=path,
             expected="position fixes",
         )
+    recording = _with_constant_rpm(recording, options.constant_n_rps, notes)
     for name, (times, _) in recording.streams.items():
         if times.size == 0:
+            hint = " (or the trial's constant shaft speed: convert --rpm N)" if name == RPM else ""
             raise LogFormatError(
-                f"no {name} samples; expected {recording.sources[name]}",
+                f"no {name} samples; expected {recording.sources[name]}{hint}",
                 path=path,
                 expected=f"{name} samples",
             )
@@ -373,6 +406,11 @@ def _metadata(
         f"in an azimuthal equidistant plane on WGS84; heading from true North to the plane's "
         f"x axis; rudder positive to {options.rudder_positive} in the input{skipped}"
     )
+    if options.constant_n_rps is not None:
+        source += (
+            f"; propeller speed {options.constant_n_rps * SECONDS_PER_MINUTE:g} rpm as given, "
+            "not logged"
+        )
     metadata: dict[str, str] = {}
     if options.vessel is not None:
         metadata["vessel"] = options.vessel

@@ -54,6 +54,7 @@ def convert_file(
     shaft: int | None = None,
     require_checksum: bool = True,
     on_board: Mapping[str, float] | None = None,
+    constant_n_rps: float | None = None,
 ) -> ConversionResult:
     """Convert an NMEA 0183 or latitude/longitude CSV file (detected from its content).
 
@@ -70,7 +71,7 @@ def convert_file(
         whose headings are degrees.
     shaft, require_checksum
         NMEA only, as for :func:`convert_nmea`.
-    on_board
+    on_board, constant_n_rps
         As for :func:`convert_nmea`.
 
     Returns
@@ -91,8 +92,9 @@ def convert_file(
     raw = read_bytes(name, "recording")
     kind = detect_format(raw, name) if input_format == "auto" else input_format
     options = Options.make(
-        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board
-    )
+        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board,
+        constant_n_rps,
+    )  # fmt: skip
     if kind == "nmea":
         recording = read_nmea(name, raw, options.rudder_sign, shaft, require_checksum)
         if heading_unit is not None:
@@ -118,6 +120,7 @@ def convert_nmea(
     shaft: int | None = None,
     require_checksum: bool = True,
     on_board: Mapping[str, float] | None = None,
+    constant_n_rps: float | None = None,
 ) -> ConversionResult:
     """Convert an NMEA 0183 recording into trial logs (rules: :mod:`identifier.ingest.nmea`).
 
@@ -151,6 +154,10 @@ def convert_nmea(
         GNSS antenna's, ``gnss_x_m`` and ``gnss_y_m``, where the fixes are; a two-axis
         speed log's, ``speed_log_x_m``, where VBW's transverse water speed is), written
         as ``# key:`` lines.
+    constant_n_rps : float or None
+        The propeller speed [rev/s] of a recording that logs none (no RPM sentence; a
+        trial at a set engine order), written at every fix and noted; None (default):
+        the recording's own. Given for a recording that logs it: an error.
 
     Returns
     -------
@@ -163,16 +170,18 @@ def convert_nmea(
     ------
     LogFormatError
         If the file cannot be read, has no NMEA sentence with a valid checksum, no
-        valid position fix, no valid heading, rudder or shaft RPM sentence, or RPM
-        for several shafts and ``shaft`` is None.
+        valid position fix, no valid heading, rudder or shaft RPM sentence (unless
+        ``constant_n_rps`` is given, which is an error beside one), or RPM for several
+        shafts and ``shaft`` is None.
     ValueError
         If an argument is out of range.
 
     """
     name = os.fspath(path)
     options = Options.make(
-        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board
-    )
+        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board,
+        constant_n_rps,
+    )  # fmt: skip
     recording = read_nmea(
         name, read_bytes(name, "recording"), options.rudder_sign, shaft, require_checksum
     )
@@ -190,6 +199,7 @@ def convert_latlon_csv(
     vessel: str | None = None,
     length_m: float | None = None,
     on_board: Mapping[str, float] | None = None,
+    constant_n_rps: float | None = None,
 ) -> ConversionResult:
     """Convert a CSV file with latitude/longitude columns into trial logs.
 
@@ -204,8 +214,9 @@ def convert_latlon_csv(
         Unit of a ``heading`` column. None (default): degrees, and the unit of
         ``heading_deg`` / ``heading_rad`` from the name. A unit that contradicts the
         column name is an error.
-    rate_hz, max_gap_s, min_samples, vessel, length_m, on_board
-        As for :func:`convert_nmea`.
+    rate_hz, max_gap_s, min_samples, vessel, length_m, on_board, constant_n_rps
+        As for :func:`convert_nmea` (a file without an rpm column needs
+        ``constant_n_rps``).
 
     Returns
     -------
@@ -225,8 +236,9 @@ def convert_latlon_csv(
     """
     name = os.fspath(path)
     options = Options.make(
-        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board
-    )
+        rudder_positive, rate_hz, max_gap_s, min_samples, vessel, length_m, on_board,
+        constant_n_rps,
+    )  # fmt: skip
     recording = read_latlon_csv(
         name, read_bytes(name, "recording"), options.rudder_sign, heading_unit
     )

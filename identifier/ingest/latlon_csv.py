@@ -24,6 +24,10 @@ rudder      ``rudder_deg``, ``rudder_rad``            sign per ``rudder_positive
 propeller   ``rpm``                                   revolutions per minute
 =========== ========================================= ================================
 
+The rpm column may be left out where the recording has no propeller speed: the
+conversion then needs the trial's constant one (``constant_n_rps``, ``identifier convert
+--rpm``).
+
 Every row needs a time, strictly increasing; any other cell may be empty (that
 sensor has no sample at that time), so streams at different rates can share one
 file. A heading may be wrapped or continuous, within ±36000 deg (100 turns); a
@@ -83,7 +87,7 @@ class _Columns:
     heading_scale: float  # file unit → rad
     rudder: int
     rudder_scale: float
-    rpm: int
+    rpm: int | None  # None: no rpm column (identifier convert --rpm gives a constant)
     n_fields: int
 
 
@@ -133,7 +137,7 @@ def _csv_columns(
         heading_scale=1.0 if unit == "rad" else math.pi / 180.0,
         rudder=rudder,
         rudder_scale=1.0 if rudder_name == "rudder_rad" else math.pi / 180.0,
-        rpm=one(_RPM_COLUMNS, "propeller speed")[0],
+        rpm=one(_RPM_COLUMNS, "propeller speed")[0] if set(_RPM_COLUMNS) & set(names) else None,
         n_fields=len(names),
     )
 
@@ -265,12 +269,15 @@ class _CsvReader:
         rudder_limit = _MAX_RUDDER_RAD / columns.rudder_scale
         heading = self.number(fields, columns.heading, number, -heading_limit, heading_limit)
         rudder = self.number(fields, columns.rudder, number, -rudder_limit, rudder_limit)
+        rpm = (
+            None if columns.rpm is None else self.number(fields, columns.rpm, number, 0.0, MAX_RPM)
+        )
         samples = (
             (FIXES, lat, 1.0),
             ("lon", lon, 1.0),
             (HEADING, heading, columns.heading_scale),
             (RUDDER, rudder, self.rudder_sign * columns.rudder_scale),
-            (RPM, self.number(fields, columns.rpm, number, 0.0, MAX_RPM), 1.0 / SECONDS_PER_MINUTE),
+            (RPM, rpm, 1.0 / SECONDS_PER_MINUTE),
         )
         for name, sample, scale in samples:
             if sample is not None:
@@ -300,7 +307,7 @@ class _CsvReader:
             sources={
                 HEADING: "rows with a heading",
                 RUDDER: "rows with a rudder angle",
-                RPM: "rows with an rpm",
+                RPM: "an rpm column" if self.columns.rpm is None else "rows with an rpm",
             },
             epoch=self.first_iso,
             notes=[] if self.first_iso else ["time_s column: time_origin_utc unknown"],

@@ -19,7 +19,7 @@ import numpy.typing as npt
 
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from fmu_model.params import text_problem
-from trials.logs import MAX_ON_BOARD_M, ON_BOARD_KEYS, ManeuverLog
+from trials.logs import MAX_ON_BOARD_M, MAX_RPM, ON_BOARD_KEYS, ManeuverLog
 
 __all__ = [
     "DEFAULT_MAX_GAP_S",
@@ -125,7 +125,8 @@ class Options:
     Made by :meth:`make`; the fields are the arguments of
     :func:`~identifier.ingest.convert_nmea` of the same names (``rate_hz`` [Hz],
     ``max_gap_s`` [s], ``length_m`` [m], ``on_board`` [m]: positions on board by their
-    metadata key, ``trials.logs.ON_BOARD_KEYS``).
+    metadata key, ``trials.logs.ON_BOARD_KEYS``; ``constant_n_rps`` [rev/s]: the
+    propeller speed of a recording that logs none).
     """
 
     rudder_positive: RudderPositive
@@ -135,6 +136,7 @@ class Options:
     vessel: str | None
     length_m: float | None
     on_board: Mapping[str, float] = field(default_factory=dict)
+    constant_n_rps: float | None = None
 
     @property
     def rudder_sign(self) -> float:
@@ -151,6 +153,7 @@ class Options:
         vessel: str | None,
         length_m: float | None,
         on_board: Mapping[str, float] | None = None,
+        constant_n_rps: float | None = None,
     ) -> Options:
         """Check the settings; raise ValueError naming the bad one."""
         if rudder_positive not in ("starboard", "port"):
@@ -183,6 +186,11 @@ class Options:
                     f"on_board: expected positions within ±{MAX_ON_BOARD_M:g} m of "
                     f"{', '.join(ON_BOARD_KEYS)}, got {key!r}: {value!r}"
                 )
+        if constant_n_rps is not None and not 0.0 < constant_n_rps <= MAX_RPM / SECONDS_PER_MINUTE:
+            raise ValueError(
+                f"constant_n_rps must be a propeller speed above 0 and at most "
+                f"{MAX_RPM / SECONDS_PER_MINUTE:g} rev/s, got {constant_n_rps!r}"
+            )
         return cls(
             rudder_positive,
             None if rate_hz is None else float(rate_hz),
@@ -191,6 +199,7 @@ class Options:
             vessel,
             None if length_m is None else float(length_m),
             {key: float(value) for key, value in (on_board or {}).items()},
+            None if constant_n_rps is None else float(constant_n_rps),
         )
 
 
