@@ -880,18 +880,24 @@ def _fit_auto_current(
     fits = {"constant": with_current, "none": still}
     rms = {mode: _training_track_rms_m(result, data) for mode, result in fits.items()}
     kept_mode = choose_current(rms)
+    apart = {
+        mode: _distance_text(rms[mode], " (RMS)" if mode == "constant" else "") for mode in rms
+    }
     reason = (
-        f"predicted open loop from execute, the training logs stay {_rms_text(rms['constant'])} "
-        f"from their tracks with a current of {current.speed_mps:.3f} m/s towards "
-        f"{math.degrees(current.to_rad):.0f} deg, {_rms_text(rms['none'])} in still water (a "
-        f"current is kept where it divides the distance by {CURRENT_EVIDENCE_RATIO:g})"
+        f"predicted open loop from execute, the training logs stay {apart['constant']} from "
+        f"their tracks with a current of {current.speed_mps:.3f} m/s towards "
+        f"{math.degrees(current.to_rad):.0f} deg, {apart['none']} in still water (a current is "
+        f"kept where it divides the distance by {CURRENT_EVIDENCE_RATIO:g})"
     )
     return _with_choice(fits[kept_mode], settings, CurrentChoice(kept_mode, rms, reason))
 
 
-def _rms_text(rms_m: float) -> str:
-    """``rms_m`` [m] for the current choice's reason ("inf m" said as what it means)."""
-    return f"{rms_m:.3g} m (RMS)" if math.isfinite(rms_m) else "no distance (a prediction diverges)"
+def _distance_text(rms_m: float, what: str = "") -> str:
+    """Return ``rms_m`` [m] and ``what`` it is for the current choice's reason.
+
+    A diverging prediction's ``math.inf`` is said as what it means.
+    """
+    return f"{rms_m:.3g} m{what}" if math.isfinite(rms_m) else "no distance (a prediction diverges)"
 
 
 def _labelled(stage: Callable[[str], None], label: str) -> Callable[[str], None]:

@@ -74,8 +74,9 @@ def test_a_fit_that_names_no_current_takes_one_by_the_ships_size(
 def test_a_diverging_prediction_is_said_as_such_in_the_reason() -> None:
     """Not "inf m (RMS)" (the default fit of a 7 m model's zig-zags, whose fit with a
     current of 0.25 m/s did not sail its logs)."""
-    assert identify_module._rms_text(2.671) == "2.67 m (RMS)"
-    assert identify_module._rms_text(math.inf) == "no distance (a prediction diverges)"
+    assert identify_module._distance_text(2.671, " (RMS)") == "2.67 m (RMS)"
+    assert identify_module._distance_text(0.348) == "0.348 m"
+    assert identify_module._distance_text(math.inf) == "no distance (a prediction diverges)"
 
 
 def test_the_choice_is_recorded_as_json() -> None:
