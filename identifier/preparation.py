@@ -44,6 +44,7 @@ from trials.spikes import despiked_inputs
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
 MAX_SAMPLE_INTERVAL_S = 5.0
+MILLISECONDS_PER_SECOND = 1000.0
 # A sample interval below this fraction of the median one is a wrong time stamp (the
 # constant-acceleration model's T² and T⁵ underflow or dwarf everything else).
 MIN_SAMPLE_INTERVAL_FRACTION = 1e-6
@@ -77,9 +78,17 @@ def _check_sampling(log: ManeuverLog, name: str) -> None:
     # Time stamps summed in floating point (0.1 + 0.1 + …) land a few ulps beyond a
     # round interval: a logger of exactly the limit's interval is within it.
     if interval > MAX_SAMPLE_INTERVAL_S * (1.0 + 1e-9):
+        # A logger of 0.2 to 20 Hz with its times in milliseconds reads 50 to 5000 "s"; one
+        # sample in 10 s is only a slow logger.
+        per_ms = (
+            10.0 * MAX_SAMPLE_INTERVAL_S
+            <= interval
+            <= MAX_SAMPLE_INTERVAL_S * MILLISECONDS_PER_SECOND * (1.0 + 1e-9)
+        )
         raise IdentificationError(
             f"median sampling interval {interval:g} s is too coarse to resolve manoeuvring "
-            f"(expected at most {MAX_SAMPLE_INTERVAL_S:g} s)",
+            f"(expected at most {MAX_SAMPLE_INTERVAL_S:g} s)"
+            + (": is time_s in seconds, not milliseconds?" if per_ms else ""),
             log=name,
         )
     k = int(np.argmin(steps))

@@ -185,8 +185,19 @@ def test_diverging_filter_raises_with_log_and_sample(log_files: list[Path]) -> N
 
 def test_too_coarse_sampling_is_an_error() -> None:
     log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), rate_hz=0.1, seed=1)
-    with pytest.raises(IdentificationError, match="sampling interval 10 s is too coarse"):
+    with pytest.raises(IdentificationError, match=r"sampling interval 10 s is too coarse") as e:
         identify([log])
+    assert str(e.value).endswith("(expected at most 5 s)")  # a slow logger: no unit hint
+
+
+def test_a_time_in_milliseconds_is_named() -> None:
+    log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), seed=1)
+    with pytest.raises(IdentificationError) as excinfo:
+        identify([replace(log, time_s=log.time_s * 1000.0)])
+    assert str(excinfo.value).endswith(
+        "median sampling interval 1000 s is too coarse to resolve manoeuvring (expected at "
+        "most 5 s): is time_s in seconds, not milliseconds?"
+    )
 
 
 def test_a_log_at_the_coarsest_interval_is_smoothed() -> None:
