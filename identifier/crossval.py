@@ -43,10 +43,11 @@ from identifier.current import (
 )
 from identifier.identify import FitSettings, identify
 from identifier.output_error import predict_log
-from identifier.smoothing import SmoothedTrack, smooth_log
+from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log
 from trials.conditions import KINDS, maneuver_indices, maneuver_kind, zigzag_angles
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship
+from trials.spikes import despiked_inputs
 from trials.trajectory import empty_trajectory
 
 # --------------------------------------------------------------------------------------
@@ -262,7 +263,9 @@ def held_out_errors(
     params : ModelParameters
         The identified model.
     log : ManeuverLog
-        The held-out log.
+        The held-out log; its fixes and headings the track's gate rejected, and the
+        spikes of its rudder and propeller speed, are mended as the fit's are
+        (``identifier.preparation``).
     track : SmoothedTrack, optional
         Its smoothed track; smoothed here when omitted.
     name : str, optional
@@ -285,6 +288,8 @@ def held_out_errors(
     """
     log = at_midship(log)
     track = track or smooth_log(log)
+    # As the fit's logs (identifier.preparation): a glitch or spike is no part of the run.
+    log = despiked_inputs(deglitched_log(log, track), params.length_m)[0]
     name = name or log.path or "log"
     notes: list[str] = []
     if current is None:

@@ -35,7 +35,7 @@ from identifier.conventions import (
     unit_warnings,
 )
 from identifier.ekf import EkfSegment
-from identifier.smoothing import SmoothedTrack, smooth_track
+from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_track
 from identifier.wind import has_wind, known_acceleration
 from trials.conditions import EXECUTE_RUDDER_RAD
 from trials.errors import IdentificationError
@@ -292,10 +292,7 @@ def _deglitched(
                 f"{name}: {what} re-acquired after a jump at t = {float(log.time_s[k]):.1f} s "
                 "(a step in the fixes; split the log there if it is not a receiver offset)"
             )
-    if not (track.rejected_position_samples or track.rejected_heading_samples):
-        return log
-    x_m, y_m, heading_rad = track.deglitched(log.x_m, log.y_m, log.heading_rad)
-    return replace(log, x_m=x_m, y_m=y_m, heading_rad=heading_rad)
+    return deglitched_log(log, track)
 
 
 def _despiked_inputs(log: ManeuverLog, name: str, length_m: float, notes: list[str]) -> ManeuverLog:

@@ -98,7 +98,7 @@ from __future__ import annotations
 import itertools
 import math
 import statistics
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
 import numba
@@ -122,6 +122,7 @@ __all__ = [
     "NoiseEstimate",
     "SmoothedTrack",
     "constant_acceleration_model",
+    "deglitched_log",
     "estimate_noise",
     "smooth_axis",
     "smooth_log",
@@ -1818,3 +1819,17 @@ def smooth_log(log: ManeuverLog) -> SmoothedTrack:
 
     """
     return smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
+
+
+def deglitched_log(log: ManeuverLog, track: SmoothedTrack) -> ManeuverLog:
+    """Return ``log`` with the fixes and headings ``track``'s gate rejected replaced.
+
+    By the smoothed track there (:meth:`SmoothedTrack.deglitched`): what reads the logged
+    track itself after smoothing (the EKF, output error, a logged manoeuvre's indices and
+    condition) sees no GNSS jump or compass spike. ``log`` itself when nothing was
+    rejected.
+    """
+    if not (track.rejected_position_samples or track.rejected_heading_samples):
+        return log
+    x_m, y_m, heading_rad = track.deglitched(log.x_m, log.y_m, log.heading_rad)
+    return replace(log, x_m=x_m, y_m=y_m, heading_rad=heading_rad)

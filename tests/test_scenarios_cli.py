@@ -652,6 +652,23 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
         assert record[key] == pytest.approx(record["logged"][key], abs=0.15)
     printed = capsys.readouterr().out
     assert f"as logged in {log}" in printed and "difference" in printed
+    # A compass spike of 60 deg at the first overshoot, a GNSS jump of 500 m in the
+    # approach: glitches, not the manoeuvre (before, "logged" read the spike for the
+    # overshoot).
+    clean = read_log(log)
+    heading, x_m = clean.heading_rad.copy(), clean.x_m.copy()
+    peak = execute + int(np.argmax(np.abs(heading[execute:] - heading[execute])))
+    heading[peak] += math.radians(60.0) * np.sign(heading[peak] - heading[execute])
+    x_m[execute - 100] += 500.0
+    glitched = tmp_path / "glitched.csv"
+    write_log(glitched, replace(clean, heading_rad=heading, x_m=x_m))
+    out = tmp_path / "glitched.json"
+    args = ["zigzag", "--fmu", str(fmu), "--like", str(glitched), "--json", str(out), "--quiet"]
+    assert main(args) == 0
+    deglitched = json.loads(out.read_text())
+    for key in ("first_overshoot_deg", "second_overshoot_deg"):
+        assert deglitched["logged"][key] == pytest.approx(record["logged"][key], abs=0.01)
+    assert deglitched["run"]["speed_mps"] == pytest.approx(run["speed_mps"], rel=1e-3)
     # A turning circle is not a zig-zag.
     turn = tmp_path / "turn.csv"
     traj = run_program(

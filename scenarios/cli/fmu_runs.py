@@ -53,6 +53,7 @@ from fmu_model import argtypes, load_params
 from fmu_model.envelope import Envelope, trajectory_envelope
 from fmu_model.interface import logged_envelope
 from identifier.conventions import log_problem
+from identifier.smoothing import deglitched_log, smooth_log
 from scenarios.cli.common import (
     EXIT_GATE_FAILED,
     PROG,
@@ -438,11 +439,13 @@ def _measured_run(
     lines: list[str] = []
     if args.like:
         log = read_log(args.like)
-        problem = log_problem(log, info.length_m)
+        track = smooth_log(log)
+        problem = log_problem(log, info.length_m, track)
         if problem is not None:
             message, sample = problem
             at = "" if sample is None else f"sample {sample}: "
             raise ScenarioError(f"{args.like}: {at}{message}")
+        log = deglitched_log(log, track)  # a compass spike is no overshoot
         limit_s = _limit_s(args, info, condition)
         like = logged_condition(log, max_time_s=limit_s)
         if like.program.kind != program.kind:
