@@ -18,9 +18,18 @@ import numpy as np
 import psutil
 import pytest
 
-from fmu_model import ModelParameters, load_params
+from fmu_model import ModelParameters, get_model, load_params
 from identifier.batch import ManifestError, read_vessels, run_batch
-from identifier.batch.records import DONE_FORMAT, DONE_VERSION, settings_record, up_to_date
+from identifier.batch.manifest import VesselSpec
+from identifier.batch.records import (
+    DONE_FORMAT,
+    DONE_VERSION,
+    record_outcome,
+    result_from_done,
+    settings_record,
+    up_to_date,
+)
+from identifier.batch.task import VesselJob, VesselOutcome
 from identifier.cli import main
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
@@ -384,3 +393,24 @@ def test_a_vessel_done_with_another_current_runs_again(tmp_path: Path) -> None:
     del done["settings"]["current"]
     (tmp_path / "done.json").write_text(json.dumps(done))
     assert up_to_date(tmp_path, "v", inputs, other) is None
+
+
+def test_the_summary_names_the_model_fitted_not_the_one_asked_for(tmp_path: Path) -> None:
+    """A fit refitted with the thrust of fixed slope (``prime-rudder-offset-thrust``, 20
+    coefficients) where ``prime-rudder-offset`` (21) was asked for: the summary row and
+    done.json say what params.json holds (before: the family asked for, "3 of 21")."""
+    fitted = get_model("prime-rudder-offset-thrust")
+    params = ModelParameters.from_vector(
+        fitted.name, np.zeros(fitted.n_coefficients), length_m=100.0, vessel_name="delta"
+    )
+    spec = VesselSpec(name="delta", logs=(tmp_path / "zz.csv",))
+    job = VesselJob("delta", ("zz.csv",), None, "prime-rudder-offset", "output-error", False)
+    outcome = VesselOutcome(
+        "delta", (("zz.csv", "0" * 64),), 1000, 1.0, params=params, not_identifiable=("X_vv",)
+    )
+    row = record_outcome(tmp_path, spec, job, outcome)
+    assert (row.model, row.n_coefficients) == ("prime-rudder-offset-thrust", 20)
+    done = json.loads((tmp_path / "done.json").read_text())
+    assert done["settings"]["model"] == "prime-rudder-offset"  # as asked: what resumes
+    assert done["result"]["model"] == "prime-rudder-offset-thrust"
+    assert result_from_done(tmp_path, done).model == "prime-rudder-offset-thrust"

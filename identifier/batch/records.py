@@ -21,6 +21,7 @@ from typing import Any
 from fmu_model import get_model, save_params
 from fmu_model.atomic import write_atomic
 from fmu_model.export_native import osp_sidecar_path
+from fmu_model.variants import family_name
 from identifier.batch.manifest import VesselSpec
 from identifier.batch.summary import VesselResult
 from identifier.batch.task import VesselJob, VesselOutcome
@@ -88,7 +89,7 @@ def result_from_done(directory: Path, done: Mapping[str, Any]) -> VesselResult:
         status="skipped",
         n_logs=len(done["inputs"]),
         n_samples=int(figures["n_samples"]),
-        model=done["settings"]["model"],
+        model=figures.get("model", done["settings"]["model"]),  # fitted (asked before)
         position_rms_m=float(figures["position_rms_m"]),
         heading_rms_deg=float(figures["heading_rms_deg"]),
         not_identifiable=tuple(figures["not_identifiable"]),
@@ -162,8 +163,12 @@ def record_outcome(
         for stale in (fmu_path, osp_sidecar_path(fmu_path)):
             with contextlib.suppress(FileNotFoundError):
                 stale.unlink()
-    n_coefficients = get_model(job.model).n_coefficients
+    # The model fitted, which may be a fallback of the one asked for (a thrust refit).
+    assert outcome.params is not None  # identified: no error
+    fitted = get_model(outcome.params.model)
+    model, n_coefficients = family_name(outcome.params.model), fitted.n_coefficients
     figures = {
+        "model": model,
         "n_samples": outcome.n_samples,
         "position_rms_m": outcome.position_rms_m,
         "heading_rms_deg": outcome.heading_rms_deg,
@@ -195,7 +200,7 @@ def record_outcome(
         status="ok",
         n_logs=len(spec.logs),
         n_samples=outcome.n_samples,
-        model=job.model,
+        model=model,
         position_rms_m=outcome.position_rms_m,
         heading_rms_deg=outcome.heading_rms_deg,
         not_identifiable=outcome.not_identifiable,

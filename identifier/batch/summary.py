@@ -54,7 +54,8 @@ class VesselResult:
     n_logs, n_samples : int
         Number of trial logs and of samples in them (samples 0 when a log was unreadable).
     model : str
-        Model structure.
+        Model structure or family fitted (a fallback of the one asked for, e.g. the
+        thrust refit ``…-thrust``; the one asked for when failed).
     position_rms_m : float
         RMS distance between the EKF's filtered position and the logged one [m] (NaN
         when failed).
