@@ -331,3 +331,21 @@ def test_convert_warns_of_a_rudder_of_the_other_sign(
         r"port flips a log's sign\); identifier fit refuses such a log\n",
         err,
     ), err
+
+
+def test_convert_judges_the_track_at_midship_as_fit_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A 35° turn logged by an antenna 300 m aft of midship: its track swings wide, 49°
+    off the heading in the median, which convert warned of as "a heading from East";
+    reduced to midship, as ``fit`` judges it, nothing."""
+    recording = tmp_path / "turn.nmea"
+    subprocess.run(
+        [sys.executable, str(REPO / "examples/own_data/record_nmea.py"), "--maneuver",
+         "turning-35", "--gnss-x-m", "-300", "-o", str(recording)],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    out = tmp_path / "turn.csv"
+    assert main(["convert", str(recording), "--gnss-x-m", "-300", "-o", str(out), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    assert heading_course_problem(smooth_log(read_log(out))) is not None  # the antenna's own

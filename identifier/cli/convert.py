@@ -26,7 +26,15 @@ from identifier.ingest import (
     output_paths,
 )
 from trials.errors import LogFormatError
-from trials.logs import MAX_ON_BOARD_M, MAX_RPM, MIN_SAMPLES, ON_BOARD_KEYS, ManeuverLog, write_log
+from trials.logs import (
+    MAX_ON_BOARD_M,
+    MAX_RPM,
+    MIN_SAMPLES,
+    ON_BOARD_KEYS,
+    ManeuverLog,
+    at_midship,
+    write_log,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -43,13 +51,14 @@ def _vessel(text: str) -> str:
 def _convention_problem(log: ManeuverLog) -> str | None:
     """Return the problem of a written log's heading or rudder convention, or None.
 
-    What ``fit`` would refuse it for (``identifier.conventions.log_problem``), the
-    approach not judged (a piece of a recording need not be a manoeuvre); pieces shorter
-    than ``fit`` reads are not judged.
+    What ``fit`` would refuse it for (``identifier.conventions.log_problem``, on the
+    track reduced to midship as ``fit`` judges it: a bridge antenna's swings wide in a
+    turn), the approach not judged (a piece of a recording need not be a manoeuvre);
+    pieces shorter than ``fit`` reads are not judged.
     """
     if log.n_samples < MIN_SAMPLES:
         return None
-    found = log_problem(log, length_m=None)
+    found = log_problem(at_midship(log), length_m=None)
     if found is None:
         return None
     message, sample = found
