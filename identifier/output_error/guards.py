@@ -51,6 +51,16 @@ KVLCC2 hull in free-running tests about 8 % (issue 13); refined fits of the Mari
 its starboard turn in training put the unlogged port turn 16 % and 59 % tighter
 (``benchmarks/fidelity.md``, "A ship of another structure")."""
 
+POOR_REPLAY_L = 2.0
+"""RMS distance [ship lengths] of the estimate kept's open-loop replays of its training logs
+from their tracks beyond which it is warned of as no sound model of them. Kept starts
+replay 0.36–0.49 L off where the turn check keeps them on KVLCC2 zig-zags (at sea, its
+7 m model), 0.40–0.84 L on HSVA's runs (20°/10°: 30 L of track each), 1.41 L on the
+Mariner's single port turn (a start that fails the sanity guard, warned of as such); 3.05
+L on a turning circle and two zig-zags logged at 5 m and 1° (the refined estimate 0.03 L
+off, rejected for a virtual turn that snaps back after two loops): that is no model of
+its logs."""
+
 # Hard-over rudder of the virtual turns [rad] (IMO MSC.137(76) turning test).
 HARD_OVER_RAD = math.radians(35.0)
 # Rudder and heading angle of the virtual zig-zags [rad] (MSC.137(76) 20°/20° test).

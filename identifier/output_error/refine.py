@@ -36,6 +36,7 @@ from fmu_model.replay import INPUT_MODES
 from identifier.equation_error import decimation_step
 from identifier.output_error.covariance import newey_west_covariance
 from identifier.output_error.guards import (
+    POOR_REPLAY_L,
     Approach,
     candidate_disagreement,
     covers_both_sides,
@@ -196,6 +197,8 @@ def refine_output_error(
                 reason=f"{again.reason} ({why})",
                 warnings=(*warnings, why, *again.warnings),
             ).recorded()
+    if kept_fit.position_rms_L > POOR_REPLAY_L:  # of the estimate kept, not a rescued one
+        warnings.append(_poor_replay_warning(kept_fit, refined, label))
     if not kept_fit.zigzags_complete:
         warnings.append(
             "the kept estimate's virtual 20/20 zig-zag diverges or does not reach its second "
@@ -215,6 +218,21 @@ def refine_output_error(
         warnings=tuple(warnings),
         settings=settings,
     ).recorded()
+
+
+def _poor_replay_warning(kept: FitSummary, refined: FitSummary, label: str) -> str:
+    """Return the warning of an estimate kept that replays its logs :data:`POOR_REPLAY_L` off.
+
+    ``kept`` is the fit kept (the ``label`` start or ``refined``), ``refined`` the
+    output-error optimum, the best replay the structure gave.
+    """
+    kept_label = "output-error" if kept is refined else label
+    return (
+        f"the {kept_label} estimate kept replays its training logs {kept.position_rms_L:.2f} L "
+        f"from their tracks (RMS, open loop from execute; the output-error optimum "
+        f"{refined.position_rms_L:.3f} L): it is no sound model of these logs; check their "
+        "noise and conventions, or add logs"
+    )
 
 
 def _start(start_costs: Mapping[str, float], preferred: str | None) -> str:
