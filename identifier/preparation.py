@@ -44,6 +44,7 @@ from trials.spikes import despiked_inputs
 
 # Sampling intervals outside this range cannot resolve ship manoeuvring dynamics [s].
 MAX_SAMPLE_INTERVAL_S = 5.0
+# A median interval of 10 to 1000 times that is a logger's times in milliseconds.
 MILLISECONDS_PER_SECOND = 1000.0
 # A sample interval below this fraction of the median one is a wrong time stamp (the
 # constant-acceleration model's T² and T⁵ underflow or dwarf everything else).

@@ -26,7 +26,7 @@ from scenarios.runs import reference_runs
 from scenarios.synthesize import FULL_SCALE_LOGGING, default_logging, maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
-from trials.logs import ManeuverLog, read_log, write_log
+from trials.logs import ManeuverLog, on_board_offset, read_log, write_log
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import turning_metrics, zigzag_metrics
 from trials.run import ModelPlant, run_program
@@ -694,6 +694,21 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
     assert main(["zigzag", "--fmu", str(fmu), "--like", str(turn), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "is a turning manoeuvre, not a zigzag" in err
+    # The same turn logged by an antenna 3 L aft of midship (its track swings wide of the
+    # heading: judged at the antenna, a "heading from East" before): read at midship.
+    midship = read_log(turn)
+    north_m, east_m = on_board_offset(-300.0, 0.0, midship.heading_rad)
+    aft = tmp_path / "aft.csv"
+    write_log(aft, replace(midship, x_m=midship.x_m + north_m, y_m=midship.y_m + east_m,
+                           metadata={**midship.metadata, "gnss_x_m": "-300.0"}))  # fmt: skip
+    records = []
+    for logged in (turn, aft):
+        out = tmp_path / f"{logged.stem}.json"
+        args = ["turning-circle", "--fmu", str(fmu), "--like", str(logged), "--json", str(out)]
+        assert main([*args, "--quiet"]) == 0, capsys.readouterr().err
+        records.append(json.loads(out.read_text())["logged"])
+    for key in ("advance_m", "transfer_m", "tactical_diameter_m"):
+        assert records[1][key] == pytest.approx(records[0][key], rel=1e-9)
     # A log whose rudder's sign is the other way round is not sailed again.
     flipped = tmp_path / "flipped.csv"
     write_log(flipped, replace(read_log(log), rudder_rad=-read_log(log).rudder_rad))

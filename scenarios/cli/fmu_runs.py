@@ -107,7 +107,7 @@ from trials.current_correction import (
     CurrentCorrection,
     correct_turning_circle,
 )
-from trials.logs import ManeuverLog, read_log
+from trials.logs import ManeuverLog, at_midship, read_log
 from trials.maneuvers import (
     Program,
     pullout,
@@ -438,7 +438,7 @@ def _measured_run(
     logged: dict[str, Any] | None = None
     lines: list[str] = []
     if args.like:
-        log = read_log(args.like)
+        log = at_midship(read_log(args.like))  # judged and deglitched as fit does
         track = smooth_log(log)
         problem = log_problem(log, info.length_m, track)
         if problem is not None:
