@@ -288,8 +288,9 @@ def test_a_rudder_in_radians_and_a_propeller_in_revolutions_per_second_are_warne
 
 def test_a_ship_at_her_berth_has_no_course_to_judge(zigzag: ManeuverLog) -> None:
     """Five minutes alongside, the fixes scattered by 2 m, the compass steady: the course
-    over ground is noise, and before the under-way test's σ it read as a heading that
-    turns against it in one draw of five ("slope -0.00"): a recording's first piece."""
+    over ground is noise (a recording's first piece). Before the under-way test's σ every
+    draw of five was judged, four as a frozen compass and one as a heading that turns
+    against the course ("slope -0.00")."""
     rng = np.random.default_rng(0)
     n = 300
     for _ in range(5):
