@@ -669,6 +669,23 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
     for key in ("first_overshoot_deg", "second_overshoot_deg"):
         assert deglitched["logged"][key] == pytest.approx(record["logged"][key], abs=0.01)
     assert deglitched["run"]["speed_mps"] == pytest.approx(run["speed_mps"], rel=1e-3)
+    # The same run in a current of 0.3 m/s setting East, its speed log's water speed beside
+    # the drifted track: the run sails in still water unless told, and says so.
+    elapsed = clean.time_s - clean.time_s[0]
+    drifted = tmp_path / "drifted.csv"
+    write_log(drifted, replace(clean, y_m=clean.y_m + 0.3 * elapsed,
+                               stw_mps=truth["u_mps"].copy()))  # fmt: skip
+    args = ["zigzag", "--fmu", str(fmu), "--like", str(drifted), "--quiet"]
+    assert main(args) == 0
+    (warning,) = capsys.readouterr().err.splitlines()
+    assert re.fullmatch(
+        rf"warning: {re.escape(str(drifted))}: its speed log shows a current of 0\.30 m/s "
+        r"towards (89|90|91) deg, whose drift the logged indices carry; the run sails in still "
+        r"water: give --current-mps 0\.30 --current-to-deg (89|90|91) to sail it in that current",
+        warning,
+    ), warning
+    assert main([*args, "--current-mps", "0.3", "--current-to-deg", "90"]) == 0
+    assert capsys.readouterr().err == ""
     # A turning circle is not a zig-zag.
     turn = tmp_path / "turn.csv"
     traj = run_program(

@@ -53,7 +53,12 @@ from fmu_model import argtypes, load_params
 from fmu_model.envelope import Envelope, trajectory_envelope
 from fmu_model.interface import logged_envelope
 from identifier.conventions import log_problem
-from identifier.smoothing import deglitched_log, smooth_log
+from identifier.current import (
+    CURRENT_DISAGREEMENT_MPS,
+    CURRENT_DISAGREEMENT_SIGMAS,
+    speed_log_current,
+)
+from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log
 from scenarios.cli.common import (
     EXIT_GATE_FAILED,
     PROG,
@@ -458,6 +463,9 @@ def _measured_run(
             corrected_log, current, lines = _corrected_log(args, info, log, like)
             if corrected_log is not None:
                 like = logged_condition(corrected_log, max_time_s=limit_s)
+        corrected = current is not None and bool(current["applied"])
+        if not corrected and getattr(args, "current_mps", None) is None:
+            _warn_of_logged_current(args.like, log, track)
         program = like.program
         condition = Condition(like.speed_mps, like.n_rps, like.rudder_rate_radps, args.dt_s)
         angles = (program.rudder_rad, program.heading_rad)
@@ -540,6 +548,33 @@ def _current_lines(
     else:
         lines.append(f"  {values} values stand ({judgement.reason})")
     return lines
+
+
+def _warn_of_logged_current(path: str, log: ManeuverLog, track: SmoothedTrack) -> None:
+    """Warn when ``log``'s speed log shows a current its run is not sailed in.
+
+    The logged indices are over the ground, the FMU's run in still water unless
+    ``--current-mps`` says otherwise: a current the speed log shows
+    (``identifier.current.speed_log_current``) of :data:`~identifier.current.
+    CURRENT_DISAGREEMENT_MPS` or more, and :data:`~identifier.current.
+    CURRENT_DISAGREEMENT_SIGMAS` of its σ, makes them differ by its drift.
+    """
+    found = speed_log_current([log], [track])
+    if found is None:
+        return
+    north, east = (float(c) for c in found.current_ne)
+    speed = math.hypot(north, east)
+    sigma = math.sqrt(float(np.max(np.linalg.eigvalsh(found.covariance))))
+    if speed < max(CURRENT_DISAGREEMENT_MPS, CURRENT_DISAGREEMENT_SIGMAS * sigma):
+        return
+    towards = math.degrees(math.atan2(east, north)) % 360.0
+    print(
+        f"warning: {path}: its speed log shows a current of {speed:.2f} m/s towards "
+        f"{towards:.0f} deg, whose drift the logged indices carry; the run sails in still "
+        f"water: give --current-mps {speed:.2f} --current-to-deg {towards:.0f} to sail it in "
+        "that current",
+        file=sys.stderr,
+    )
 
 
 def _corrected_log(
