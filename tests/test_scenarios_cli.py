@@ -674,7 +674,10 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
     elapsed = clean.time_s - clean.time_s[0]
     drifted = tmp_path / "drifted.csv"
     write_log(drifted, replace(clean, y_m=clean.y_m + 0.3 * elapsed,
-                               stw_mps=truth["u_mps"].copy()))  # fmt: skip
+                               stw_mps=truth["u_mps"].copy(),
+                               stw_transverse_mps=truth["v_mps"].copy()))  # fmt: skip
+    # (a two-axis log without its position, speed_log_x_m: its transverse axis unused,
+    # a traceback before)
     args = ["zigzag", "--fmu", str(fmu), "--like", str(drifted), "--quiet"]
     assert main(args) == 0
     (warning,) = capsys.readouterr().err.splitlines()

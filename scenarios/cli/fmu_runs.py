@@ -559,6 +559,8 @@ def _warn_of_logged_current(path: str, log: ManeuverLog, track: SmoothedTrack) -
     CURRENT_DISAGREEMENT_MPS` or more, and :data:`~identifier.current.
     CURRENT_DISAGREEMENT_SIGMAS` of its σ, makes them differ by its drift.
     """
+    if log.on_board_m("speed_log_x_m") is None:  # a transverse axis at no known position
+        log = replace(log, stw_transverse_mps=None)  # is not used (as fit warns)
     found = speed_log_current([log], [track])
     if found is None:
         return
