@@ -61,6 +61,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+import scipy.constants
 
 from identifier.smoothing import SmoothedTrack, smooth_log, wrap_angle
 from trials.conditions import execute_index
@@ -297,9 +298,10 @@ def unit_warnings(
             continue
         advance = float(np.median(track.speed_mps)) / (n_rps * length_m)
         if advance > MAX_ADVANCE_PER_REVOLUTION_L:
+            rpm = n_rps * scipy.constants.minute
             warnings.append(
                 f"{name}: the ship advances {advance:.2f} L per propeller revolution at "
-                f"{n_rps * 60.0:.3g} rpm, expected at most {MAX_ADVANCE_PER_REVOLUTION_L:g} L "
+                f"{rpm:.3g} rpm, expected at most {MAX_ADVANCE_PER_REVOLUTION_L:g} L "
                 "(about a propeller's diameter): is rpm in revolutions per minute? (the "
                 "scenarios and the FMU's propeller_rpm then take the logs' unit)"
             )

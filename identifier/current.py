@@ -664,6 +664,19 @@ class SpeedLogFit:
         }
 
 
+def placed_speed_log(log: ManeuverLog) -> ManeuverLog:
+    """Return ``log`` without its speed log's transverse axis where its position is unknown.
+
+    A two-axis log's transverse axis measures the sway speed v + x·r at its position x
+    forward of midship (metadata ``speed_log_x_m``); without x it cannot be used
+    (:func:`speed_log_current` refuses it), the along axis still can. ``log`` itself
+    otherwise.
+    """
+    if log.stw_transverse_mps is None or log.on_board_m("speed_log_x_m") is not None:
+        return log
+    return replace(log, stw_transverse_mps=None)
+
+
 def speed_log_current(
     logs: Sequence[ManeuverLog],
     tracks: Sequence[SmoothedTrack],

@@ -34,6 +34,7 @@ from identifier.conventions import (
     turning_yaw_rate,
     unit_warnings,
 )
+from identifier.current import placed_speed_log
 from identifier.ekf import EkfSegment
 from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_track
 from identifier.wind import has_wind, known_acceleration
@@ -73,7 +74,11 @@ def _log_name(log: ManeuverLog, index: int) -> str:
     return log.path or f"log {index + 1}"
 
 
-def _check_sampling(log: ManeuverLog, name: str) -> None:
+def _check_sampling(log: ManeuverLog, name: str) -> str | None:
+    """Reject a log sampled too coarsely or with a wrong time stamp.
+
+    Returns the note of its gaps (:func:`_gap_note`), or None.
+    """
     steps = np.diff(log.time_s)
     interval = float(np.median(steps))
     # Time stamps summed in floating point (0.1 + 0.1 + …) land a few ulps beyond a
@@ -101,16 +106,15 @@ def _check_sampling(log: ManeuverLog, name: str) -> None:
             log=name,
             sample=k + 1,
         )
+    return _gap_note(log, name, steps, interval)
 
 
-def _gap_note(log: ManeuverLog, name: str) -> str | None:
+def _gap_note(log: ManeuverLog, name: str, steps: np.ndarray, interval: float) -> str | None:
     """Return a note of the gaps in ``log``'s samples, or None.
 
-    A gap is an interval of :data:`GAP_INTERVALS` median ones or more; the note names
-    the longest.
+    ``steps`` its sampling intervals and ``interval`` their median [s]. A gap is an
+    interval of :data:`GAP_INTERVALS` median ones or more; the note names the longest.
     """
-    steps = np.diff(log.time_s)
-    interval = float(np.median(steps))
     gaps = np.flatnonzero(steps >= GAP_INTERVALS * interval * (1.0 - 1e-9))  # summed times
     if not gaps.size:
         return None
@@ -465,8 +469,7 @@ def smooth_logs(
                 f"{abs(along):g} m {'aft' if along < 0.0 else 'forward'} and "
                 f"{abs(across):g} m to {'port' if across < 0.0 else 'starboard'}"
             )
-        _check_sampling(log, name)
-        if (gaps_note := _gap_note(log, name)) is not None:
+        if (gaps_note := _check_sampling(log, name)) is not None:
             notes.append(gaps_note)
         stage(f"smoothing {Path(name).name}")
         track = smooth_track(
@@ -481,13 +484,13 @@ def smooth_logs(
         log = _deglitched(log, track, name, notes, warnings)
         log = _despiked_inputs(log, name, length_m, notes)
         _check_conventions(log, track, name, length_m)
-        if log.stw_transverse_mps is not None and log.on_board_m("speed_log_x_m") is None:
+        if (placed := placed_speed_log(log)) is not log:
             warnings.append(
                 f"{name}: the speed log's transverse axis (stw_transverse_mps) was not used: "
                 "its position is not given (metadata speed_log_x_m, metres forward of "
                 "midship: there the sway speed is v + x·r)"
             )
-            log = replace(log, stw_transverse_mps=None)
+            log = placed
         cleaned.append(log)
         if track.position_noise_m > MAX_POSITION_NOISE_M:
             warnings.append(

@@ -56,6 +56,7 @@ from identifier.conventions import log_problem
 from identifier.current import (
     CURRENT_DISAGREEMENT_MPS,
     CURRENT_DISAGREEMENT_SIGMAS,
+    placed_speed_log,
     speed_log_current,
 )
 from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log
@@ -555,13 +556,10 @@ def _warn_of_logged_current(path: str, log: ManeuverLog, track: SmoothedTrack) -
 
     The logged indices are over the ground, the FMU's run in still water unless
     ``--current-mps`` says otherwise: a current the speed log shows
-    (``identifier.current.speed_log_current``) of :data:`~identifier.current.
-    CURRENT_DISAGREEMENT_MPS` or more, and :data:`~identifier.current.
-    CURRENT_DISAGREEMENT_SIGMAS` of its σ, makes them differ by its drift.
+    (``identifier.current.speed_log_current``) of ``CURRENT_DISAGREEMENT_MPS`` or more,
+    and ``CURRENT_DISAGREEMENT_SIGMAS`` of its σ, makes them differ by its drift.
     """
-    if log.on_board_m("speed_log_x_m") is None:  # a transverse axis at no known position
-        log = replace(log, stw_transverse_mps=None)  # is not used (as fit warns)
-    found = speed_log_current([log], [track])
+    found = speed_log_current([placed_speed_log(log)], [track])
     if found is None:
         return
     north, east = (float(c) for c in found.current_ne)
