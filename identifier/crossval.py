@@ -9,8 +9,9 @@ approach (``identifier.output_error.execute_state``; nothing after execute is us
 
 * the RMS position error from execute to the end of the log, in ship lengths, and
 * the manoeuvre's own indices computed the same way on both the logged (smoothed)
-  track and the prediction: advance, transfer and tactical diameter of a turning
-  circle, first and second overshoot of a zig-zag (``trials.metrics``).
+  track and the prediction (``trials.conditions.maneuver_indices``): advance, transfer,
+  tactical and steady diameter of a turning circle, first and second overshoot, initial
+  turning time, time to check yaw and period of a zig-zag (``trials.metrics``).
 
 Where the training fit estimated a uniform current, the held-out logs are taken as sailed
 in the same one: the model sails through the water, and the current's drift is added to
@@ -44,7 +45,13 @@ from identifier.current import (
 from identifier.identify import FitSettings, identify
 from identifier.output_error import predict_log
 from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log
-from trials.conditions import KINDS, maneuver_indices, maneuver_kind, zigzag_angles
+from trials.conditions import (
+    BEYOND_STANDARD_INDICES,
+    KINDS,
+    maneuver_indices,
+    maneuver_kind,
+    zigzag_angles,
+)
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship
 from trials.spikes import despiked_inputs
@@ -62,8 +69,8 @@ class MetricError:
     Attributes
     ----------
     name : str
-        ``advance_m``, ``transfer_m``, ``tactical_diameter_m``, ``first_overshoot_deg``
-        or ``second_overshoot_deg`` (the unit is in the name).
+        One of ``trials.conditions.TURNING_INDICES`` or ``ZIGZAG_INDICES``, such as
+        ``tactical_diameter_m`` or ``time_to_check_yaw_s`` (the unit is in the name).
     logged, predicted : float or None
         From the logged (smoothed) track and from the prediction; None when the
         track does not cover the index (e.g. a turn that never reaches 180°).
@@ -334,6 +341,8 @@ def held_out_errors(
             )
             predicted = maneuver_indices(kind, traj, execute_s, angles)
         for key, value in logged.items():
+            if value is None and key in BEYOND_STANDARD_INDICES:
+                continue
             metrics.append(MetricError(key, value, predicted[key]))
             if value is None:
                 notes.append(f"{key}: not covered by the logged track")

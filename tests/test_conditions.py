@@ -124,8 +124,12 @@ def test_the_ship_that_sailed_a_log_sails_it_again_to_the_same_overshoots(
     assert not again.diverged
     for key in ("first_overshoot_deg", "second_overshoot_deg"):
         assert again.predicted[key] == pytest.approx(again.logged[key], abs=0.05)
+    for key in ("initial_turning_time_s", "time_to_check_yaw_s", "period_s"):
+        # within a 0.1 s step, or 0.3 % of the period (each reversal up to a step late)
+        assert again.predicted[key] == pytest.approx(again.logged[key], abs=0.2, rel=3e-3)
     # ... and a different condition gives different overshoots: the test can fail.
     assert again.logged["first_overshoot_deg"] > 1.0
+    assert again.logged["period_s"] > 2.0 * again.logged["initial_turning_time_s"] > 20.0
 
 
 def test_logs_are_classified_by_their_rudder() -> None:

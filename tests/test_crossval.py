@@ -107,7 +107,11 @@ def test_model_fitted_to_its_own_data_predicts_held_out_manoeuvres_within_1_perc
         assert m.relative_error is not None and abs(m.relative_error) < 0.01, m
     for m in zig.metrics:
         assert m.error is not None and m.logged is not None
-        assert abs(m.error) <= max(0.01 * abs(m.logged), 0.1), m  # [deg]
+        if m.name.endswith("_s"):  # peaks and crossings of a 1 Hz log: within half a sample
+            assert abs(m.error) <= 0.5, m
+        else:
+            assert abs(m.error) <= max(0.01 * abs(m.logged), 0.1), m  # [deg]
+    assert {m.name for m in zig.metrics} >= {"time_to_check_yaw_s", "period_s"}
     assert turning.position_rms_L < 0.05 and zig.position_rms_L < 0.05
     for held in (turning, zig):  # nothing uncovered, nothing diverged; a current of < 0.1 m/s
         (note,) = held.notes
@@ -149,6 +153,7 @@ def test_cli_crossval_writes_table_and_json(log_files: list[Path], tmp_path: Pat
     (held,) = fold["test"]
     assert held["log"] == str(log_files[0]) and held["kind"] == "turning"
     assert held["position_rms_L"] > 0.0
+    # (and a steady diameter where the log turns through 540 deg: this one stops short)
     assert set(held["metrics"]) == {"advance_m", "transfer_m", "tactical_diameter_m"}
     td = held["metrics"]["tactical_diameter_m"]
     assert set(td) == {"logged", "predicted", "error", "relative_error"}
@@ -165,7 +170,14 @@ def test_cli_leave_one_out_runs_one_fold_per_log(
     for fold, held_out in zip(folds, log_files, strict=True):
         assert str(held_out) not in fold["train"] and len(fold["train"]) == 2
     zig = folds[1]["test"][0]
-    assert set(zig["metrics"]) == {"first_overshoot_deg", "second_overshoot_deg"}
+    assert set(zig["metrics"]) == {
+        "first_overshoot_deg", "second_overshoot_deg",
+        "initial_turning_time_s", "time_to_check_yaw_s", "period_s",
+    }  # fmt: skip
+    times = zig["metrics"]["initial_turning_time_s"]
+    assert times["logged"] > 0.0 and times["error"] == pytest.approx(
+        times["predicted"] - times["logged"]
+    )
 
 
 def test_cli_crossval_exit_codes(log_files: list[Path], tmp_path: Path, capsys) -> None:

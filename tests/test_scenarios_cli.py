@@ -650,8 +650,12 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
     for key in ("first_overshoot_deg", "second_overshoot_deg"):
         # Each reversal is quantised to the 0.1 s step, in the log and again in the FMU run.
         assert record[key] == pytest.approx(record["logged"][key], abs=0.15)
+    for key in ("initial_turning_time_s", "time_to_check_yaw_s", "period_s"):
+        assert record["logged"][key] > 10.0  # the times of the zig-zag, logged and sailed
+        assert record[key] == pytest.approx(record["logged"][key], abs=0.2, rel=3e-3)
     printed = capsys.readouterr().out
     assert f"as logged in {log}" in printed and "difference" in printed
+    assert re.search(r"  period_s +logged +\d+\.\d\d s  predicted +\d+\.\d\d s", printed)
     # A compass spike of 60 deg at the first overshoot, a GNSS jump of 500 m in the
     # approach: glitches, not the manoeuvre (before, "logged" read the spike for the
     # overshoot).
@@ -727,7 +731,7 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
         args = ["turning-circle", "--fmu", str(fmu), "--like", str(logged), "--json", str(out)]
         assert main([*args, "--quiet"]) == 0, capsys.readouterr().err
         records.append(json.loads(out.read_text())["logged"])
-    for key in ("advance_m", "transfer_m", "tactical_diameter_m"):
+    for key in ("advance_m", "transfer_m", "tactical_diameter_m", "steady_diameter_m"):
         assert records[1][key] == pytest.approx(records[0][key], rel=1e-9)
     # A log whose rudder's sign is the other way round is not sailed again.
     flipped = tmp_path / "flipped.csv"

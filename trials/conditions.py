@@ -422,8 +422,21 @@ def _named_angles(log: ManeuverLog) -> tuple[float, float] | None:
 # Sailing a logged manoeuvre again, and its indices
 # --------------------------------------------------------------------------------------
 
-TURNING_INDICES = ("advance_m", "transfer_m", "tactical_diameter_m")
-ZIGZAG_INDICES = ("first_overshoot_deg", "second_overshoot_deg")
+TURNING_INDICES = ("advance_m", "transfer_m", "tactical_diameter_m", "steady_diameter_m")
+"""A turning circle's indices (``trials.metrics.TurningMetrics``; the steady diameter
+where the trajectory reaches 540° of heading change)."""
+ZIGZAG_INDICES = (
+    "first_overshoot_deg",
+    "second_overshoot_deg",
+    "initial_turning_time_s",
+    "time_to_check_yaw_s",
+    "period_s",
+)
+"""A zig-zag's indices (``trials.metrics.ZigzagMetrics``; the period from the first to
+the third rudder reversal, where the trajectory has one)."""
+BEYOND_STANDARD_INDICES = frozenset({"steady_diameter_m", "period_s"})
+"""Indices a standard trial need not cover (a turn stopped at 540°, a zig-zag of two
+reversals): compared where a log covers them, not missed where it does not."""
 
 
 def maneuver_indices(
@@ -437,8 +450,10 @@ def maneuver_indices(
     Parameters
     ----------
     kind : {"turning", "zigzag"}
-        Turning circle: advance, transfer and tactical diameter [m]; zig-zag: first and
-        second overshoot [deg] (``trials.metrics`` definitions).
+        Turning circle: advance, transfer, tactical and steady diameter [m]; zig-zag:
+        first and second overshoot [deg], initial turning time, time to check yaw and
+        period [s] (:data:`TURNING_INDICES`, :data:`ZIGZAG_INDICES`; ``trials.metrics``
+        definitions).
     traj : numpy.ndarray
         ``TRAJECTORY_DTYPE`` rows.
     execute_time_s : float
@@ -456,6 +471,7 @@ def maneuver_indices(
             "advance_m": m.advance_m,
             "transfer_m": m.transfer_m,
             "tactical_diameter_m": m.tactical_diameter_m,
+            "steady_diameter_m": m.steady_diameter_m,
         }
     if zigzag is None:
         raise ValueError("a zig-zag's indices need its (rudder, check heading)")
@@ -466,6 +482,9 @@ def maneuver_indices(
     return {
         "first_overshoot_deg": z.first_overshoot_deg,
         "second_overshoot_deg": z.second_overshoot_deg,
+        "initial_turning_time_s": z.initial_turning_time_s,
+        "time_to_check_yaw_s": z.time_to_check_yaw_s,
+        "period_s": z.period_s,
     }
 
 

@@ -623,10 +623,12 @@ def _logged_lines(record: dict[str, Any]) -> list[str]:
     if predicted_corrected:
         lines.append("  predicted: the run's current-corrected indices")
     for key, value in logged.items():
-        if key in ("log", "current_corrected") or value is None or record.get(key) is None:
+        if key in ("log", "current_corrected"):
             continue
         if corrected:
-            value = current[key]
+            value = current.get(key)  # a steady diameter only where the turn reaches 540 deg
+        if value is None or record.get(key) is None:
+            continue
         predicted = sailed.get(key) if predicted_corrected else None
         if predicted is None:
             predicted = record[key]
