@@ -469,6 +469,9 @@ def smooth_logs(
                 f"{abs(along):g} m {'aft' if along < 0.0 else 'forward'} and "
                 f"{abs(across):g} m to {'port' if across < 0.0 else 'starboard'}"
             )
+        if log.filled:
+            cells = ", ".join(f"{count} of {column}" for column, count in log.filled.items())
+            notes.append(f"{name}: empty cells ({cells}), a sensor's dropout, interpolated")
         if (gaps_note := _check_sampling(log, name)) is not None:
             notes.append(gaps_note)
         stage(f"smoothing {Path(name).name}")

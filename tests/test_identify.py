@@ -29,7 +29,7 @@ from scenarios.kvlcc2 import kvlcc2
 from scenarios.synthesize import MANEUVERS, TruthShip, model_ship, reference_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
 from trials.errors import IdentificationError
-from trials.logs import ManeuverLog, read_log, write_log
+from trials.logs import ManeuverLog, format_log, parse_log, read_log, write_log
 from trials.maneuvers import Leg, Program, Until, turning_circle, zigzag
 from trials.metrics import turning_metrics, zigzag_metrics
 from trials.run import ModelPlant, run_program
@@ -242,6 +242,27 @@ def test_gaps_in_the_samples_are_noted() -> None:
     lost[318:322] = False  # 5 s: a gap too; 4 s would not be
     (two,) = notes(lost)
     assert two.startswith("log 1: 2 gaps in the samples, the longest 16 s from t = 299 s")
+
+
+def test_a_speed_logs_dropout_filled_on_reading_is_noted() -> None:
+    """Three empty stw_mps cells of a 1 Hz zig-zag with a speed log: read, filled and
+    named in the fit's notes (a data error before); none without them."""
+    log = synthesize_log(_ship(), MANEUVERS["zigzag-10"](), seed=1)
+    text = format_log(replace(log, stw_mps=np.full(log.n_samples, 8.0))).splitlines()
+    header = next(i for i, line in enumerate(text) if line.startswith("time_s"))
+    for i in range(header + 101, header + 104):
+        text[i] = text[i].rsplit(",", 1)[0] + ","
+
+    def notes(lines: list[str]) -> list[str]:
+        data = smooth_logs(
+            [parse_log("\n".join(lines) + "\n", "z.csv")], length_m=320.0,
+            position_noise_m=None, heading_noise_rad=None, measurements="track",
+            windage=None, drifting=False, progress=None, stage=lambda _: None,
+        )  # fmt: skip
+        return [n for n in data.notes if "empty" in n]
+
+    assert notes(text) == ["z.csv: empty cells (3 of stw_mps), a sensor's dropout, interpolated"]
+    assert notes(format_log(replace(log, stw_mps=np.full(log.n_samples, 8.0))).splitlines()) == []
 
 
 def test_missing_length_is_an_error() -> None:

@@ -126,6 +126,16 @@ def _with_optional_cell(row: int, column: str, value: str) -> str:
     return _text(lines)
 
 
+def _without_optional_cells(rows: range | list[int], column: str) -> str:
+    """_with_optional_columns() with ``column`` empty in ``rows``: its sensor's dropout."""
+    lines = _with_optional_columns()
+    for row in rows:
+        fields = lines[_row_line(row) - 1].split(",")
+        fields[(*LOG_COLUMNS, *OPTIONAL_COLUMNS).index(column)] = ""
+        lines[_row_line(row) - 1] = ",".join(fields)
+    return _text(lines)
+
+
 # --------------------------------------------------------------------------- reading
 
 
@@ -234,6 +244,44 @@ def test_optional_columns_are_read_when_present_and_none_when_absent() -> None:
     for array in (log.wind_speed_mps, log.wind_angle_rad, log.stw_mps, log.stw_transverse_mps):
         assert array.dtype == np.float64
         assert not array.flags.writeable
+
+
+def test_a_sensors_dropout_in_an_optional_column_is_interpolated_and_counted() -> None:
+    """Empty cells of an optional column (up to 5 s) are its sensor's dropout, not an error:
+    filled linearly in time, the wind angle the shorter way round through North, the
+    nearest value at the ends; the required columns and the other cells as logged."""
+    full = parse_log(_text(_with_optional_columns()))
+    assert dict(full.filled) == {}
+    lines = _with_optional_columns()
+    for row, column in ((3, "stw_mps"), (4, "stw_mps"), (5, "wind_angle_deg"),
+                        (0, "wind_speed_mps"), (N_ROWS - 1, "stw_transverse_mps")):  # fmt: skip
+        fields = lines[_row_line(row) - 1].split(",")
+        fields[(*LOG_COLUMNS, *OPTIONAL_COLUMNS).index(column)] = " "
+        lines[_row_line(row) - 1] = ",".join(fields)
+    after = lines[_row_line(6) - 1].split(",")
+    after[(*LOG_COLUMNS, *OPTIONAL_COLUMNS).index("wind_angle_deg")] = "2.0"  # 362 deg wrapped
+    lines[_row_line(6) - 1] = ",".join(after)
+    log = parse_log(_text(lines))
+    assert dict(log.filled) == {
+        "wind_speed_mps": 1, "wind_angle_deg": 1, "stw_mps": 2, "stw_transverse_mps": 1
+    }  # fmt: skip
+    assert log.stw_mps is not None and full.stw_mps is not None
+    np.testing.assert_allclose(log.stw_mps, full.stw_mps, rtol=1e-15)  # a straight line
+    assert log.wind_angle_rad is not None and full.wind_angle_rad is not None
+    # 358 and 2 deg around the gap: 0 deg, not 180 (halfway the long way round)
+    assert np.degrees(log.wind_angle_rad[5]) == pytest.approx(0.0, abs=1e-12)
+    np.testing.assert_array_equal(
+        np.delete(log.wind_angle_rad, [5, 6]), np.delete(full.wind_angle_rad, [5, 6])
+    )
+    assert log.wind_speed_mps is not None and log.wind_speed_mps[0] == 11.0  # the nearest
+    assert log.stw_transverse_mps is not None
+    assert log.stw_transverse_mps[-1] == log.stw_transverse_mps[-2]
+    for name in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps"):
+        np.testing.assert_array_equal(getattr(log, name), getattr(full, name))
+    # A required column's empty cell is still an error (the first case of BAD_LOGS).
+    required = r"column 'x_m': expected a finite number, got an empty field$"
+    with pytest.raises(LogFormatError, match=required):
+        parse_log(_text(_with_optional_columns()).replace("\n0.5,4.0,", "\n0.5,,", 1))
 
 
 def test_replace_shares_the_unchanged_columns_and_copies_what_a_caller_can_write() -> None:
@@ -433,11 +481,21 @@ BAD_LOGS: list[tuple[str, Callable[[], str], int | None, str | None, str]] = [
         r"column 'wind_speed_mps': expected a finite number, got 'calm'$",
     ),
     (
-        "empty wind angle",
-        lambda: _with_optional_cell(0, "wind_angle_deg", ""),
+        "wind angle's sensor out for the whole log",
+        lambda: _without_optional_cells(range(N_ROWS), "wind_angle_deg"),
         _row_line(0),
         "wind_angle_deg",
-        r"column 'wind_angle_deg': expected a finite number, got an empty field$",
+        r"column 'wind_angle_deg': expected a finite number, got an empty field: "
+        r"wind_angle_deg's sensor drops out for the whole log \(lines 5 to 16\); a dropout "
+        r"of at most 5 s is interpolated$",
+    ),
+    (
+        "speed log out for longer than 5 s",
+        lambda: _without_optional_cells(range(1, 11), "stw_mps"),
+        _row_line(1),
+        "stw_mps",
+        r"column 'stw_mps': expected a finite number, got an empty field: stw_mps's sensor "
+        r"drops out for 5\.5 s \(lines 6 to 15\); a dropout of at most 5 s is interpolated$",
     ),
     (
         "nan speed through the water",

@@ -29,7 +29,11 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
 - Every data row has as many fields as the header. Each cell of a required column,
   and of an optional column that is present, is a plain decimal number (``12``,
   ``-0.5``, ``1.5e-3``; whitespace around it is ignored) and finite: ``nan``,
-  ``inf``, empty cells, text and values that overflow (``1e999``) are rejected.
+  ``inf``, empty cells, text and values that overflow (``1e999``) are rejected. One
+  exception: an optional column's empty cells are its sensor's dropout, filled by
+  linear interpolation in time between the column's values around it (the wind angle
+  on the shorter way round; at the log's ends the nearest value) when the dropout lasts
+  at most :data:`MAX_DROPOUT_S`, and counted in :attr:`ManeuverLog.filled`.
 - Plausibility bounds, so that no value overflows the arithmetic downstream:
   ``|time_s|`` ≤ :data:`MAX_TIME_S`, ``|x_m|`` and ``|y_m|`` ≤ :data:`MAX_POSITION_M`,
   ``|heading_deg|`` ≤ :data:`MAX_HEADING_DEG`, ``|rudder_deg|`` ≤
@@ -103,6 +107,7 @@ from trials.text_input import NUMBER, decode_utf8, read_bytes, show, split_field
 
 __all__ = [
     "LOG_COLUMNS",
+    "MAX_DROPOUT_S",
     "MAX_HEADING_DEG",
     "MAX_ON_BOARD_M",
     "MAX_POSITION_M",
@@ -176,6 +181,11 @@ ON_BOARD_KEYS: Final = MappingProxyType(
 MAX_STW_MPS: Final = 50.0
 """Largest ``stw_mps`` [m/s] (97 kn: no displacement ship is faster); the least is 0.
 Also the bound of ``|stw_transverse_mps|``."""
+
+MAX_DROPOUT_S: Final = 5.0
+"""Longest dropout of an optional column's sensor (its empty cells) the reader fills [s],
+from the last value before to the first after (or to the log's end): the longest gap of
+a stream ``identifier convert`` resamples across by default (``--max-gap-s``)."""
 
 _SEPARATOR: Final = ","
 _OTHER_SEPARATORS: Final = ((";", "';'"), ("\t", "a tab"), ("|", "'|'"))
@@ -277,6 +287,9 @@ class ManeuverLog:
         Speed through the water across the ship, positive to starboard, from the same
         log's transverse axis [m/s] (column ``stw_transverse_mps``); None when absent, and
         only with ``stw_mps``.
+    filled : Mapping[str, int]
+        How many empty cells of each optional column (by column name, e.g.
+        ``"stw_mps"``) the reader filled: a sensor's dropout (module docstring).
 
     Raises
     ------
@@ -301,6 +314,7 @@ class ManeuverLog:
     wind_angle_rad: _FloatArray | None = None
     stw_mps: _FloatArray | None = None
     stw_transverse_mps: _FloatArray | None = None
+    filled: Mapping[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.stw_transverse_mps is not None and self.stw_mps is None:
@@ -320,6 +334,7 @@ class ManeuverLog:
                 f"({float(self.time_s[index])!r} s) follows {float(self.time_s[index - 1])!r} s"
             )
         object.__setattr__(self, "metadata", _frozen_metadata(self.metadata))
+        object.__setattr__(self, "filled", MappingProxyType(dict(self.filled)))
         if self.path is not None:
             object.__setattr__(self, "path", os.fspath(self.path))
 
@@ -849,6 +864,9 @@ class _Parser:
             )
         for column, index, values in zip(self.columns, self.column_index, self.values, strict=True):
             cell = fields[index].strip()
+            if not cell and column in OPTIONAL_COLUMNS:
+                values.append(math.nan)  # a sensor's dropout: filled by finish()
+                continue
             value = float(cell) if NUMBER.fullmatch(cell) else math.nan
             if not math.isfinite(value):
                 if not cell:
@@ -918,7 +936,6 @@ class _Parser:
             for column, values in zip(self.columns, self.values, strict=True)
         }
         time_s, x_m, y_m, heading_deg, rudder_deg, rpm = (arrays[c] for c in LOG_COLUMNS)
-        wind_angle_deg = arrays.get("wind_angle_deg")
         steps = np.diff(time_s)
         if np.any(steps <= 0.0):
             k = int(np.flatnonzero(steps <= 0.0)[0]) + 1
@@ -934,6 +951,11 @@ class _Parser:
                 expected="strictly increasing time",
             )
         self.check_gap(time_s, steps)
+        filled: dict[str, int] = {}
+        for column in OPTIONAL_COLUMNS:
+            if column in arrays and np.isnan(arrays[column]).any():
+                arrays[column], filled[column] = self.fill_dropouts(column, time_s, arrays[column])
+        wind_angle_deg = arrays.get("wind_angle_deg")
         return ManeuverLog(
             time_s=time_s,
             x_m=x_m,
@@ -947,4 +969,42 @@ class _Parser:
             wind_angle_rad=None if wind_angle_deg is None else np.deg2rad(wind_angle_deg),
             stw_mps=arrays.get("stw_mps"),
             stw_transverse_mps=arrays.get("stw_transverse_mps"),
+            filled=filled,
         )
+
+    def fill_dropouts(
+        self, column: str, time_s: _FloatArray, values: _FloatArray
+    ) -> tuple[_FloatArray, int]:
+        """Return an optional column with its empty cells (NaN) filled, and their count.
+
+        Linear in time between the values around each dropout (a wind angle on the
+        shorter way round), the nearest value at the log's ends; a dropout longer than
+        :data:`MAX_DROPOUT_S`, or a column without any value, is an error at its first
+        empty cell.
+        """
+        empty = np.isnan(values)
+        good = np.flatnonzero(~empty)
+        starts = np.flatnonzero(empty & ~np.concatenate(([False], empty[:-1])))
+        ends = np.flatnonzero(empty & ~np.concatenate((empty[1:], [False])))
+        for first, last in zip(starts, ends, strict=True):
+            before = time_s[first - 1] if first > 0 else time_s[first]
+            after = time_s[last + 1] if last + 1 < time_s.size else time_s[last]
+            if good.size == 0 or after - before > MAX_DROPOUT_S:
+                lasting = "the whole log" if good.size == 0 else f"{after - before:.6g} s"
+                raise self.error(
+                    f"expected a finite number, got an empty field: {column}'s sensor drops "
+                    f"out for {lasting} (lines {self.row_lines[first]} to "
+                    f"{self.row_lines[last]}); a dropout of at most {MAX_DROPOUT_S:g} s is "
+                    "interpolated",
+                    self.row_lines[first],
+                    column=column,
+                    expected="a finite number",
+                )
+        known = values[good]
+        if column == "wind_angle_deg":  # the shorter way round between two bearings
+            known = np.rad2deg(np.unwrap(np.deg2rad(known)))
+        result = values.copy()
+        result[empty] = np.interp(time_s[empty], time_s[good], known)
+        if column == "wind_angle_deg":
+            result[empty] = np.mod(result[empty], 360.0)
+        return result, int(empty.sum())
