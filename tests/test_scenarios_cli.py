@@ -18,7 +18,9 @@ import pytest
 from fmu_model import ModelParameters, get_model, save_params
 from fmu_model.envelope import Envelope, Sides, Span
 from fmu_model.export_native import build_native_fmu
+from identifier.smoothing import smooth_log
 from scenarios.cli import PROG, main
+from scenarios.cli.fmu_runs import logged_run
 from scenarios.errors import ScenarioError
 from scenarios.fmu_checks import check_params_match, read_fmu_info
 from scenarios.fmu_plant import FmuPlant
@@ -606,6 +608,40 @@ def test_params_of_an_unrelated_structure_are_refused_by_structure(prime_fmu):
     message = str(excinfo.value)
     assert message.startswith("p.json: the parameters (shi2009, vessel 'testship') do not match")
     assert message.endswith(f"their model structure is shi2009 but the FMU's is {PRIME_MODEL}")
+
+
+def test_a_log_is_laid_over_the_run_at_its_execute_point_and_heading(params) -> None:
+    """A 20 deg turn logged 1 km North and 500 m West of the run's origin, on a course
+    of 40 deg: the figure's log lies on the run of the same ship (the run at its origin
+    heading North); its speeds are the smoothed track's."""
+    run = run_program(
+        ModelPlant(params),
+        replace(turning_circle(math.radians(20.0), max_time_s=300.0), approach_s=30.0),
+        speed_mps=5.0,
+        n_rps=2.0,
+        rudder_rate_radps=math.radians(3.0),
+        dt_s=0.5,
+    )
+    turn = math.radians(40.0)
+    north, east = run["x_m"] - run["x_m"][0], run["y_m"] - run["y_m"][0]
+    log = ManeuverLog(
+        run["time_s"] - run["time_s"][0] + 100.0,
+        1000.0 + math.cos(turn) * north - math.sin(turn) * east,
+        -500.0 + math.sin(turn) * north + math.cos(turn) * east,
+        run["psi_rad"] + turn,
+        run["rudder_rad"],
+        run["n_rps"],
+        metadata={"length_m": "100.0"},
+    )
+    track = smooth_log(log)
+    laid = logged_run(log, track, 130.0, run[run["time_s"] >= -10.0])
+    assert laid["time_s"][0] == pytest.approx(-10.0) and laid.size == np.sum(run["time_s"] >= -10.0)
+    later = run[run["time_s"] >= -10.0]
+    for key in ("x_m", "y_m"):
+        np.testing.assert_allclose(laid[key], later[key], atol=1e-6)
+    np.testing.assert_allclose(laid["psi_rad"], later["psi_rad"], atol=1e-12)
+    np.testing.assert_array_equal(laid["u_mps"], track.u_mps[log.time_s >= 120.0])
+    assert abs(later["x_m"][-1] - log.x_m[-1]) > 100.0  # where the log was: moved
 
 
 def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_path, capsys):

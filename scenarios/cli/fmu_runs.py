@@ -45,7 +45,7 @@ import sys
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -426,9 +426,55 @@ def _run_on_fmu(
         return simulate(plant, program, condition, progress)
 
 
+class _MeasuredRun(NamedTuple):
+    """What :func:`_measured_run` sailed, and with ``--like`` what was logged."""
+
+    program: Program
+    condition: Condition
+    trajectory: np.ndarray
+    record: dict[str, Any]
+    lines: list[str]
+    """The lines that report the log's current (none without one)."""
+    logged: np.ndarray | None
+    """The log as the run's figure overlays it (:func:`logged_run`); None without one."""
+
+
+def logged_run(
+    log: ManeuverLog, track: SmoothedTrack, execute_time_s: float, trajectory: np.ndarray
+) -> np.ndarray:
+    """Return a logged manoeuvre laid over a run of it, for the run's figure.
+
+    The log (``trials.conditions.log_trajectory``, with the speeds of its smoothed
+    ``track``) from the start of ``trajectory`` on, its time from its execute point at
+    ``execute_time_s`` [s], turned and moved so that at execute it is where the run is at
+    time 0, with the run's heading: predicted and logged then part where the model does.
+    """
+    traj = log_trajectory(log)
+    traj["u_mps"], traj["v_mps"] = track.u_mps, track.v_mps
+    here = [np.interp(execute_time_s, log.time_s, traj[k]) for k in ("x_m", "y_m", "psi_rad")]
+    there = [np.interp(0.0, trajectory["time_s"], trajectory[k]) for k in ("x_m", "y_m", "psi_rad")]
+    turn = there[2] - here[2]
+    north, east = traj["x_m"] - here[0], traj["y_m"] - here[1]
+    traj["x_m"] = there[0] + math.cos(turn) * north - math.sin(turn) * east
+    traj["y_m"] = there[1] + math.sin(turn) * north + math.cos(turn) * east
+    traj["psi_rad"] += turn
+    traj["time_s"] -= execute_time_s
+    return traj[traj["time_s"] >= trajectory["time_s"][0]]
+
+
+def _figure_runs(
+    args: argparse.Namespace, info: FmuInfo, trajectory: np.ndarray, logged: np.ndarray | None
+) -> list[tuple[str, np.ndarray]]:
+    """Return the runs of a turning circle's or zig-zag's figure: the log first, if any."""
+    predicted = (info.model_name, trajectory)
+    if logged is None:
+        return [predicted]
+    return [(f"logged ({Path(args.like).name})", logged), predicted]
+
+
 def _measured_run(
     args: argparse.Namespace, info: FmuInfo, program: Program, condition: Condition
-) -> tuple[Program, Condition, np.ndarray, dict[str, Any], list[str]]:
+) -> _MeasuredRun:
     """Run a turning circle or zig-zag after ``--approach-s``; its JSON record of metrics.
 
     With ``--like LOG.csv`` the program and condition are the log's
@@ -438,11 +484,11 @@ def _measured_run(
     indices under ``"logged"``. A logged turning circle of 720° or more is corrected for
     its current (:func:`_corrected_log`): the record's ``logged`` gains
     ``current_corrected``, and when the drift counts the ship sails the corrected log's
-    condition (its approach speed through the water). The last item returned are the
-    lines that report the log's current (none without one).
+    condition (its approach speed through the water).
     """
     logged: dict[str, Any] | None = None
     lines: list[str] = []
+    overlay: tuple[ManeuverLog, SmoothedTrack, float] | None = None
     if args.like:
         log = at_midship(read_log(args.like))  # judged and deglitched as fit does
         track = smooth_log(log)
@@ -460,10 +506,12 @@ def _measured_run(
             )
         check_rudder(info, like.program.rudder_rad)
         current: dict[str, Any] | None = None
+        corrected_log: ManeuverLog | None = None
         if like.program.kind == "turning":
             corrected_log, current, lines = _corrected_log(args, info, log, like)
             if corrected_log is not None:
                 like = logged_condition(corrected_log, max_time_s=limit_s)
+        overlay = (log if corrected_log is None else corrected_log), track, like.execute_time_s
         corrected = current is not None and bool(current["applied"])
         if not corrected and getattr(args, "current_mps", None) is None:
             _warn_of_logged_current(args.like, log, track)
@@ -482,7 +530,8 @@ def _measured_run(
     _sea_record(args, record)
     if logged is not None:
         record["logged"] = {"log": args.like, **logged}
-    return program, condition, trajectory, record, lines
+    laid = None if overlay is None else logged_run(*overlay, trajectory)
+    return _MeasuredRun(program, condition, trajectory, record, lines, laid)
 
 
 def _judged_by_imo(info: FmuInfo, rudder_rad: float) -> bool:
@@ -710,9 +759,8 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
         heading_change_rad=math.radians(args.heading_change_deg),
         max_time_s=_limit_s(args, info, condition),
     )
-    program, condition, trajectory, record, logged_lines = _measured_run(
-        args, info, program, condition
-    )
+    sailed = _measured_run(args, info, program, condition)
+    program, condition, trajectory, record = sailed[:4]
     current_lines: list[str] = []
     found = _current_of_turn(
         args, info, trajectory, 0.0, program.rudder_rad, velocities="water", where="this run"
@@ -730,7 +778,9 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
         from scenarios.plots import trajectory_figure
 
         return trajectory_figure(
-            [("", [(info.model_name, trajectory)])], info.length_m, title=_title(info, program)
+            [("", _figure_runs(args, info, trajectory, sailed.logged))],
+            info.length_m,
+            title=_title(info, program),
         )
 
     beyond_lines = _extrapolation(envelope, program, trajectory, info, record)
@@ -741,7 +791,7 @@ def run_turning_circle_command(args: argparse.Namespace) -> int:
             lines.append(f"  {label:<18} {record[f'{key}_m']:9.1f} m  {record[f'{key}_L']:7.3f} L")
     lines.append(f"  {'time to 90 deg':<18} {record['time_to_90_s']:9.1f} s")
     lines.append(f"  {'speed loss':<18} {record['speed_loss_pct']:9.1f} %")
-    print("\n".join(lines + current_lines + logged_lines + _logged_lines(record) + beyond_lines))
+    print("\n".join(lines + current_lines + sailed.lines + _logged_lines(record) + beyond_lines))
     return 0
 
 
@@ -758,12 +808,14 @@ def run_zigzag_command(args: argparse.Namespace) -> int:
         n_reversals=args.reversals,
         max_time_s=_limit_s(args, info, condition),
     )
-    program, condition, trajectory, record, _ = _measured_run(args, info, program, condition)
+    sailed = _measured_run(args, info, program, condition)
+    program, condition, trajectory, record = sailed[:4]
 
     def figure() -> Any:
         from scenarios.plots import zigzag_figure
 
-        return zigzag_figure([(info.model_name, trajectory)], title=_title(info, program))
+        runs = _figure_runs(args, info, trajectory, sailed.logged)
+        return zigzag_figure(runs, title=_title(info, program))
 
     beyond_lines = _extrapolation(envelope, program, trajectory, info, record)
     _save_outputs(args, info, program, condition, trajectory, record, figure)
