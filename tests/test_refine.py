@@ -257,9 +257,9 @@ def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candida
     assert result.initial_method == "equation-error" and result.kept == "initial"
     np.testing.assert_array_equal(result.params.to_vector(), other.to_vector())
     why = (
-        "the EKF estimate from the EKF start fails the sanity guard (a virtual hard-over turn "
-        "diverges, turns back, loses its headway or does not pass 360 deg); refined again "
-        "from the equation-error estimate, which sails the virtual turns and zig-zags"
+        "the EKF start fails the sanity guard (a virtual hard-over turn diverges, turns back, "
+        "loses its headway or does not pass 360 deg) and its refinement was not kept; refined "
+        "again from the equation-error estimate, which sails the virtual turns and zig-zags"
     )
     assert why in result.warnings and why in result.reason
     assert why in result.params.identification["refinement"]["reason"]

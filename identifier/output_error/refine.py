@@ -186,15 +186,20 @@ def refine_output_error(
             again = refine_output_error(
                 others[sane], logs, tracks=tracks, settings=settings, method=sane
             )
-            kept_label = "output-error" if kept == "refined" else label
+            failing = (
+                f"the output-error estimate from the {label} start fails the sanity guard "
+                f"({SANITY_FAILURE})"
+                if kept == "refined"
+                else f"the {label} start fails the sanity guard ({SANITY_FAILURE}) and its "
+                "refinement was not kept"
+            )
             why = (
-                f"the {kept_label} estimate from the {label} start fails the sanity guard "
-                f"({SANITY_FAILURE}); refined again from the {method_label(sane)} estimate, "
-                "which sails the virtual turns and zig-zags"
+                f"{failing}; refined again from the {method_label(sane)} estimate, which "
+                "sails the virtual turns and zig-zags"
             )
             return replace(
                 again,
-                reason=f"{again.reason} ({why})",
+                reason=f"{again.reason}; {why}",
                 warnings=(*warnings, why, *again.warnings),
             ).recorded()
     if kept_fit.position_rms_L > POOR_REPLAY_L:  # of the estimate kept, not a rescued one
