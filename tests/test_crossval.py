@@ -12,9 +12,16 @@ import pytest
 
 from fmu_model import ModelParameters
 from identifier.cli import main
-from identifier.crossval import Fold, cross_validate, held_out_errors, select_logs
+from identifier.crossval import (
+    SAIL_STEP_L,
+    Fold,
+    cross_validate,
+    held_out_errors,
+    select_logs,
+)
 from identifier.identify import FitSettings
 from identifier.ingest import output_paths
+from identifier.smoothing import smooth_log
 from scenarios.synthesize import (
     MANEUVERS,
     model_ship,
@@ -23,9 +30,10 @@ from scenarios.synthesize import (
     with_gnss_jumps,
 )
 from tests.conftest import SEED_COEFFICIENTS
-from trials.conditions import maneuver_kind, zigzag_angles
+from trials.conditions import logged_condition, maneuver_kind, sail_again
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log, write_log
+from trials.run import ModelPlant
 
 RUDDER_RATE = math.radians(5.0)
 NAMES = ("turning-35", "zigzag-10", "zigzag-20", "turning-35-port", "zigzag-10-port")
@@ -88,13 +96,17 @@ def test_logs_are_classified_by_their_rudder_not_their_names(
 _ARRAYS = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
 
 
+def _angles_deg(log: ManeuverLog) -> tuple[float, float]:
+    """The zig-zag's first rudder command and check heading as its condition reads them."""
+    program = logged_condition(log).program
+    return math.degrees(program.rudder_rad), math.degrees(program.heading_rad)
+
+
 def test_zigzag_angles_from_the_source_or_from_the_data(logs: dict[str, ManeuverLog]) -> None:
-    log = logs["zigzag-10-port"]
-    rudder, heading = zigzag_angles(log)
-    assert (math.degrees(rudder), math.degrees(heading)) == pytest.approx((-10.0, 10.0))
+    assert _angles_deg(logs["zigzag-10-port"]) == pytest.approx((-10.0, 10.0), abs=0.01)
     bare = ManeuverLog(*(getattr(logs["zigzag-20"], k) for k in _ARRAYS), metadata={})
-    rudder, heading = zigzag_angles(bare)  # largest rudder; heading at the first reversal
-    assert (math.degrees(rudder), math.degrees(heading)) == pytest.approx((20.0, 20.0))
+    # the rudder's plateaus; the standard angle the logged switch headings stand for
+    assert _angles_deg(bare) == pytest.approx((20.0, 20.0), abs=0.01)
 
 
 def test_model_fitted_to_its_own_data_predicts_held_out_manoeuvres_within_1_percent(
@@ -116,6 +128,30 @@ def test_model_fitted_to_its_own_data_predicts_held_out_manoeuvres_within_1_perc
     for held in (turning, zig):  # nothing uncovered, nothing diverged; a current of < 0.1 m/s
         (note,) = held.notes
         assert note.startswith("predicted in the training fit's current, 0.0"), note
+
+
+def test_a_held_out_zigzag_is_sailed_again_closed_loop(
+    known_answer: Fold, logs: dict[str, ManeuverLog]
+) -> None:
+    """A model whose rudder turns the ship a fifth harder, on the held-out 10/10: its
+    indices are those of the zig-zag it sails itself, reversing at the logged switch
+    headings (``trials.conditions.sail_again``, as the scenarios' --like sails it), not
+    those of a replay of the logged rudder, which reverses when the log did (before:
+    second overshoot 7.2 deg against 15.8 closed loop on HSVA's 10/10 starboard-first
+    run, leaving it out of the four)."""
+    params = known_answer.params
+    theta = params.to_vector().copy()
+    theta[[t.coefficient for t in params.structure.terms].index("c3")] *= 1.2
+    harder = params.with_vector(theta)
+    log = logs["zigzag-10-port"]
+    metrics = {m.name: m for m in held_out_errors(harder, log).metrics}
+    speed = float(np.median(smooth_log(log).speed_mps))
+    again = sail_again(ModelPlant(harder), log, dt_s=SAIL_STEP_L * harder.length_m / speed)
+    for key in ("first_overshoot_deg", "second_overshoot_deg", "time_to_check_yaw_s"):
+        assert metrics[key].predicted == pytest.approx(again.predicted[key], rel=1e-12), key
+    first = metrics["first_overshoot_deg"]
+    assert first.predicted is not None and first.logged is not None
+    assert first.predicted > first.logged + 0.3  # harder over: further past the check heading
 
 
 def test_a_held_out_logs_glitches_are_taken_out_as_the_fits_are(
@@ -213,14 +249,12 @@ def test_a_converted_logs_segment_suffix_is_not_read_as_an_angle(
     assert first.name == "zigzag-10_1.csv"
     converted = ManeuverLog(*arrays, metadata={}, path=str(first))
     assert maneuver_kind(converted) == "zigzag"
-    rudder, heading = zigzag_angles(converted)  # from the data: 10/10, not 10/1
-    assert (math.degrees(rudder), math.degrees(heading)) == pytest.approx((10.0, 10.0))
+    assert _angles_deg(converted) == pytest.approx((10.0, 10.0), abs=0.01)  # not 10/1
     # angles in the name before the suffix are still read (5 deg: not what the data say)
     _, second = output_paths(tmp_path, "zigzag-10-5", 2)
     named = ManeuverLog(*arrays, metadata={}, path=str(second))
     assert Path(named.path or "").name == "zigzag-10-5_2.csv"
-    rudder, heading = zigzag_angles(named)
-    assert (math.degrees(rudder), math.degrees(heading)) == pytest.approx((10.0, 5.0))
+    assert _angles_deg(named) == pytest.approx((10.0, 5.0), abs=0.01)
 
 
 @pytest.mark.parametrize("length", ["-5", "0", "nan", "inf", "abc"])

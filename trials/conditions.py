@@ -246,35 +246,6 @@ def _approach_speed(log: ManeuverLog, k: int) -> float:
     return float(math.hypot(vx, vy))
 
 
-def zigzag_angles(log: ManeuverLog) -> tuple[float, float]:
-    """Return the zig-zag's first rudder command δ (signed) and nominal check heading Z [rad].
-
-    δ and Z from ``zigzag-δ-Z`` in the source or file name when there (a ``_<digits>``
-    before ``.csv`` is the piece number ``identifier convert`` appends, not an angle),
-    else δ as the largest logged rudder angle (0.1° resolution) and Z as the standard
-    angle the logged switch headings stand for (module docstring). The sign of δ is
-    that of the first rudder movement.
-
-    Raises
-    ------
-    IdentificationError
-        When the rudder is never reversed.
-
-    """
-    log = despiked_inputs(log)[0]  # a spike is no rudder angle (trials.spikes)
-    k = _execute_index(log)
-    sign = _first_side(log, k)
-    named = _named_angles(log)
-    if named is not None:
-        return sign * named[0], named[1]
-    if not _reversals(log, k, sign).size:
-        raise IdentificationError("no rudder reversal: not a zig-zag", log=_name(log))
-    switches = _switch_headings(log, _read_rudder(log, k, reversing=True))
-    largest = float(np.max(np.abs(log.rudder_rad[k:] - log.rudder_rad[0])))
-    rudder = sign * math.radians(round(math.degrees(largest), 1))
-    return rudder, _nominal_check(float(np.mean(switches)))
-
-
 def _switch_headings(log: ManeuverLog, rudder: _RudderReading) -> tuple[float, ...]:
     """|ψ − ψ₀| [rad] where the rudder started to move back at each reversal.
 
@@ -385,8 +356,8 @@ def logged_condition(log: ManeuverLog, *, max_time_s: float = 3600.0) -> LoggedC
 
     switches = _switch_headings(log, rudder)
     mean_switch = float(np.mean(switches))
-    named = _named_angles(log)  # Z as zigzag_angles reads it, from this reading
-    check = named[1] if named is not None else _nominal_check(mean_switch)
+    named = _named_check(log)
+    check = named if named is not None else _nominal_check(mean_switch)
     legs = []
     for i in range(max(len(switches) + 1, 5)):
         side = sign if i % 2 == 0 else -sign
@@ -408,13 +379,17 @@ def logged_condition(log: ManeuverLog, *, max_time_s: float = 3600.0) -> LoggedC
     return LoggedCondition(program, speed, n_rps, rate, execute_s, switches)
 
 
-def _named_angles(log: ManeuverLog) -> tuple[float, float] | None:
-    """(δ, Z) [rad, unsigned] from ``zigzag-δ-Z`` in the source or file name; None if absent."""
+def _named_check(log: ManeuverLog) -> float | None:
+    """Z [rad] from ``zigzag-δ-Z`` in the source or file name; None if absent.
+
+    A ``_<digits>`` before ``.csv`` is the piece number ``identifier convert`` appends,
+    not an angle.
+    """
     name = _PIECE_SUFFIX.sub("", Path(log.path or "").name)
     for text in (log.metadata.get("source", ""), name):
         match = _ZIGZAG_ANGLES.search(text)
         if match:
-            return math.radians(float(match[1])), math.radians(float(match[2]))
+            return math.radians(float(match[2]))
     return None
 
 
