@@ -17,7 +17,7 @@ approach (``identifier.output_error.execute_state``; nothing after execute is us
   and rate, reversing at the logged switch headings, as the scenarios' ``--like``; in
   a current, the log's condition through the water). A replay reverses the rudder when
   the log did, whatever the model's heading: trained on three of HSVA's four runs it put
-  the held-out 10/10 starboard-first second overshoot at 7.2° (closed loop 15.8°,
+  the held-out 10/10 starboard-first second overshoot at 7.2° (closed loop 15.7°,
   measured 20.5°).
 
 Where the training fit estimated a uniform current, the held-out logs are taken as sailed

@@ -137,7 +137,7 @@ def test_a_held_out_zigzag_is_sailed_again_closed_loop(
     indices are those of the zig-zag it sails itself, reversing at the logged switch
     headings (``trials.conditions.sail_again``, as the scenarios' --like sails it), not
     those of a replay of the logged rudder, which reverses when the log did (before:
-    second overshoot 7.2 deg against 15.8 closed loop on HSVA's 10/10 starboard-first
+    second overshoot 7.2 deg against 15.7 closed loop on HSVA's 10/10 starboard-first
     run, leaving it out of the four)."""
     params = known_answer.params
     theta = params.to_vector().copy()
