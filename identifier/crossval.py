@@ -499,8 +499,9 @@ def format_table(cv: CrossValidation) -> str:
             for m in rows:
                 rel = m.relative_error
                 error = "—" if rel is None else f"{rel:+.1%}"
-                if m.name.endswith("_deg") and m.error is not None:
-                    error = f"{m.error:+.2f} deg ({error})"
+                unit = m.name.rsplit("_", 1)[-1]
+                if unit in ("deg", "s") and m.error is not None:  # angles and times: absolute
+                    error = f"{m.error:+.2f} {unit} ({error})"
                 lines.append(
                     f"| {train} | {Path(h.name).name} | {fmt(h.position_rms_L, '.3f')} | "
                     f"{m.name} | {fmt(m.logged)} | {fmt(m.predicted)} | {error} |"

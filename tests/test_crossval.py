@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -205,6 +206,9 @@ def test_cli_leave_one_out_runs_one_fold_per_log(
     assert [f["test"][0]["log"] for f in folds] == [str(p) for p in log_files]
     for fold, held_out in zip(folds, log_files, strict=True):
         assert str(held_out) not in fold["train"] and len(fold["train"]) == 2
+    table = capsys.readouterr().out  # angles and times with their absolute error
+    assert re.search(r"\| first_overshoot_deg \| [^|]+ \| [^|]+ \| [+-]\d+\.\d\d deg \(", table)
+    assert re.search(r"\| time_to_check_yaw_s \| [^|]+ \| [^|]+ \| [+-]\d+\.\d\d s \(", table)
     zig = folds[1]["test"][0]
     assert set(zig["metrics"]) == {
         "first_overshoot_deg", "second_overshoot_deg",
