@@ -51,7 +51,12 @@ from identifier.current import (
 )
 from identifier.identify import FitSettings, identify
 from identifier.output_error import predict_log
-from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log
+from identifier.smoothing import (
+    SmoothedTrack,
+    deglitched_log,
+    smooth_log,
+    smoothed_trajectory,
+)
 from trials.conditions import (
     BEYOND_STANDARD_INDICES,
     KINDS,
@@ -335,10 +340,7 @@ def held_out_errors(
         notes.append(f"the prediction diverges at t = {log.time_s[k + int(np.argmin(finite))]:g} s")
     kind = maneuver_kind(log)
     metrics: list[MetricError] = []
-    logged_states = np.column_stack(
-        [track.u_mps, track.v_mps, track.r_radps, track.x_m, track.y_m, track.heading_rad]
-    )
-    smoothed = _trajectory(log.time_s, logged_states, log.rudder_rad, log.n_rps)
+    smoothed = smoothed_trajectory(log, track)
     if kind == "zigzag":  # its rudder follows its heading: sailed again, closed loop
         sailed = log if current is None else water_frame(log, track, current.vector)[0]
         step_s = SAIL_STEP_L * params.length_m / float(np.median(track.speed_mps))

@@ -107,6 +107,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from trials.angles import unwrap_heading
 from trials.logs import ManeuverLog
+from trials.trajectory import empty_trajectory
 
 __all__ = [
     "DEFAULT_TAU_S",
@@ -1819,6 +1820,22 @@ def smooth_log(log: ManeuverLog) -> SmoothedTrack:
 
     """
     return smooth_track(log.time_s, log.x_m, log.y_m, log.heading_rad)
+
+
+def smoothed_trajectory(log: ManeuverLog, track: SmoothedTrack) -> np.ndarray:
+    """Return ``log`` as a trajectory of its smoothed ``track``, rudder and rpm as logged.
+
+    What a logged manoeuvre's indices are read off (``trials.conditions.maneuver_indices``:
+    the scenarios' ``--like``, ``identifier.crossval``): a zig-zag's heading peaks are flat,
+    and the peak of a 1 Hz log's raw headings with 0.1° of noise put its time to check
+    yaw 0.3–0.54 s off in four draws of four (``tests/test_scenarios_cli.py``).
+    """
+    traj = empty_trajectory(log.n_samples)
+    traj["time_s"] = log.time_s
+    traj["u_mps"], traj["v_mps"], traj["r_radps"] = track.u_mps, track.v_mps, track.r_radps
+    traj["x_m"], traj["y_m"], traj["psi_rad"] = track.x_m, track.y_m, track.heading_rad
+    traj["rudder_rad"], traj["n_rps"] = log.rudder_rad, log.n_rps
+    return traj
 
 
 def deglitched_log(log: ManeuverLog, track: SmoothedTrack) -> ManeuverLog:

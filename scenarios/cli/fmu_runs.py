@@ -59,7 +59,7 @@ from identifier.current import (
     placed_speed_log,
     speed_log_current,
 )
-from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log
+from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log, smoothed_trajectory
 from scenarios.cli.common import (
     EXIT_GATE_FAILED,
     PROG,
@@ -480,11 +480,11 @@ def _measured_run(
     With ``--like LOG.csv`` the program and condition are the log's
     (``trials.conditions.logged_condition``; a log in another convention, or without a
     straight approach, is a data error: ``identifier.conventions.log_problem``), and the
-    record gains the log's own
-    indices under ``"logged"``. A logged turning circle of 720° or more is corrected for
-    its current (:func:`_corrected_log`): the record's ``logged`` gains
-    ``current_corrected``, and when the drift counts the ship sails the corrected log's
-    condition (its approach speed through the water).
+    record gains the log's own indices, read off its smoothed track
+    (``identifier.smoothing.smoothed_trajectory``), under ``"logged"``. A logged turning
+    circle of 720° or more is corrected for its current (:func:`_corrected_log`): the
+    record's ``logged`` gains ``current_corrected``, and when the drift counts the ship
+    sails the corrected log's condition (its approach speed through the water).
     """
     logged: dict[str, Any] | None = None
     lines: list[str] = []
@@ -519,7 +519,9 @@ def _measured_run(
         condition = Condition(like.speed_mps, like.n_rps, like.rudder_rate_radps, args.dt_s)
         angles = (program.rudder_rad, program.heading_rad)
         logged = {
-            **maneuver_indices(program.kind, log_trajectory(log), like.execute_time_s, angles)
+            **maneuver_indices(
+                program.kind, smoothed_trajectory(log, track), like.execute_time_s, angles
+            )
         }
         if current is not None:
             logged["current_corrected"] = current
