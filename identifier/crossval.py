@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -132,6 +132,11 @@ class HeldOut:
         The manoeuvre's indices.
     notes : tuple of str
         Why an index is missing.
+    logged, predicted : numpy.ndarray or None
+        The trajectories the indices were read off (``TRAJECTORY_DTYPE``, time from the
+        execute point; not in the JSON): the log's smoothed track, and the replay (a
+        turn: from execute, where it stays finite, in the log's frame) or the closed-loop
+        run (a zig-zag: from the origin); None for a log of unknown kind.
 
     """
 
@@ -141,6 +146,8 @@ class HeldOut:
     position_rms_L: float
     metrics: tuple[MetricError, ...]
     notes: tuple[str, ...] = ()
+    logged: np.ndarray | None = field(default=None, repr=False, compare=False)
+    predicted: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def to_json_dict(self) -> dict[str, Any]:
         """JSON-ready dict (non-finite numbers as null)."""
@@ -341,34 +348,34 @@ def held_out_errors(
     kind = maneuver_kind(log)
     metrics: list[MetricError] = []
     smoothed = smoothed_trajectory(log, track)
+    run: np.ndarray | None = None
+    execute_s = float(log.time_s[k])
     if kind == "zigzag":  # its rudder follows its heading: sailed again, closed loop
         sailed = log if current is None else water_frame(log, track, current.vector)[0]
         step_s = SAIL_STEP_L * params.length_m / float(np.median(track.speed_mps))
         again = sail_again(ModelPlant(params), sailed, dt_s=step_s)
         program = again.condition.program
+        execute_s = again.condition.execute_time_s
         angles = (program.rudder_rad, program.heading_rad)
-        logged = maneuver_indices(kind, smoothed, again.condition.execute_time_s, angles)
-        predicted = again.predicted
+        logged = maneuver_indices(kind, smoothed, execute_s, angles)
+        predicted, run = again.predicted, again.trajectory
     elif kind == "turning":  # its rudder is held: the replay is the manoeuvre
-        logged = maneuver_indices(kind, smoothed, float(log.time_s[k]))
+        logged = maneuver_indices(kind, smoothed, execute_s)
         good = int(np.argmin(finite)) if not finite.all() else states.shape[0]
-        predicted = dict.fromkeys(logged)
-        if good > 2:
-            end = k + good
-            traj = _trajectory(
-                log.time_s[k:end], states[:good], log.rudder_rad[k:end], log.n_rps[k:end]
-            )
-            predicted = maneuver_indices(kind, traj, float(log.time_s[k]))
+        end = k + good
+        run = _trajectory(log.time_s[k:end], states[:good], log.rudder_rad[k:end], log.n_rps[k:end])
+        predicted = maneuver_indices(kind, run, execute_s) if good > 2 else {}
+        run["time_s"] -= execute_s
     else:
         logged = predicted = {}
         notes.append("manoeuvre kind unknown (the rudder never leaves midship)")
     for key, value in logged.items():
         if value is None and key in BEYOND_STANDARD_INDICES:
             continue
-        metrics.append(MetricError(key, value, predicted[key]))
+        metrics.append(MetricError(key, value, predicted.get(key)))
         if value is None:
             notes.append(f"{key}: not covered by the logged track")
-        elif predicted[key] is None:
+        elif predicted.get(key) is None:
             notes.append(f"{key}: not reached by the prediction")
     return HeldOut(
         name=name,
@@ -377,7 +384,16 @@ def held_out_errors(
         position_rms_L=rms / params.length_m,
         metrics=tuple(metrics),
         notes=tuple(notes),
+        logged=None if kind is None else _from_execute(smoothed, execute_s),
+        predicted=run,
     )
+
+
+def _from_execute(traj: np.ndarray, execute_s: float) -> np.ndarray:
+    """Return ``traj`` with its time counted from the execute point at ``execute_s`` [s]."""
+    moved = traj.copy()
+    moved["time_s"] -= execute_s
+    return moved
 
 
 # --------------------------------------------------------------------------------------

@@ -1,7 +1,8 @@
 """Figures of an identification: smoothed track, derived velocities, convergence.
 
 The equivalents of Shi et al. (2009), Fig. 2–6: raw vs smoothed data and the
-convergence of every coefficient with its ±2σ band. Matplotlib with the Agg backend;
+convergence of every coefficient with its ±2σ band; and of a cross-validation, each
+held-out log against its prediction. Matplotlib with the Agg backend;
 each figure is written atomically as PNG.
 """
 
@@ -20,6 +21,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from fmu_model.atomic import write_atomic
+from identifier.crossval import CrossValidation, HeldOut
 from identifier.identify import IdentificationResult
 from trials.logs import at_midship
 
@@ -126,6 +128,59 @@ def convergence_figure(result: IdentificationResult) -> Figure:
     fig.supxlabel("EKF step (all logs)")
     fig.tight_layout()
     return fig
+
+
+def held_out_figure(held: HeldOut, length_m: float, title: str) -> Figure:
+    """Plot a held-out log against its prediction (``identifier.crossval``).
+
+    A turn: the smoothed track and the replay of its logged rudder and rpm, in ship
+    lengths ``length_m``, North up. A zig-zag: heading change from the execute heading,
+    and rudder angle, against the time from execute, as logged (smoothed) and as the model
+    sails it closed loop in the log's condition.
+    """
+    fig, ax = plt.subplots(figsize=(8.0, 6.0) if held.kind == "zigzag" else (6.5, 6.0))
+    how = "replayed" if held.kind == "turning" else "sailed closed loop"
+    runs = (("logged", held.logged, "-"), (f"predicted, {how}", held.predicted, "--"))
+    for label, traj, style in runs:
+        if traj is None or traj.size == 0:
+            continue
+        if held.kind == "turning":
+            ax.plot(traj["y_m"] / length_m, traj["x_m"] / length_m, style, color="C0", label=label)
+            continue
+        start = float(np.interp(0.0, traj["time_s"], traj["psi_rad"]))
+        heading = np.degrees(traj["psi_rad"] - start)
+        ax.plot(traj["time_s"], heading, style, color="C0", lw=1.3, label=f"heading, {label}")
+        rudder = np.degrees(traj["rudder_rad"])
+        ax.plot(traj["time_s"], rudder, style, color="C3", lw=1.0, label=f"rudder, {label}")
+    if held.kind == "turning":
+        ax.set_xlabel("y East / L [-]")
+        ax.set_ylabel("x North / L [-]")
+        ax.set_aspect("equal", adjustable="datalim")
+    else:
+        ax.axhline(0.0, color="0.5", lw=0.5)
+        ax.set_xlabel("time from execute [s]")
+        ax.set_ylabel("heading change, rudder [deg]")
+    ax.grid(True, lw=0.4, alpha=0.6)
+    ax.legend(fontsize=8)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def write_held_out_plots(cv: CrossValidation, directory: str | os.PathLike[str]) -> list[Path]:
+    """Write ``fold<k>-<held-out log>.png`` into ``directory`` for every held-out log."""
+    out = Path(directory)
+    paths = []
+    for k, fold in enumerate(cv.folds, start=1):
+        trained = ", ".join(Path(t).name for t in fold.train)
+        for held in fold.held_out:
+            if held.kind is None:
+                continue
+            name = Path(held.name).stem
+            title = f"{Path(held.name).name} held out (trained on {trained}): {cv.model}"
+            figure = held_out_figure(held, fold.params.length_m, title)
+            paths.append(_save(figure, out / f"fold{k}-{name}.png"))
+    return paths
 
 
 def write_plots(result: IdentificationResult, directory: str | os.PathLike[str]) -> list[Path]:

@@ -155,6 +155,29 @@ def test_a_held_out_zigzag_is_sailed_again_closed_loop(
     assert first.predicted > first.logged + 0.3  # harder over: further past the check heading
 
 
+def test_a_held_out_logs_trajectories_are_those_its_indices_were_read_off(
+    known_answer: Fold,
+) -> None:
+    """What ``crossval --plot`` draws: the smoothed log and the prediction, their time
+    from execute; the model of the logs' own structure lies on them (its indices within
+    1 %), and the zig-zag's run reverses its rudder where its heading says."""
+    turning, zig = known_answer.held_out
+    for held in (turning, zig):
+        assert held.logged is not None and held.predicted is not None
+        assert held.logged["time_s"][0] < 0.0 < held.logged["time_s"][-1]
+        assert held.predicted["time_s"][0] == pytest.approx(0.0)
+    assert turning.logged is not None and turning.predicted is not None
+    at = np.searchsorted(turning.logged["time_s"], turning.predicted["time_s"])
+    apart = np.hypot(*(turning.logged[k][at] - turning.predicted[k] for k in ("x_m", "y_m")))
+    assert float(np.max(apart)) < 0.05 * known_answer.params.length_m
+    assert zig.predicted is not None
+    heading = np.degrees(zig.predicted["psi_rad"] - zig.predicted["psi_rad"][0])
+    rudder = np.abs(zig.predicted["rudder_rad"])  # port first: to 10 deg, then back
+    held = int(np.argmax(rudder >= rudder.max() - 1e-9))
+    reversal = held + int(np.argmax(rudder[held:] < rudder.max() - 1e-9))
+    assert abs(heading[reversal]) == pytest.approx(10.0, abs=0.2)  # at the check heading
+
+
 def test_a_held_out_logs_glitches_are_taken_out_as_the_fits_are(
     known_answer: Fold, logs: dict[str, ManeuverLog]
 ) -> None:
@@ -178,11 +201,13 @@ def test_cli_crossval_writes_table_and_json(log_files: list[Path], tmp_path: Pat
     out = tmp_path / "cv.json"
     status = main(
         ["crossval", *map(str, log_files), "--train", "zigzag", "--test", "turning",
-         "--model", "shi2009", "--json", str(out)]
+         "--model", "shi2009", "--json", str(out), "--plot", str(tmp_path / "plots")]
     )  # fmt: skip
     assert status == 0
     table = capsys.readouterr().out
     assert "| tactical_diameter_m |" in table and f"wrote {out}" in table
+    assert f"wrote {tmp_path / 'plots' / 'fold1-turning-35.png'}" in table
+    assert (tmp_path / "plots" / "fold1-turning-35.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     doc = json.loads(out.read_text())
     assert doc["model"] == "shi2009" and doc["method"] == "output-error"
     (fold,) = doc["folds"]

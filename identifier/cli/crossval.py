@@ -33,7 +33,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="identify on some logs, predict the held-out ones",
         description=(
             "Cross-validate a model structure: identify on the training logs, replay the "
-            "held-out logs' rudder and rpm, and compare track and manoeuvre indices."
+            "held-out logs' rudder and rpm (the track), sail their zig-zags closed loop in "
+            "their logged condition, and compare track and manoeuvre indices."
         ),
     )
     cv.add_argument("logs", nargs="+", metavar="LOG.csv", help="trial logs (DESIGN.md format)")
@@ -76,6 +77,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} (default: from logs)",
     )
     cv.add_argument("--json", metavar="OUT", help="write the results as JSON")
+    cv.add_argument(
+        "--plot",
+        metavar="DIR",
+        help="write a figure per held-out log, logged vs predicted (fold<k>-<log>.png)",
+    )
     cv.add_argument("--quiet", action="store_true", help="no table on stdout")
     return cv
 
@@ -104,6 +110,11 @@ def run(args: argparse.Namespace) -> int:
         )
         if args.json:
             write_atomic(args.json, json.dumps(cv.to_json_dict(), indent=2, allow_nan=False) + "\n")
+        figures = []
+        if args.plot:
+            from identifier.plots import write_held_out_plots
+
+            figures = write_held_out_plots(cv, args.plot)
     except DATA_ERRORS as exc:
         return error(str(exc))
     except OSError as exc:
@@ -113,6 +124,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"warning: {warning}", file=sys.stderr)
     if not args.quiet:
         print(format_table(cv))
-        if args.json:
-            print(f"wrote {args.json}")
+        for path in ([args.json] if args.json else []) + figures:
+            print(f"wrote {path}")
     return 0
