@@ -278,7 +278,7 @@ def test_a_sensors_dropout_in_an_optional_column_is_interpolated_and_counted() -
     assert log.stw_transverse_mps[-1] == log.stw_transverse_mps[-2]
     for name in ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps"):
         np.testing.assert_array_equal(getattr(log, name), getattr(full, name))
-    # A required column's empty cell is still an error (the first case of BAD_LOGS).
+    # A required column's empty cell is still an error (BAD_LOGS' "empty cell").
     required = r"column 'x_m': expected a finite number, got an empty field$"
     with pytest.raises(LogFormatError, match=required):
         parse_log(_text(_with_optional_columns()).replace("\n0.5,4.0,", "\n0.5,,", 1))
