@@ -1,9 +1,10 @@
 """What a fit's estimate or logs leave in doubt: the warnings and notes of ``identify``.
 
 Pure judgements of an estimate (its propeller thrust, its centripetal surge term), of
-what the logs determine (the surge force of a hard turn; a current their headings barely
-tell from the ship's speed), of a current asked of a model's logs, and of an approach at
-a helm off the centre line that the model family has no term for. Each returns its text,
+what the logs determine (the surge force of a hard turn, the response to a rudder
+reversal; a current their headings barely tell from the ship's speed), of a current
+asked of a model's logs, and of an approach at a helm off the centre line that the model
+family has no term for. Each returns its text,
 or None where there is nothing to say.
 """
 
@@ -19,7 +20,8 @@ from fmu_model.variants import NEUTRAL_RUDDER_OFFSET, PRIME_RUDDER_OFFSET, famil
 from identifier.current import MIN_HEADING_SPAN_RAD, CurrentEstimate, heading_span_rad
 from identifier.preparation import SmoothedLogs
 from identifier.smoothing import SmoothedTrack
-from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, approach_helm_rad
+from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, approach_helm_rad, maneuver_kind
+from trials.logs import ManeuverLog
 
 NEUTRAL_HELM_NOTE_RAD = math.radians(0.5)
 """An approach helm [rad] beyond which ``identify`` notes the neutral-rudder family: above a
@@ -84,6 +86,27 @@ def turn_surge_warning(
         "these logs, and it sets the speed the model keeps in a turn: its turning circles "
         "are extrapolated (on the KVLCC2 reference these terms alone move a zig-zag fit's "
         f"35 deg tactical diameter by 30 points){prior}; add a turning circle to the logs"
+    )
+
+
+def reversal_warning(logs: Sequence[ManeuverLog]) -> str | None:
+    """Return a warning when no log reverses its rudder (turning circles only), else None.
+
+    A turn holds its rudder to one side: it fixes the steady turn's balance of rudder
+    and yaw damping, not the response to a reversal, which a zig-zag's overshoots are.
+    Trained on the 35° turns to both sides (1 Hz, 1 m, 0.1°; by hand, 2026-12-07), the
+    default fit of the KVLCC2 reference predicts the 10°/10° zig-zag's overshoots 3.3° /
+    4.4° against 5.0° / 14.0° (its EKF estimate diverges in it), the Mariner's 1.1° / 0.2°
+    against 6.4° / 5.6°; no envelope warns of it, for a 10° rudder is within a turn's 35°.
+    The mirror of :func:`turn_surge_warning`.
+    """
+    if any(maneuver_kind(log) == "zigzag" for log in logs):
+        return None
+    return (
+        "no log reverses its rudder (turning circles only): the model's response to a "
+        "rudder reversal, a zig-zag's overshoots, is not determined by these logs (on the "
+        "KVLCC2 reference two 35 deg turns predict the 10/10 zig-zag's second overshoot at "
+        "4.4 deg against 14.0); add a zig-zag to the logs"
     )
 
 

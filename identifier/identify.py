@@ -105,6 +105,7 @@ from identifier.diagnostics import (
     heading_span_warning,
     model_current_warning,
     neutral_helm_note,
+    reversal_warning,
     thrust_warning,
     turn_surge_warning,
 )
@@ -1086,9 +1087,12 @@ def _fit(
             f"posterior std above {settings.max_relative_std:.0%} of the value): " + ", ".join(weak)
         )
     held = [t.coefficient for t in structure.terms if t.prior_std is not None]
-    open_turn = turn_surge_warning(weak, turn_logged=covers_turn(tracks), held=held)
-    if open_turn is not None:
-        warnings.append(open_turn)
+    for left_open in (
+        turn_surge_warning(weak, turn_logged=covers_turn(tracks), held=held),
+        reversal_warning(logs),
+    ):
+        if left_open is not None:
+            warnings.append(left_open)
     refinement = None
     steps = _replay_steps(logs, length, nominal_speed_mps)
     if settings.method == "output-error" and steps > MAX_REFINE_STEPS:

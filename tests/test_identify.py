@@ -22,7 +22,12 @@ from fmu_model.variants import (
 )
 from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
-from identifier.diagnostics import centripetal_warning, thrust_warning, turn_surge_warning
+from identifier.diagnostics import (
+    centripetal_warning,
+    reversal_warning,
+    thrust_warning,
+    turn_surge_warning,
+)
 from identifier.identify import FitSettings, IdentificationResult, fixed_thrust_model, identify
 from identifier.preparation import MAX_SAMPLE_INTERVAL_S, ekf_order, smooth_logs
 from scenarios.kvlcc2 import kvlcc2
@@ -554,6 +559,23 @@ def test_zigzags_alone_leave_the_turns_surge_open_and_a_turning_log_does_not(
     assert len(alone) == 1 and "X_vv, X_rr keep the family's prior" in alone[0]
     both = identify(list(kvlcc2_zigzag_and_turn), _SURGE_SETTINGS).warnings
     assert not any("surge force of a hard turn" in w for w in both)
+
+
+def test_turning_circles_alone_leave_the_response_to_a_reversal_open_and_a_zigzag_does_not(
+    kvlcc2_zigzag_and_turn: tuple[ManeuverLog, ManeuverLog],
+    kvlcc2_zigzag_fit: IdentificationResult,
+) -> None:
+    """The mirror of the surge warning: a fit of turns alone (here one 35° turn) is warned
+    that a zig-zag's overshoots are not determined; a zig-zag's fit is not."""
+    zigzag, turn = kvlcc2_zigzag_and_turn
+    port = replace(turn, rudder_rad=-turn.rudder_rad, y_m=-turn.y_m, heading_rad=-turn.heading_rad)
+    assert reversal_warning([zigzag]) is None and reversal_warning([turn, zigzag]) is None
+    warning = reversal_warning([turn, port])  # both sides, each held: no reversal
+    assert warning is not None and warning.startswith("no log reverses its rudder")
+    assert warning.endswith("add a zig-zag to the logs")
+    warned = identify([turn], _SURGE_SETTINGS).warnings
+    assert sum(w.startswith("no log reverses its rudder") for w in warned) == 1
+    assert not any("reverses its rudder" in w for w in kvlcc2_zigzag_fit.warnings)
 
 
 def test_the_surge_drag_prior_leaves_the_centripetal_term_to_a_zigzag(
