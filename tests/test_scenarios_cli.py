@@ -671,9 +671,10 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
             metadata={"vessel": "testship", "length_m": "100.0"},
         ),
     )
-    out = tmp_path / "like.json"
+    out, png = tmp_path / "like.json", tmp_path / "like.png"
     args = ["zigzag", "--fmu", str(fmu), "--like", str(log), "--json", str(out), "--quiet"]
-    assert main(args) == 0
+    assert main([*args, "--plot", str(png)]) == 0  # the log laid over the run
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     record = json.loads(out.read_text())
     run = record["run"]
     speed = math.hypot(truth["u_mps"][execute], truth["v_mps"][execute])
@@ -787,9 +788,10 @@ def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_
                            metadata={**midship.metadata, "gnss_x_m": "-300.0"}))  # fmt: skip
     records = []
     for logged in (turn, aft):
-        out = tmp_path / f"{logged.stem}.json"
+        out, png = tmp_path / f"{logged.stem}.json", tmp_path / f"{logged.stem}.png"
         args = ["turning-circle", "--fmu", str(fmu), "--like", str(logged), "--json", str(out)]
-        assert main([*args, "--quiet"]) == 0, capsys.readouterr().err
+        assert main([*args, "--quiet", "--plot", str(png)]) == 0, capsys.readouterr().err
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         records.append(json.loads(out.read_text())["logged"])
     for key in ("advance_m", "transfer_m", "tactical_diameter_m", "steady_diameter_m"):
         assert records[1][key] == pytest.approx(records[0][key], rel=1e-9)
