@@ -471,7 +471,9 @@ def smooth_logs(
             )
         if log.filled:
             cells = ", ".join(f"{count} of {column}" for column, count in log.filled.items())
-            notes.append(f"{name}: empty cells ({cells}), a sensor's dropout, interpolated")
+            notes.append(
+                f"{name}: cells without a value ({cells}), a sensor's dropout, interpolated"
+            )
         if (gaps_note := _check_sampling(log, name)) is not None:
             notes.append(gaps_note)
         stage(f"smoothing {Path(name).name}")

@@ -264,9 +264,11 @@ def test_a_speed_logs_dropout_filled_on_reading_is_noted() -> None:
             position_noise_m=None, heading_noise_rad=None, measurements="track",
             windage=None, drifting=False, progress=None, stage=lambda _: None,
         )  # fmt: skip
-        return [n for n in data.notes if "empty" in n]
+        return [n for n in data.notes if "without a value" in n]
 
-    assert notes(text) == ["z.csv: empty cells (3 of stw_mps), a sensor's dropout, interpolated"]
+    assert notes(text) == [
+        "z.csv: cells without a value (3 of stw_mps), a sensor's dropout, interpolated"
+    ]
     assert notes(format_log(replace(log, stw_mps=np.full(log.n_samples, 8.0))).splitlines()) == []
 
 

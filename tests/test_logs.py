@@ -247,16 +247,17 @@ def test_optional_columns_are_read_when_present_and_none_when_absent() -> None:
 
 
 def test_a_sensors_dropout_in_an_optional_column_is_interpolated_and_counted() -> None:
-    """Empty cells of an optional column (up to 5 s) are its sensor's dropout, not an error:
+    """Empty or NaN cells of an optional column (up to 5 s) are its sensor's dropout:
     filled linearly in time, the wind angle the shorter way round through North, the
     nearest value at the ends; the required columns and the other cells as logged."""
     full = parse_log(_text(_with_optional_columns()))
     assert dict(full.filled) == {}
     lines = _with_optional_columns()
-    for row, column in ((3, "stw_mps"), (4, "stw_mps"), (5, "wind_angle_deg"),
-                        (0, "wind_speed_mps"), (N_ROWS - 1, "stw_transverse_mps")):  # fmt: skip
+    for row, column, cell in ((3, "stw_mps", " "), (4, "stw_mps", "NaN"),
+                              (5, "wind_angle_deg", ""), (0, "wind_speed_mps", "nan"),
+                              (N_ROWS - 1, "stw_transverse_mps", "")):  # fmt: skip
         fields = lines[_row_line(row) - 1].split(",")
-        fields[(*LOG_COLUMNS, *OPTIONAL_COLUMNS).index(column)] = " "
+        fields[(*LOG_COLUMNS, *OPTIONAL_COLUMNS).index(column)] = cell
         lines[_row_line(row) - 1] = ",".join(fields)
     after = lines[_row_line(6) - 1].split(",")
     after[(*LOG_COLUMNS, *OPTIONAL_COLUMNS).index("wind_angle_deg")] = "2.0"  # 362 deg wrapped
@@ -485,7 +486,7 @@ BAD_LOGS: list[tuple[str, Callable[[], str], int | None, str | None, str]] = [
         lambda: _without_optional_cells(range(N_ROWS), "wind_angle_deg"),
         _row_line(0),
         "wind_angle_deg",
-        r"column 'wind_angle_deg': expected a finite number, got an empty field: "
+        r"column 'wind_angle_deg': expected a finite number, got no value \(empty or NaN\): "
         r"wind_angle_deg's sensor drops out for the whole log \(lines 5 to 16\); a dropout "
         r"of at most 5 s is interpolated$",
     ),
@@ -494,15 +495,16 @@ BAD_LOGS: list[tuple[str, Callable[[], str], int | None, str | None, str]] = [
         lambda: _without_optional_cells(range(1, 11), "stw_mps"),
         _row_line(1),
         "stw_mps",
-        r"column 'stw_mps': expected a finite number, got an empty field: stw_mps's sensor "
+        r"column 'stw_mps': expected a finite number, got no value \(empty or NaN\): "
+        r"stw_mps's sensor "
         r"drops out for 5\.5 s \(lines 6 to 15\); a dropout of at most 5 s is interpolated$",
     ),
     (
-        "nan speed through the water",
-        lambda: _with_optional_cell(11, "stw_mps", "nan"),
+        "inf speed through the water",
+        lambda: _with_optional_cell(11, "stw_mps", "inf"),
         _row_line(11),
         "stw_mps",
-        r"column 'stw_mps': expected a finite number, got 'nan'$",
+        r"column 'stw_mps': expected a finite number, got 'inf'$",
     ),
     (
         "negative wind speed",

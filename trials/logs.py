@@ -30,7 +30,8 @@ Rules, applied by :func:`read_log` and :func:`parse_log`:
   and of an optional column that is present, is a plain decimal number (``12``,
   ``-0.5``, ``1.5e-3``; whitespace around it is ignored) and finite: ``nan``,
   ``inf``, empty cells, text and values that overflow (``1e999``) are rejected. One
-  exception: an optional column's empty cells are its sensor's dropout, filled by
+  exception: an optional column's empty or ``nan`` cells (any case: what a logger writes
+  for a missing value) are its sensor's dropout, filled by
   linear interpolation in time between the column's values around it (the wind angle
   on the shorter way round; at the log's ends the nearest value) when the dropout lasts
   at most :data:`MAX_DROPOUT_S`, and counted in :attr:`ManeuverLog.filled`.
@@ -183,7 +184,7 @@ MAX_STW_MPS: Final = 50.0
 Also the bound of ``|stw_transverse_mps|``."""
 
 MAX_DROPOUT_S: Final = 5.0
-"""Longest dropout of an optional column's sensor (its empty cells) the reader fills [s],
+"""Longest dropout of an optional column's sensor (its empty or NaN cells) the reader fills [s],
 from the last value before to the first after (or to the log's end): the longest gap of
 a stream ``identifier convert`` resamples across by default (``--max-gap-s``)."""
 
@@ -288,7 +289,7 @@ class ManeuverLog:
         log's transverse axis [m/s] (column ``stw_transverse_mps``); None when absent, and
         only with ``stw_mps``.
     filled : Mapping[str, int]
-        How many empty cells of each optional column (by column name, e.g.
+        How many empty or NaN cells of each optional column (by column name, e.g.
         ``"stw_mps"``) the reader filled: a sensor's dropout (module docstring).
 
     Raises
@@ -864,7 +865,7 @@ class _Parser:
             )
         for column, index, values in zip(self.columns, self.column_index, self.values, strict=True):
             cell = fields[index].strip()
-            if not cell and column in OPTIONAL_COLUMNS:
+            if column in OPTIONAL_COLUMNS and (not cell or cell.lower() == "nan"):
                 values.append(math.nan)  # a sensor's dropout: filled by finish()
                 continue
             value = float(cell) if NUMBER.fullmatch(cell) else math.nan
@@ -975,7 +976,7 @@ class _Parser:
     def fill_dropouts(
         self, column: str, time_s: _FloatArray, values: _FloatArray
     ) -> tuple[_FloatArray, int]:
-        """Return an optional column with its empty cells (NaN) filled, and their count.
+        """Return an optional column with its dropout (NaN) filled, and its cells' count.
 
         Linear in time between the values around each dropout (a wind angle on the
         shorter way round), the nearest value at the log's ends; a dropout longer than
@@ -992,8 +993,8 @@ class _Parser:
             if good.size == 0 or after - before > MAX_DROPOUT_S:
                 lasting = "the whole log" if good.size == 0 else f"{after - before:.6g} s"
                 raise self.error(
-                    f"expected a finite number, got an empty field: {column}'s sensor drops "
-                    f"out for {lasting} (lines {self.row_lines[first]} to "
+                    f"expected a finite number, got no value (empty or NaN): {column}'s "
+                    f"sensor drops out for {lasting} (lines {self.row_lines[first]} to "
                     f"{self.row_lines[last]}); a dropout of at most {MAX_DROPOUT_S:g} s is "
                     "interpolated",
                     self.row_lines[first],
