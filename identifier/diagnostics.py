@@ -4,8 +4,7 @@ Pure judgements of an estimate (its propeller thrust, its centripetal surge term
 what the logs determine (the surge force of a hard turn, the response to a rudder
 reversal; a current their headings barely tell from the ship's speed), of a current
 asked of a model's logs, and of an approach at a helm off the centre line that the model
-family has no term for. Each returns its text,
-or None where there is nothing to say.
+family has no term for. Each returns its text, or None where there is nothing to say.
 """
 
 from __future__ import annotations

@@ -128,6 +128,7 @@ __all__ = [
     "smooth_axis",
     "smooth_log",
     "smooth_track",
+    "smoothed_trajectory",
     "wrap_angle",
 ]
 
