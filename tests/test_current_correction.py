@@ -374,9 +374,10 @@ def test_cli_like_a_log_in_current_compares_corrected(fmu, tmp_path, capsys):
             metadata={"vessel": "testship", "length_m": "100.0"},
         ),
     )
-    out = tmp_path / "like.json"
+    out, png = tmp_path / "like.json", tmp_path / "like.png"
     args = ["turning-circle", "--fmu", str(fmu), "--like", str(log), "--quiet"]
-    assert main([*args, "--json", str(out)]) == 0
+    assert main([*args, "--json", str(out), "--plot", str(png)]) == 0  # the corrected log drawn
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     printed = capsys.readouterr().out
     record = json.loads(out.read_text())
     logged = record["logged"]

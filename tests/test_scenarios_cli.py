@@ -18,7 +18,7 @@ import pytest
 from fmu_model import ModelParameters, get_model, save_params
 from fmu_model.envelope import Envelope, Sides, Span
 from fmu_model.export_native import build_native_fmu
-from identifier.smoothing import smooth_log
+from identifier.smoothing import smooth_log, smoothed_trajectory
 from scenarios.cli import PROG, main
 from scenarios.cli.fmu_runs import logged_run
 from scenarios.errors import ScenarioError
@@ -612,8 +612,8 @@ def test_params_of_an_unrelated_structure_are_refused_by_structure(prime_fmu):
 
 def test_a_log_is_laid_over_the_run_at_its_execute_point_and_heading(params) -> None:
     """A 20 deg turn logged 1 km North and 500 m West of the run's origin, on a course
-    of 40 deg: the figure's log lies on the run of the same ship (the run at its origin
-    heading North); its speeds are the smoothed track's."""
+    of 40 deg: the figure's log (its smoothed trajectory, as its indices are read) lies
+    on the run of the same ship (the run at its origin heading North)."""
     run = run_program(
         ModelPlant(params),
         replace(turning_circle(math.radians(20.0), max_time_s=300.0), approach_s=30.0),
@@ -633,14 +633,14 @@ def test_a_log_is_laid_over_the_run_at_its_execute_point_and_heading(params) -> 
         run["n_rps"],
         metadata={"length_m": "100.0"},
     )
-    track = smooth_log(log)
-    laid = logged_run(log, track, 130.0, run[run["time_s"] >= -10.0])
+    smoothed = smoothed_trajectory(log, smooth_log(log))
+    laid = logged_run(smoothed, 130.0, run[run["time_s"] >= -10.0])
     assert laid["time_s"][0] == pytest.approx(-10.0) and laid.size == np.sum(run["time_s"] >= -10.0)
     later = run[run["time_s"] >= -10.0]
     for key in ("x_m", "y_m"):
         np.testing.assert_allclose(laid[key], later[key], atol=1e-6)
-    np.testing.assert_allclose(laid["psi_rad"], later["psi_rad"], atol=1e-12)
-    np.testing.assert_array_equal(laid["u_mps"], track.u_mps[log.time_s >= 120.0])
+    np.testing.assert_allclose(laid["psi_rad"], later["psi_rad"], atol=1e-9)  # the smoother
+    np.testing.assert_array_equal(laid["u_mps"], smoothed["u_mps"][log.time_s >= 120.0])
     assert abs(later["x_m"][-1] - log.x_m[-1]) > 100.0  # where the log was: moved
 
 

@@ -112,6 +112,7 @@ from trials.current_correction import (
     REFERENCE,
     CurrentCorrection,
     correct_turning_circle,
+    remove_drift,
 )
 from trials.logs import ManeuverLog, at_midship, read_log
 from trials.maneuvers import (
@@ -439,19 +440,17 @@ class _MeasuredRun(NamedTuple):
     """The log as the run's figure overlays it (:func:`logged_run`); None without one."""
 
 
-def logged_run(
-    log: ManeuverLog, track: SmoothedTrack, execute_time_s: float, trajectory: np.ndarray
-) -> np.ndarray:
+def logged_run(logged: np.ndarray, execute_time_s: float, trajectory: np.ndarray) -> np.ndarray:
     """Return a logged manoeuvre laid over a run of it, for the run's figure.
 
-    The log (``trials.conditions.log_trajectory``, with the speeds of its smoothed
-    ``track``) from the start of ``trajectory`` on, its time from its execute point at
-    ``execute_time_s`` [s], turned and moved so that at execute it is where the run is at
-    time 0, with the run's heading: predicted and logged then part where the model does.
+    ``logged``, the log's smoothed trajectory (the one its indices are read off,
+    ``identifier.smoothing.smoothed_trajectory``), from the start of ``trajectory`` on,
+    its time from its execute point at ``execute_time_s`` [s], turned and moved so that
+    at execute it is where the run is at time 0, with the run's heading: predicted and
+    logged then part where the model does.
     """
-    traj = log_trajectory(log)
-    traj["u_mps"], traj["v_mps"] = track.u_mps, track.v_mps
-    here = [np.interp(execute_time_s, log.time_s, traj[k]) for k in ("x_m", "y_m", "psi_rad")]
+    traj = np.array(logged, copy=True)
+    here = [np.interp(execute_time_s, traj["time_s"], traj[k]) for k in ("x_m", "y_m", "psi_rad")]
     there = [np.interp(0.0, trajectory["time_s"], trajectory[k]) for k in ("x_m", "y_m", "psi_rad")]
     turn = there[2] - here[2]
     north, east = traj["x_m"] - here[0], traj["y_m"] - here[1]
@@ -488,7 +487,7 @@ def _measured_run(
     """
     logged: dict[str, Any] | None = None
     lines: list[str] = []
-    overlay: tuple[ManeuverLog, SmoothedTrack, float] | None = None
+    overlay: tuple[np.ndarray, float] | None = None
     if args.like:
         log = at_midship(read_log(args.like))  # judged and deglitched as fit does
         track = smooth_log(log)
@@ -505,24 +504,20 @@ def _measured_run(
                 f"{args.like}: the log is a {like.program.kind} manoeuvre, not a {program.kind}"
             )
         check_rudder(info, like.program.rudder_rad)
+        smoothed = smoothed_trajectory(log, track)
         current: dict[str, Any] | None = None
-        corrected_log: ManeuverLog | None = None
+        corrected: _CorrectedLog | None = None
         if like.program.kind == "turning":
-            corrected_log, current, lines = _corrected_log(args, info, log, like)
-            if corrected_log is not None:
-                like = logged_condition(corrected_log, max_time_s=limit_s)
-        overlay = (log if corrected_log is None else corrected_log), track, like.execute_time_s
-        corrected = current is not None and bool(current["applied"])
-        if not corrected and getattr(args, "current_mps", None) is None:
+            corrected, current, lines = _corrected_log(args, info, log, smoothed, like)
+            if corrected is not None:
+                like = logged_condition(corrected.log, max_time_s=limit_s)
+        overlay = (smoothed if corrected is None else corrected.smoothed), like.execute_time_s
+        if corrected is None and getattr(args, "current_mps", None) is None:
             _warn_of_logged_current(args.like, log, track)
         program = like.program
         condition = Condition(like.speed_mps, like.n_rps, like.rudder_rate_radps, args.dt_s)
         angles = (program.rudder_rad, program.heading_rad)
-        logged = {
-            **maneuver_indices(
-                program.kind, smoothed_trajectory(log, track), like.execute_time_s, angles
-            )
-        }
+        logged = {**maneuver_indices(program.kind, smoothed, like.execute_time_s, angles)}
         if current is not None:
             logged["current_corrected"] = current
     program = replace(program, approach_s=args.approach_s)
@@ -628,19 +623,33 @@ def _warn_of_logged_current(path: str, log: ManeuverLog, track: SmoothedTrack) -
     )
 
 
+class _CorrectedLog(NamedTuple):
+    """A logged turning circle with its current's drift taken out (:func:`_corrected_log`)."""
+
+    log: ManeuverLog
+    """The log, its positions corrected (what its condition is read off)."""
+    smoothed: np.ndarray
+    """Its smoothed trajectory, corrected (what the figure draws)."""
+
+
 def _corrected_log(
-    args: argparse.Namespace, info: FmuInfo, log: ManeuverLog, like: LoggedCondition
-) -> tuple[ManeuverLog | None, dict[str, Any] | None, list[str]]:
+    args: argparse.Namespace,
+    info: FmuInfo,
+    log: ManeuverLog,
+    smoothed: np.ndarray,
+    like: LoggedCondition,
+) -> tuple[_CorrectedLog | None, dict[str, Any] | None, list[str]]:
     """Correct a logged turning circle for its current, when it shows one.
 
-    Returns (the log with the drift taken out of its positions, or None when the
-    correction is not applied; the ``current_corrected`` record, or None when the log
-    covers less than 720 deg; the text lines).
+    The drift is estimated on the log's ``smoothed`` trajectory (the one its indices are
+    read off). Returns (the corrected log, or None when the correction is not applied;
+    the ``current_corrected`` record, or None when the log covers less than 720 deg; the
+    text lines).
     """
     found = _current_of_turn(
         args,
         info,
-        log_trajectory(log),
+        smoothed,
         like.execute_time_s,
         like.program.rudder_rad,
         velocities="ground",
@@ -651,10 +660,10 @@ def _corrected_log(
     correction, record, lines = found
     if not record["applied"]:
         return None, record, lines
-    corrected = replace(
-        log, x_m=correction.trajectory["x_m"].copy(), y_m=correction.trajectory["y_m"].copy()
-    )
-    return corrected, record, lines
+    e = correction.estimate
+    raw = remove_drift(log_trajectory(log), e.drift_north_mps, e.drift_east_mps, e.execute_time_s)
+    corrected = replace(log, x_m=raw["x_m"], y_m=raw["y_m"])
+    return _CorrectedLog(corrected, correction.trajectory), record, lines
 
 
 def _logged_lines(record: dict[str, Any]) -> list[str]:
