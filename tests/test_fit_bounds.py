@@ -217,6 +217,22 @@ def test_a_ship_length_beyond_the_fmu_bounds_in_the_log_is_a_data_error(
     )
 
 
+def test_a_log_without_a_ship_length_is_one_line_even_with_progress(
+    zigzag_text: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Found by a user's log without metadata: the progress bar printed its empty line
+    twice before the error, which is found before any work."""
+    text = "\n".join(line for line in zigzag_text.split("\n") if not line.startswith("#"))
+    log = _write(tmp_path, "trial.csv", text)
+    out = tmp_path / "params.json"
+    capsys.readouterr()
+    assert main(["fit", str(log), "-o", str(out), "--method", "ekf"]) == 1
+    assert capsys.readouterr().err == (
+        "error: no ship length: pass --length-m or add '# length_m:' to the logs\n"
+    )
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("length_m", [1e308, 1e-300, math.inf, math.nan, 0.0])
 def test_identify_rejects_a_ship_length_beyond_the_fmu_bounds(
     zigzag_text: str, length_m: float

@@ -35,6 +35,9 @@ from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]
 
+PROGRESS_DELAY_S = 0.5
+"""The progress bar shows after this long [s]: a log's error found at once prints alone."""
+
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Add the ``fit`` command to the subparsers ``sub`` of ``python -m identifier``."""
@@ -271,7 +274,10 @@ def _fit(args: argparse.Namespace) -> int:
     )
     total = 2 * sum(log.n_samples for log in logs)
     compiled_before = numba_compilations()[0]
-    with tqdm(total=total, unit="sample", disable=args.quiet, file=sys.stderr) as bar:
+    bar = tqdm(
+        total=total, unit="sample", disable=args.quiet, file=sys.stderr, delay=PROGRESS_DELAY_S
+    )
+    with bar:
         result = identify(
             logs,
             settings,
