@@ -15,7 +15,8 @@ approach (``identifier.output_error.execute_state``; nothing after execute is us
   zig-zag, whose rudder follows its heading, from the model sailing the log's condition
   closed loop (``trials.conditions.sail_again``: approach speed, rpm, rudder amplitude
   and rate, reversing at the logged switch headings, as the scenarios' ``--like``; in
-  a current, the log's condition through the water). A replay reverses the rudder when
+  a current, the log's condition through the water; where the log carries a measured
+  wind and the model a windage, in the log's mean true wind). A replay reverses the rudder when
   the log did, whatever the model's heading: trained on three of HSVA's four runs it put
   the held-out 10/10 starboard-first second overshoot at 7.2° (closed loop 15.7°,
   measured 20.5°).
@@ -57,6 +58,7 @@ from identifier.smoothing import (
     smooth_log,
     smoothed_trajectory,
 )
+from identifier.wind import mean_true_wind_ne
 from trials.conditions import (
     BEYOND_STANDARD_INDICES,
     KINDS,
@@ -352,8 +354,15 @@ def held_out_errors(
     execute_s = float(log.time_s[k])
     if kind == "zigzag":  # its rudder follows its heading: sailed again, closed loop
         sailed = log if current is None else water_frame(log, track, current.vector)[0]
+        wind = _sailing_wind(params, log, track, current)
+        if wind is not None:
+            notes.append(
+                f"sailed again in the log's mean true wind, {wind[2]:.1f} m/s from "
+                f"{round(math.degrees(wind[3])) % 360} deg"
+                + ("" if current is None else " (in the water)")
+            )
         step_s = SAIL_STEP_L * params.length_m / float(np.median(track.speed_mps))
-        again = sail_again(ModelPlant(params), sailed, dt_s=step_s)
+        again = sail_again(ModelPlant(params, environment=wind), sailed, dt_s=step_s)
         program = again.condition.program
         execute_s = again.condition.execute_time_s
         angles = (program.rudder_rad, program.heading_rad)
@@ -387,6 +396,27 @@ def held_out_errors(
         logged=None if kind is None else _from_execute(smoothed, execute_s),
         predicted=run,
     )
+
+
+def _sailing_wind(
+    params: ModelParameters,
+    log: ManeuverLog,
+    track: SmoothedTrack,
+    current: CurrentEstimate | None,
+) -> tuple[float, float, float, float] | None:
+    """Return the environment a held-out zig-zag is sailed again in, or None (still air).
+
+    The log's mean true wind (``identifier.wind.mean_true_wind_ne``) when it carries one
+    and the model its load (a windage); sailed through the water in a ``current``, the
+    wind as seen from the water, the wind's velocity less the current's.
+    """
+    wind = None if params.windage is None else mean_true_wind_ne(log, track)
+    if wind is None:
+        return None
+    if current is not None:
+        wind = wind - current.vector
+    north, east = float(wind[0]), float(wind[1])
+    return 0.0, 0.0, math.hypot(north, east), math.atan2(-east, -north) % (2.0 * math.pi)
 
 
 def _from_execute(traj: np.ndarray, execute_s: float) -> np.ndarray:
@@ -499,7 +529,11 @@ def leave_one_out(
 
 
 def format_table(cv: CrossValidation) -> str:
-    """Markdown table of all held-out predictions, one row per index."""
+    """Markdown table of all held-out predictions, one row per index; then their notes.
+
+    A note says what a held-out log was predicted in (current, wind) or why an index is
+    missing, one line each: ``note: <log> (trained on <logs>): <note>``.
+    """
     lines = [
         f"model {cv.model}, method {cv.method}",
         "",
@@ -524,7 +558,14 @@ def format_table(cv: CrossValidation) -> str:
                     f"| {train} | {Path(h.name).name} | {fmt(h.position_rms_L, '.3f')} | "
                     f"{m.name} | {fmt(m.logged)} | {fmt(m.predicted)} | {error} |"
                 )
-    return "\n".join(lines)
+    notes = [
+        f"note: {Path(h.name).name} (trained on {', '.join(Path(t).name for t in fold.train)}): "
+        f"{note}"
+        for fold in cv.folds
+        for h in fold.held_out
+        for note in h.notes
+    ]
+    return "\n".join(lines + (["", *notes] if notes else []))
 
 
 def run_cross_validation(

@@ -19,8 +19,9 @@ from dataclasses import fields
 
 import numpy as np
 
-from fmu_model.environment import Windage, wind_accelerations
+from fmu_model.environment import Windage, true_wind, wind_accelerations
 from fmu_model.params import ParamsFormatError, read_json
+from identifier.smoothing import SmoothedTrack
 from trials.logs import ManeuverLog
 
 WINDAGE_KEYS = "{" + ", ".join(f.name for f in fields(Windage)) + "}"
@@ -42,6 +43,23 @@ def known_acceleration(log: ManeuverLog, windage: Windage | None) -> np.ndarray 
         return None
     du, dv, dr = wind_accelerations(log.wind_speed_mps, log.wind_angle_rad, windage)
     return np.column_stack([du, dv, dr])
+
+
+def mean_true_wind_ne(log: ManeuverLog, track: SmoothedTrack) -> np.ndarray | None:
+    """Return a log's mean true wind, the velocity it blows with (North, East) [m/s].
+
+    Each sample's true wind from its apparent wind and the ship's smoothed heading and
+    velocity over ground (``fmu_model.environment.true_wind``), averaged as vectors (a
+    gust and a veer average out); None when the log carries no wind. What a held-out
+    run is sailed again in (``identifier.crossval``).
+    """
+    if log.wind_speed_mps is None or log.wind_angle_rad is None:
+        return None
+    speed, from_rad = true_wind(
+        log.wind_speed_mps, log.wind_angle_rad, track.heading_rad, track.u_mps, track.v_mps
+    )
+    towards = np.asarray(from_rad) + np.pi
+    return np.array([np.mean(speed * np.cos(towards)), np.mean(speed * np.sin(towards))])
 
 
 def read_windage(path: str) -> Windage:

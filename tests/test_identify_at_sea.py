@@ -38,16 +38,18 @@ from identifier.current import (
 )
 from identifier.ekf import body_current
 from identifier.identify import FitSettings, IdentificationResult, identify
-from identifier.smoothing import smooth_track
-from identifier.wind import known_acceleration, read_windage
+from identifier.smoothing import smooth_log, smooth_track
+from identifier.wind import known_acceleration, mean_true_wind_ne, read_windage
 from scenarios.kvlcc2 import kvlcc2_windage
 from scenarios.sea import SeaEnvironment
 from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from tests.conftest import SEED_COEFFICIENTS
-from tests.test_identify import SEED, TRAINING, _ship, _truth
+from tests.test_identify import RUDDER_RATE, SEED, TRAINING, _ship, _truth
 from trials.conditions import execute_index, maneuver_kind
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, write_log
+from trials.maneuvers import zigzag
+from trials.run import ModelPlant, run_program
 
 CURRENT_NE = np.array([0.15, 0.26])  # 0.3 m/s towards 60 deg
 # A 100 m ship with a tall superstructure (areas of a car carrier of that length), so that a
@@ -973,3 +975,78 @@ def test_crossval_predicts_the_held_out_logs_in_the_training_fits_current(
     )
     ignored = held_out_errors(fold.params, at_sea[0])
     assert held.position_rms_m < 0.4 * ignored.position_rms_m
+
+
+def test_a_held_out_zigzag_in_a_wind_is_sailed_again_in_it() -> None:
+    """crossval at sea: a 10/10 zig-zag sailed closed loop in a 20 m/s head wind by the true
+    model with its windage (after five minutes of approach, slowed by the wind to 4.5 m/s),
+    logged at 1 Hz with 1 m / 0.1 deg of noise and the anemometer's apparent wind. The
+    log's mean true wind comes back from the apparent wind and the smoothed track; held
+    out, the true model sails the zig-zag again in it and repeats the overshoots as it does
+    a calm log's (within 0.4 deg at 1 Hz). The log without its wind columns is sailed in
+    still air, where the ship keeps more speed: its overshoots 4-5 deg short."""
+    truth = replace(_truth(), windage=WINDAGE)
+    head_wind = (0.0, 0.0, WIND_SPEED_MPS, 0.0)
+    program = replace(zigzag(math.radians(10.0), math.radians(10.0), max_time_s=900.0),
+                      approach_s=300.0)  # fmt: skip
+    run = run_program(ModelPlant(truth, environment=head_wind), program, speed_mps=5.0,
+                      n_rps=2.0, rudder_rate_radps=RUDDER_RATE, dt_s=0.1)[::10]  # fmt: skip
+    rng = np.random.default_rng(3)
+    noise = [rng.normal(0.0, s, run.size) for s in (1.0, 1.0, math.radians(0.1))]
+    speed, angle = apparent_wind(WIND_SPEED_MPS, 0.0, run["psi_rad"], run["u_mps"], run["v_mps"])
+    log = ManeuverLog(
+        run["time_s"] - run["time_s"][0],
+        run["x_m"] + noise[0],
+        run["y_m"] + noise[1],
+        run["psi_rad"] + noise[2],
+        run["rudder_rad"],
+        run["n_rps"],
+        wind_speed_mps=np.asarray(speed),
+        wind_angle_rad=np.asarray(angle) % (2.0 * math.pi),
+        metadata={"length_m": "100.0"},
+    )  # no current: the velocities through the water are those over the ground
+    found = mean_true_wind_ne(log, smooth_log(log))
+    assert found is not None  # blowing towards South
+    np.testing.assert_allclose(found, [-WIND_SPEED_MPS, 0.0], atol=0.05)
+    held = held_out_errors(truth, log)
+    assert held.notes == ("sailed again in the log's mean true wind, 20.0 m/s from 0 deg",)
+    without = held_out_errors(truth, replace(log, wind_speed_mps=None, wind_angle_rad=None))
+    assert without.notes == ()
+    overshoots = [m for m in zip(held.metrics, without.metrics, strict=True)
+                  if m[0].name.endswith("overshoot_deg")]  # fmt: skip
+    assert len(overshoots) == 2
+    for sailed, still_air in overshoots:
+        assert sailed.error is not None and still_air.error is not None
+        assert abs(sailed.error) < 0.5, sailed
+        assert still_air.error < -3.0, still_air
+
+
+def test_crossval_cli_takes_the_wind_out_with_a_windage(
+    tmp_path: Path, wind_logs: list[ManeuverLog], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``crossval --windage``: the training fit takes the logged wind's load out, the
+    held-out zig-zag is sailed again in its mean wind and the table's notes say so;
+    without it, the fit's warning; a missing file is one line."""
+    paths = []
+    for i, log in enumerate(wind_logs):
+        paths.append(str(tmp_path / f"{i}.csv"))
+        write_log(paths[-1], log)
+    windage = tmp_path / "windage.json"
+    windage.write_text(json.dumps(WINDAGE.to_dict()), encoding="utf-8")
+    args = ["crossval", *paths, "--train", *paths[:-1], "--model", "shi2009", "--method", "ekf",
+            "--current", "none"]  # fmt: skip
+    assert main([*args, "--windage", str(windage)]) == 0
+    out, err = capsys.readouterr()
+    assert "no windage was given" not in err
+    assert re.search(
+        rf"^note: {Path(paths[-1]).name} \(trained on 0\.csv, 1\.csv\): sailed again in the "
+        r"log's mean true wind, 2\d\.\d m/s from (8\d|9\d) deg$",
+        out,
+        re.MULTILINE,
+    ), out
+    assert main(args) == 0
+    out, err = capsys.readouterr()
+    assert "no windage was given" in err and "mean true wind" not in out
+    assert main([*args, "--windage", str(tmp_path / "nowhere.json")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "nowhere.json: file not found" in err

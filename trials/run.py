@@ -70,8 +70,9 @@ class SingleShip(ABC):
 class ModelPlant:
     """The ``fmu_model`` Python model, RK4 with the FMU's substep rule.
 
-    In still air and water, as the FMU with its environment inputs at 0: a ship with a
-    windage (``params.windage``) feels the air load of its own motion, as the FMU does.
+    In still air and water unless ``environment`` says otherwise, as the FMU with its
+    environment inputs at 0: a ship with a windage (``params.windage``) feels the air load
+    of its own motion, as the FMU does.
 
     Parameters
     ----------
@@ -82,12 +83,17 @@ class ModelPlant:
         communication step when None.
     thetas : numpy.ndarray, optional
         (p, K) coefficient sets, one ship each; ``params``' coefficients when None.
+    environment : tuple of float, optional
+        A steady current and true wind, as the FMU's environment inputs: (current speed
+        [m/s], direction it sets towards [rad], wind speed [m/s], direction it comes
+        from [rad]); the wind loads the ship through ``params.windage`` only.
 
     """
 
     params: ModelParameters
     max_step_s: float | None = None
     thetas: np.ndarray | None = None
+    environment: tuple[float, float, float, float] | None = None
     _state: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -122,6 +128,7 @@ class ModelPlant:
                     rudder_rad,
                     n_rps,
                     dt_s / m,
+                    environment=self.environment,
                     windage=self.params.windage,
                 )
         state = state.reshape(6, ships.size)

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 from fmu_model import ParamsFormatError
 from trials.errors import IdentificationError, LogFormatError
 
-__all__ = ["DATA_ERRORS", "error", "os_error_text"]
+__all__ = ["DATA_ERRORS", "add_windage_argument", "error", "os_error_text"]
 
 DATA_ERRORS = (LogFormatError, IdentificationError, ParamsFormatError)
 """Exceptions that mean bad input data: ``error: <message>``, exit status 1."""
@@ -36,3 +37,16 @@ def error(message: str, status: int = 1) -> int:
 def os_error_text(exc: OSError) -> str:
     """Return ``<file>: <reason>`` for a file that cannot be read or written."""
     return f"{exc.filename or ''}: {exc.strerror or exc}"
+
+
+def add_windage_argument(parser: argparse.ArgumentParser, then: str) -> None:
+    """Add ``--windage FILE.json`` (read by ``identifier.wind.read_windage``).
+
+    ``then``: what else the command does with the windage, the end of its help.
+    """
+    parser.add_argument(
+        "--windage",
+        metavar="FILE.json",
+        help="the vessel's windage (areas, centroid, effective inertias; README): the load of "
+        f"the logs' measured wind is taken out of the coefficients, {then}",
+    )

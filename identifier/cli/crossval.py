@@ -16,10 +16,11 @@ from typing import Any
 from fmu_model import DEFAULT_MODEL, argtypes, model_names
 from fmu_model.atomic import write_atomic
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
-from identifier.cli.common import DATA_ERRORS, error, os_error_text
+from identifier.cli.common import DATA_ERRORS, add_windage_argument, error, os_error_text
 from identifier.crossval import KINDS, format_table, run_cross_validation
 from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS, FitSettings
+from identifier.wind import read_windage
 from trials.conditions import MODEL_SCALE_MAX_LENGTH_M
 from trials.logs import read_log
 
@@ -76,6 +77,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
         help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} (default: from logs)",
     )
+    add_windage_argument(
+        cv,
+        "the held-out logs are replayed in their logged wind and their zig-zags sailed "
+        "again in its mean",
+    )
     cv.add_argument("--json", metavar="OUT", help="write the results as JSON")
     cv.add_argument(
         "--plot",
@@ -99,10 +105,13 @@ def run(args: argparse.Namespace) -> int:
             if item not in KINDS and Path(item).resolve() not in known:
                 paths.append(item)
                 known.add(Path(item).resolve())
+        windage = None if args.windage is None else read_windage(args.windage)
         logs = [read_log(p) for p in paths]
         cv = run_cross_validation(
             logs,
-            FitSettings(model=args.model, method=args.method, current=args.current),
+            FitSettings(
+                model=args.model, method=args.method, current=args.current, windage=windage
+            ),
             train=args.train,
             test=args.test,
             leave_one_out_=args.leave_one_out,

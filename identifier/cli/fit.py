@@ -15,7 +15,7 @@ from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
 from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, logged_envelope
 from fmu_model.kernels import numba_compilations
 from fmu_model.variants import family_name
-from identifier.cli.common import DATA_ERRORS, error, os_error_text
+from identifier.cli.common import DATA_ERRORS, add_windage_argument, error, os_error_text
 from identifier.current import CURRENT_MODES, SPEED_LOG_SCALE_STD, CurrentEstimate
 from identifier.identify import (
     ALPHA_RANGE,
@@ -136,12 +136,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         f"{low_pct:g} to {high_pct:g} (default {100.0 * SPEED_LOG_SCALE_STD:g}: IMO "
         "MSC.96(72)'s 2 %% as two sigma); the current and the scale error are fitted together",
     )
-    fit.add_argument(
-        "--windage",
-        metavar="FILE.json",
-        help="the vessel's windage (areas, centroid, effective inertias; README): the load of "
-        "the logs' measured wind is taken out of the coefficients and the FMU applies it",
-    )
+    add_windage_argument(fit, "and the FMU applies it")
     return fit
 
 
