@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import logging
 import math
@@ -414,3 +415,46 @@ def test_the_summary_names_the_model_fitted_not_the_one_asked_for(tmp_path: Path
     assert done["settings"]["model"] == "prime-rudder-offset"  # as asked: what resumes
     assert done["result"]["model"] == "prime-rudder-offset-thrust"
     assert result_from_done(tmp_path, done).model == "prime-rudder-offset-thrust"
+
+
+def test_a_vessel_with_a_windage_is_fitted_with_it(tmp_path: Path, cluster_address: str) -> None:
+    """A vessel folder's ``windage.json`` (as ``synthesize`` writes it beside logs at sea)
+    is fit's ``--windage``: params.json carries it, done.json records its sha256, and a
+    changed windage fits again; a manifest names it by ``windage``, and an unreadable one
+    fails that vessel in one line."""
+    from tests.test_identify_at_sea import WINDAGE
+
+    source = tmp_path / "fleet"
+    ship = _ship()
+    for offset, maneuver in enumerate(("zigzag-10", "zigzag-20")):
+        write_log(source / "windy" / f"{maneuver}.csv",
+                  synthesize_log(ship, MANEUVERS[maneuver](), seed=offset))  # fmt: skip
+    windage = source / "windy" / "windage.json"
+    windage.write_text(json.dumps(WINDAGE.to_dict()))
+    (spec,) = read_vessels(source)
+    assert spec.windage == windage.resolve()
+    out = tmp_path / "out"
+    options = {"scheduler": cluster_address, "method": "ekf", "current": "none",
+               "build_fmu": False}  # fmt: skip
+    (row,) = run_batch(source, out, **options).vessels
+    assert row.status == "ok", row.error
+    assert load_params(out / "windy" / "params.json").windage == WINDAGE
+    done = json.loads((out / "windy" / "done.json").read_text())
+    assert done["settings"]["windage"]["sha256"] == hashlib.sha256(windage.read_bytes()).hexdigest()
+    assert run_batch(source, out, **options).vessels[0].status == "skipped"
+    windage.write_text(json.dumps({**WINDAGE.to_dict(), "lateral_area_m2": 1900.0}))
+    (row,) = run_batch(source, out, **options).vessels
+    assert row.status == "ok"
+    assert load_params(out / "windy" / "params.json").windage.lateral_area_m2 == 1900.0
+
+    manifest = tmp_path / "fleet.toml"
+    manifest.write_text("[[vessel]]\nname = 'windy'\nlogs = ['fleet/windy/zigzag-10.csv']\n"
+                        "windage = 'fleet/windy/nowhere.json'\n")  # fmt: skip
+    (spec,) = read_vessels(manifest)
+    assert spec.windage == tmp_path / "fleet" / "windy" / "nowhere.json"
+    (row,) = run_batch(manifest, tmp_path / "out2", **options).vessels
+    assert row.status == "failed" and row.error is not None
+    assert "nowhere.json" in row.error and "\n" not in row.error
+    manifest.write_text("[[vessel]]\nname = 'w'\nlogs = ['a.csv']\nwindage = 3\n")
+    with pytest.raises(ManifestError, match="vessel 'w': 'windage' must be a file name, got 3"):
+        read_vessels(manifest)

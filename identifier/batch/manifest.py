@@ -8,11 +8,13 @@ A manifest, ``MANIFEST.toml``, has one ``[[vessel]]`` table per vessel::
             "tanker-a/turning-35.csv"]        #   relative to the manifest's folder
     length_m = 320.0                          # optional: default the logs' '# length_m:'
     model = "shi2009"                         # optional: --model, else DEFAULT_MODEL
+    windage = "tanker-a/windage.json"         # optional: fit's --windage, for logs with wind
 
 Other keys are errors (a typo must not silently fall back to a default). Or a
 directory ``DIR`` with one sub-directory per vessel, named after the vessel, holding
-its ``*.csv`` logs (taken in name order); hidden sub-directories, and ``OUT`` when it
-lies inside ``DIR``, are not vessels.
+its ``*.csv`` logs (taken in name order) and, for logs with a measured wind, its
+``windage.json`` (as ``scenarios synthesize`` writes it beside logs at sea); hidden
+sub-directories, and ``OUT`` when it lies inside ``DIR``, are not vessels.
 """
 
 from __future__ import annotations
@@ -31,7 +33,9 @@ __all__ = ["ManifestError", "VesselSpec", "read_vessels"]
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 _RESERVED_NAMES = frozenset({"summary.csv", "summary.md"})
-_VESSEL_KEYS = frozenset({"name", "logs", "length_m", "model"})
+_VESSEL_KEYS = frozenset({"name", "logs", "length_m", "model", "windage"})
+WINDAGE_FILE = "windage.json"
+"""A vessel folder's windage (``identifier.wind.read_windage``), when it has one."""
 
 
 class ManifestError(ValueError):
@@ -69,6 +73,8 @@ class VesselSpec:
         Ship length [m]; from the logs' metadata when None.
     model : str, optional
         Model structure; the batch default when None.
+    windage : pathlib.Path, optional
+        Its windage file (absolute path; fit's ``--windage``); none when None.
 
     """
 
@@ -76,6 +82,7 @@ class VesselSpec:
     logs: tuple[Path, ...]
     length_m: float | None = None
     model: str | None = None
+    windage: Path | None = None
 
 
 def read_vessels(
@@ -168,12 +175,16 @@ def _vessels_from_manifest(path: Path) -> tuple[VesselSpec, ...]:
             raise ManifestError(
                 path, f"{where}: unknown model {model!r} (known: {', '.join(model_names())})"
             )
+        windage = table.get("windage")
+        if windage is not None and (not isinstance(windage, str) or not windage):
+            raise ManifestError(path, f"{where}: 'windage' must be a file name, got {windage!r}")
         vessels.append(
             VesselSpec(
                 name=name,
                 logs=tuple(base / p for p in logs),
                 length_m=None if length is None else float(length),
                 model=model,
+                windage=None if windage is None else base / windage,
             )
         )
     return tuple(vessels)
@@ -186,5 +197,12 @@ def _vessels_from_directory(path: Path, out_dir: Path | None) -> tuple[VesselSpe
         if not folder.is_dir() or folder.name.startswith(".") or folder == skip:
             continue
         name = _check_name(path, folder.name, f"folder {folder.name!r}")
-        vessels.append(VesselSpec(name=name, logs=tuple(sorted(folder.glob("*.csv")))))
+        windage = folder / WINDAGE_FILE
+        vessels.append(
+            VesselSpec(
+                name=name,
+                logs=tuple(sorted(folder.glob("*.csv"))),
+                windage=windage if windage.is_file() else None,
+            )
+        )
     return tuple(vessels)

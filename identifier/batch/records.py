@@ -43,11 +43,18 @@ DONE_VERSION = 1
 
 
 def settings_record(
-    model: str, method: str, length_m: float | None, build_fmu: bool, current: str | None = None
+    model: str,
+    method: str,
+    length_m: float | None,
+    build_fmu: bool,
+    current: str | None = None,
+    windage: tuple[str, str] | None = None,
 ) -> dict[str, Any]:
-    """Return the ``settings`` of ``done.json``: model, method, current, length [m], FMU built.
+    """Return the ``settings`` of ``done.json``: model, method, current, length, FMU, windage.
 
-    ``current`` None (JSON null): the mode the ship's size chose.
+    ``length_m`` [m]; ``build_fmu``: the FMU built. ``current`` None (JSON null): the mode
+    the ship's size chose. ``windage``: its file's path and sha256 (a changed windage fits
+    again), None without one.
     """
     return {
         "model": model,
@@ -55,6 +62,7 @@ def settings_record(
         "current": current,
         "length_m": length_m,
         "fmu": build_fmu,
+        "windage": None if windage is None else {"path": windage[0], "sha256": windage[1]},
     }
 
 
@@ -72,6 +80,7 @@ def up_to_date(
             and done["settings"]["method"] == settings["method"]
             and done["settings"]["current"] == settings["current"]
             and done["settings"]["length_m"] == settings["length_m"]
+            and done["settings"]["windage"] == settings["windage"]
             and (done["settings"]["fmu"] or not settings["fmu"])
             and (directory / "params.json").is_file()
             and (not settings["fmu"] or (directory / f"{name}.fmu").is_file())
@@ -183,7 +192,7 @@ def record_outcome(
         "vessel": spec.name,
         "inputs": [{"path": p, "sha256": h} for p, h in outcome.inputs],
         "settings": settings_record(
-            job.model, job.method, job.length_m, job.build_fmu, job.current
+            job.model, job.method, job.length_m, job.build_fmu, job.current, job.windage
         ),
         "outputs": {
             "params": "params.json",

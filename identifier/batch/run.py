@@ -186,6 +186,7 @@ def run_batch(
             continue
         try:
             inputs = [(str(p), sha256_of(p)) for p in spec.logs]
+            windage = None if spec.windage is None else (str(spec.windage), sha256_of(spec.windage))
         except OSError as exc:
             report(record_failure(directory, spec, vessel_model, describe_error(exc), 0, 0.0))
             continue
@@ -193,7 +194,7 @@ def run_batch(
             directory,
             spec.name,
             inputs,
-            settings_record(vessel_model, method, spec.length_m, build_fmu, current),
+            settings_record(vessel_model, method, spec.length_m, build_fmu, current, windage),
         )
         if done is not None:
             report(result_from_done(directory, done))
@@ -208,6 +209,7 @@ def run_batch(
             method,
             build_fmu,
             current,
+            windage,
         )
         pending.append((spec, job))
 

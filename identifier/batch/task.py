@@ -20,6 +20,7 @@ from fmu_model import ModelParameters, ParamsFormatError
 from fmu_model.errors import FmuBuildError
 from fmu_model.export_native import build_native_fmu, osp_sidecar_path
 from identifier.identify import FitSettings, IdentificationResult, identify
+from identifier.wind import read_windage
 from trials.errors import IdentificationError, LogFormatError, one_line
 from trials.logs import read_log
 
@@ -47,6 +48,8 @@ class VesselJob:
         None: by the ship's size (``identifier.current.default_current``).
     build_fmu : bool
         Build the native FMU as well.
+    windage : tuple of (str, str), optional
+        Its windage file (fit's ``--windage``) and the file's sha256; None without one.
 
     """
 
@@ -57,6 +60,7 @@ class VesselJob:
     method: str
     build_fmu: bool
     current: str | None = None
+    windage: tuple[str, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -148,11 +152,11 @@ def identify_vessel(job: VesselJob) -> VesselOutcome:
             logs.append(read_log(path))
             inputs.append((path, sha256_of(Path(path))))
         outcome = replace(outcome, n_samples=sum(log.n_samples for log in logs))
-        result = identify(
-            logs,
-            FitSettings(model=job.model, method=job.method, current=job.current),
-            length_m=job.length_m,
+        windage = None if job.windage is None else read_windage(job.windage[0])
+        settings = FitSettings(
+            model=job.model, method=job.method, current=job.current, windage=windage
         )
+        result = identify(logs, settings, length_m=job.length_m)
         identification = dict(result.params.identification)
         identification["logs"] = [{"path": p, "sha256": h} for p, h in inputs]
         params = replace(result.params, vessel_name=job.name, identification=identification)
