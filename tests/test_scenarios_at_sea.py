@@ -32,6 +32,7 @@ import numpy as np
 import pytest
 
 from fmu_model import ModelParameters
+from fmu_model.environment import apparent_wind
 from fmu_model.export_native import build_native_fmu
 from scenarios.cli import PROG, build_parser, main
 from scenarios.cli.sea import sea_environment
@@ -42,10 +43,10 @@ from scenarios.fmu_plant import FmuPlant
 from scenarios.sea import SeaEnvironment
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_fmu_environment import WINDAGE
-from trials.logs import read_log
-from trials.maneuvers import turning_circle
+from trials.logs import ManeuverLog, read_log, write_log
+from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import turning_metrics
-from trials.run import run_program
+from trials.run import ModelPlant, run_program
 
 TURN_INDICES = ("advance_m", "transfer_m", "tactical_diameter_m")
 # Corrected indices in a current against the raw still-water ones: measured at most
@@ -410,3 +411,41 @@ def test_validate_at_sea_sails_both_ships_in_the_current_and_names_it(fmu, tmp_p
     assert "(starboard, current-corrected)" in text  # the IMO table's turning rows
     assert "at sea, both ships: current 0.5 m/s towards 90 deg; no wind" in out
     assert "predicted turning-35-port: current-corrected values" in out
+
+
+def test_like_a_log_in_a_wind_warns_and_sails_in_it_when_asked(
+    fmu, windy_fmu, tmp_path, capsys
+) -> None:
+    """A 10/10 zig-zag of the windy ship sailed in a 15 m/s head wind after five minutes
+    of approach, logged at 1 Hz with its anemometer: ``--like`` on the FMU with the windage
+    names the wind and the options that sail the run in it; given them, the run repeats
+    the logged overshoots (in still air it keeps more speed and overshoots less). The FMU
+    without a windage feels no wind: no warning."""
+    params = _params(windage=True)
+    program = replace(zigzag(math.radians(10.0), math.radians(10.0), max_time_s=900.0),
+                      approach_s=300.0)  # fmt: skip
+    run = run_program(ModelPlant(params, environment=(0.0, 0.0, 15.0, 0.0)), program,
+                      speed_mps=5.0, n_rps=2.0, rudder_rate_radps=RUDDER_RATE_RADPS,
+                      dt_s=0.1)[::10]  # fmt: skip
+    speed, angle = apparent_wind(15.0, 0.0, run["psi_rad"], run["u_mps"], run["v_mps"])
+    log = tmp_path / "windy.csv"
+    write_log(log, ManeuverLog(
+        run["time_s"] - run["time_s"][0], run["x_m"], run["y_m"], run["psi_rad"],
+        run["rudder_rad"], run["n_rps"], wind_speed_mps=np.asarray(speed),
+        wind_angle_rad=np.asarray(angle) % (2.0 * math.pi), metadata={"length_m": "100.0"},
+    ))  # fmt: skip
+    like = ["zigzag", "--fmu", str(windy_fmu), "--like", str(log)]
+    still_air = _run(tmp_path, "still-air", like)
+    assert (
+        f"warning: {log}: its anemometer shows a mean true wind of 15.0 m/s from 0 deg, which "
+        "loaded the logged run; the run sails in still air: give --wind-mps 15.0 "
+        "--wind-from-deg 0 to sail it in that wind\n"
+    ) in capsys.readouterr().err
+    in_wind = _run(tmp_path, "in-wind", [*like, "--wind-mps", "15", "--wind-from-deg", "0"])
+    assert "mean true wind" not in capsys.readouterr().err
+    for key in ("first_overshoot_deg", "second_overshoot_deg"):
+        logged = in_wind["logged"][key]
+        assert in_wind[key] == pytest.approx(logged, abs=0.3), key
+        assert still_air[key] < logged - 1.0, key
+    _run(tmp_path, "no-windage", ["zigzag", "--fmu", str(fmu), "--like", str(log)])
+    assert "mean true wind" not in capsys.readouterr().err

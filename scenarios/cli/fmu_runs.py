@@ -60,6 +60,7 @@ from identifier.current import (
     speed_log_current,
 )
 from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log, smoothed_trajectory
+from identifier.wind import mean_true_wind_ne
 from scenarios.cli.common import (
     EXIT_GATE_FAILED,
     PROG,
@@ -144,6 +145,11 @@ _STEADY_FRACTION = 0.3
 # IMO 5.3.1 judges a turn at 35 deg or the maximum rudder; this much less still counts
 # (a log's rudder plateau is read from the log).
 _IMO_RUDDER_SLACK_RAD = math.radians(0.5)
+# --like warns of a logged mean true wind of this much or more [m/s] that the run does not
+# sail in: a 20 m/s head wind moved a 100 m ship's 10/10 overshoots by 4-5 deg (a car
+# carrier's windage, tests/test_identify_at_sea.py); the load goes as the square of the
+# speed, so 5 m/s moves them some 0.3 deg, what a 1 Hz log's overshoots resolve.
+LOGGED_WIND_WARNING_MPS = 5.0
 # The turning indices shown raw and current-corrected: (key without unit, label).
 _TURNING_LINES = (
     ("advance", "advance"),
@@ -514,6 +520,8 @@ def _measured_run(
         overlay = (smoothed if corrected is None else corrected.smoothed), like.execute_time_s
         if corrected is None and getattr(args, "current_mps", None) is None:
             _warn_of_logged_current(args.like, log, track)
+        if info.has_windage and getattr(args, "wind_mps", None) is None:
+            _warn_of_logged_wind(args.like, log, track)
         program = like.program
         condition = Condition(like.speed_mps, like.n_rps, like.rudder_rate_radps, args.dt_s)
         angles = (program.rudder_rad, program.heading_rad)
@@ -619,6 +627,28 @@ def _warn_of_logged_current(path: str, log: ManeuverLog, track: SmoothedTrack) -
         f"{towards:.0f} deg, whose drift the logged indices carry; the run sails in still "
         f"water: give --current-mps {speed:.2f} --current-to-deg {towards:.0f} to sail it in "
         "that current",
+        file=sys.stderr,
+    )
+
+
+def _warn_of_logged_wind(path: str, log: ManeuverLog, track: SmoothedTrack) -> None:
+    """Warn when ``log`` carries a wind of :data:`LOGGED_WIND_WARNING_MPS` or more.
+
+    Its mean true wind (``identifier.wind.mean_true_wind_ne``) loaded the logged run; the
+    FMU's run, with its windage, is sailed in still air unless ``--wind-mps`` says
+    otherwise.
+    """
+    wind = mean_true_wind_ne(log, track)
+    if wind is None:
+        return
+    speed = math.hypot(float(wind[0]), float(wind[1]))
+    if speed < LOGGED_WIND_WARNING_MPS:
+        return
+    source = round(math.degrees(math.atan2(-float(wind[1]), -float(wind[0])))) % 360
+    print(
+        f"warning: {path}: its anemometer shows a mean true wind of {speed:.1f} m/s from "
+        f"{source} deg, which loaded the logged run; the run sails in still air: give "
+        f"--wind-mps {speed:.1f} --wind-from-deg {source} to sail it in that wind",
         file=sys.stderr,
     )
 
