@@ -36,11 +36,13 @@ from identifier.output_error.guards import (
     virtual_zigzags,
 )
 from identifier.output_error.objective import Objective, prepare_log
+from identifier.output_error.prediction import predict_log
+from identifier.output_error.refine import grown_start
 from identifier.smoothing import smooth_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log, synthesize_logs
 from tests.conftest import SEED_COEFFICIENTS
 from trials.conditions import execute_index
-from trials.logs import ManeuverLog, read_log
+from trials.logs import ManeuverLog, log_head, read_log
 
 RUDDER_RATE = math.radians(5.0)
 # Coefficients that shape the manoeuvres, and how the start is perturbed from the truth.
@@ -229,6 +231,52 @@ def test_the_equation_error_start_is_preferred_unless_its_replay_diverges(
     )
     assert fallback.initial_method == "ekf"
     np.testing.assert_array_equal(fallback.initial.params.to_vector(), truth.to_vector())
+
+
+def test_a_start_whose_replay_diverges_everywhere_is_grown_over_a_horizon(
+    logs: dict[str, ManeuverLog],
+) -> None:
+    """Every candidate diverges replaying the turning log (yaw damping reversed: the turn
+    runs away after 122 of its 211 samples from execute). Before, output error was
+    skipped and the diverging start kept; now it is refined first on the log's head, as
+    far as it replays it, until a start replays the whole log, and output error goes on
+    from there (a single turning circle's start lost its headway so late in the turn)."""
+    truth = _truth()
+    theta = truth.to_vector().copy()
+    theta[truth.names.index("c2")] *= -0.5
+    start = truth.with_vector(theta, truth.covariance)
+    log = logs["turning-35"]
+    _, states = predict_log(start, log)
+    assert not np.all(np.isfinite(states))  # the start's replay diverges
+    result = refine_output_error(start, [log], method="equation-error")
+    assert result.initial_method == "equation-error"
+    assert math.isfinite(result.initial.cost) and not result.initial.diverged
+    assert re.match(
+        r"the equation-error estimate diverges replaying the training logs: refined first "
+        r"on each log as far as it replays it, in \d steps? \(growing horizon\), and started "
+        r"from there; ",
+        result.reason,
+    ), result.reason
+    assert result.reason.split("; ")[0] in result.warnings
+    assert result.kept == "refined" and result.refined.position_rms_L < 0.5
+    # Heads shorter than three time units L/U0 (taken as 100 s here: the replay runs away
+    # after 122 s) are not refined on: no start grows.
+    track = smooth_log(log)
+    assert grown_start(start, [log], [track], RefineSettings(), "equation-error", 100.0) is None
+
+
+def test_a_log_head_keeps_every_column_and_the_metadata(logs: dict[str, ManeuverLog]) -> None:
+    log = logs["zigzag-10"]
+    windy = replace(log, wind_speed_mps=np.full(log.n_samples, 7.0),
+                    wind_angle_rad=np.zeros(log.n_samples))  # fmt: skip
+    head = log_head(windy, 50)
+    assert head.n_samples == 50 and head.metadata == log.metadata
+    np.testing.assert_array_equal(head.time_s, log.time_s[:50])
+    assert head.wind_speed_mps is not None and head.wind_speed_mps.size == 50
+    assert head.stw_mps is None
+    for bad in (0, log.n_samples + 1):
+        with pytest.raises(ValueError, match=f"a head of 1 to {log.n_samples} samples"):
+            log_head(log, bad)
 
 
 def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candidate(

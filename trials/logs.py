@@ -124,6 +124,7 @@ __all__ = [
     "ManeuverLog",
     "at_midship",
     "format_log",
+    "log_head",
     "on_board_offset",
     "parse_log",
     "read_log",
@@ -474,6 +475,28 @@ def at_midship(log: ManeuverLog) -> ManeuverLog:
         x_m=log.x_m - north_m,
         y_m=log.y_m - east_m,
         metadata={k: v for k, v in log.metadata.items() if k not in ("gnss_x_m", "gnss_y_m")},
+    )
+
+
+def log_head(log: ManeuverLog, n_samples: int) -> ManeuverLog:
+    """Return the first ``n_samples`` samples of ``log`` (every column; the metadata kept).
+
+    Raises
+    ------
+    ValueError
+        If ``n_samples`` is not from 1 to the log's number of samples.
+
+    """
+    if not 1 <= n_samples <= log.n_samples:
+        raise ValueError(f"a head of 1 to {log.n_samples} samples, got {n_samples}")
+    columns = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps", *_OPTIONAL_FIELDS)
+    return replace(
+        log,
+        **{
+            name: getattr(log, name)[:n_samples]
+            for name in columns
+            if getattr(log, name) is not None
+        },
     )
 
 

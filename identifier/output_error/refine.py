@@ -7,7 +7,9 @@ the steps, each of which has its own module in ``identifier.output_error``:
 
 1. the start: the preferred candidate (``RefineSettings.preferred_start``, the
    equation-error estimate) unless its replay of the training logs diverges, else the
-   candidate that replays them best (smallest J(θ₀));
+   candidate that replays them best (smallest J(θ₀)); when every candidate's replay
+   diverges, the preferred one grown over a horizon: refined first on each log as far
+   as it replays it, then on more (:func:`grown_start`);
 2. each log's execute sample and the start model's state there, fitted to the
    approach and then held (``initial_state``);
 3. the objective J(θ) with a Tikhonov prior at the start, minimised by
@@ -48,6 +50,7 @@ from identifier.output_error.guards import (
 )
 from identifier.output_error.initial_state import execute_state
 from identifier.output_error.objective import Objective, prepare_log, whitening
+from identifier.output_error.prediction import predict_log
 from identifier.output_error.records import (
     SANITY_FAILURE,
     FitSummary,
@@ -57,7 +60,15 @@ from identifier.output_error.records import (
 )
 from identifier.smoothing import SmoothedTrack, smooth_log
 from trials.errors import IdentificationError
-from trials.logs import ManeuverLog
+from trials.logs import ManeuverLog, log_head
+
+HEAD_FRACTION = 0.75
+"""A start whose replay of a log diverges is refined first on the log's head: this share
+of the samples from execute over which its replay stays finite (:func:`grown_start`)."""
+MIN_HEAD_TIME_UNITS = 3.0
+"""The least head worth refining on: this many L/U₀ after execute [-] (120 s for KVLCC2)."""
+MAX_GROWTH_STEPS = 4
+"""Refinements on heads before a start that still diverges is given up."""
 
 
 def refine_output_error(
@@ -133,6 +144,16 @@ def refine_output_error(
     }
     start_costs = {name: o.cost(np.zeros(o.size)) for name, o in objectives.items()}
     method = _start(start_costs, settings.preferred_start)
+    grown_note: str | None = None
+    if not math.isfinite(start_costs[method]):  # every candidate diverges: grow one
+        origin = settings.preferred_start if settings.preferred_start in candidates else method
+        time_unit_s = params.length_m / approach.speed_mps
+        grown = grown_start(candidates[origin], logs, tracks, settings, origin, time_unit_s)
+        if grown is not None:
+            candidates[origin], grown_note = grown
+            objectives[origin] = _coefficient_objective(candidates[origin], logs, tracks, settings)
+            start_costs[origin] = objectives[origin].cost(np.zeros(objectives[origin].size))
+            method = _start(start_costs, origin)
     params, objective = candidates[method], objectives[method]
     label = method_label(method)
     initial = _summarise(objective, np.zeros(objective.size), params, approach)
@@ -161,6 +182,8 @@ def refine_output_error(
     warnings = candidate_disagreement(
         method, initial.turns, other_turns, settings.disagreement_tolerance
     )
+    if grown_note is not None:
+        warnings.insert(0, grown_note)
     if not all(t.sane for t in initial.turns):
         warnings.append(f"the {label} estimate fails the sanity guard: {SANITY_FAILURE}")
     opt = objective.solve(np.zeros(objective.size), settings.max_nfev)
@@ -179,6 +202,8 @@ def refine_output_error(
     )
     if kept == "initial":
         warnings.append(reason)
+    if grown_note is not None:
+        reason = f"{grown_note}; {reason}"
     kept_fit = refined if kept == "refined" else initial
     if not all(t.sane for t in kept_fit.turns):
         sane = _sane_candidate(others, other_turns, approach, settings)
@@ -223,6 +248,56 @@ def refine_output_error(
         warnings=tuple(warnings),
         settings=settings,
     ).recorded()
+
+
+def grown_start(
+    params: ModelParameters,
+    logs: Sequence[ManeuverLog],
+    tracks: Sequence[SmoothedTrack],
+    settings: RefineSettings,
+    method: str,
+    time_unit_s: float,
+) -> tuple[ModelParameters, str] | None:
+    """Grow a start whose replay diverges into one that replays every log; and a note.
+
+    A growing horizon: output error on each log's head, :data:`HEAD_FRACTION` of the
+    samples from execute over which the replay of ``params`` stays finite (a log it
+    replays whole is taken whole), then the same from that refined estimate, until one
+    replays the whole logs (at most :data:`MAX_GROWTH_STEPS` refinements). What a start
+    from a single turning circle needs, whose turn loses its headway late in the log (on
+    a KVLCC2 35° turn of 1,100 s both estimates did after 840 s; grown, the refined
+    estimate replays it to 0.004 L). None when a head would be shorter than
+    :data:`MIN_HEAD_TIME_UNITS` L/U₀ (``time_unit_s`` [s]) or the steps run out.
+    """
+    current = params
+    for step in range(MAX_GROWTH_STEPS + 1):
+        heads: list[tuple[ManeuverLog, SmoothedTrack]] = []
+        for log, track in zip(logs, tracks, strict=True):
+            k, states = predict_log(current, log, track)
+            finite = np.all(np.isfinite(states), axis=1)
+            if finite.all():
+                heads.append((log, track))
+                continue
+            end = k + int(HEAD_FRACTION * int(np.argmin(finite)))
+            if end <= k or log.time_s[end - 1] - log.time_s[k] < MIN_HEAD_TIME_UNITS * time_unit_s:
+                return None
+            head = log_head(log, end)
+            heads.append((head, smooth_log(head)))
+        if all(head is log for (head, _), log in zip(heads, logs, strict=True)):
+            if step == 0:
+                return None  # it replays them: nothing to grow
+            return current, (
+                f"the {method_label(method)} estimate diverges replaying the training logs: "
+                f"refined first on each log as far as it replays it, in {step} "
+                f"step{'s' if step > 1 else ''} (growing horizon), and started from there"
+            )
+        if step == MAX_GROWTH_STEPS:
+            return None
+        head_logs, head_tracks = zip(*heads, strict=True)
+        grown = refine_output_error(current, head_logs, tracks=head_tracks, settings=settings,
+                                    method=method)  # fmt: skip
+        current = grown.refined.params
+    return None
 
 
 def _poor_replay_warning(kept: FitSummary, refined: FitSummary, label: str) -> str:
