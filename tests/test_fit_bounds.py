@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import identifier.cli.fit as fit_command
 from fmu_model import ModelParameters
 from identifier.cli import main
 from identifier.identify import FitSettings, identify
@@ -231,6 +232,28 @@ def test_a_log_without_a_ship_length_is_one_line_even_with_progress(
         "error: no ship length: pass --length-m or add '# length_m:' to the logs\n"
     )
     assert not out.exists()
+
+
+def test_an_error_after_the_progress_bar_starts_on_a_line_of_its_own(
+    zigzag_text: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A data error found during the fit (an EKF that diverges, say) follows the bar on
+    the next line: with the bar shown late (tqdm's ``delay``) it came on the bar's line."""
+
+    def failing(*_: object, progress: Callable[[int], None], stage: Callable[[str], None],
+                **__: object) -> None:  # fmt: skip
+        progress(100)
+        stage("EKF on every sample")
+        raise IdentificationError("sample 20: the EKF diverged", log="trial.csv")
+
+    monkeypatch.setattr(fit_command, "identify", failing)
+    log = _write(tmp_path, "trial.csv", zigzag_text)
+    assert main(["fit", str(log), "-o", str(tmp_path / "params.json")]) == 1
+    err = capsys.readouterr().err
+    assert err.endswith("\nerror: trial.csv: sample 20: the EKF diverged\n"), err[-200:]
 
 
 @pytest.mark.parametrize("length_m", [1e308, 1e-300, math.inf, math.nan, 0.0])

@@ -29,14 +29,12 @@ from identifier.identify import (
     IdentificationResult,
     identify,
 )
+from identifier.preparation import vessel_length
 from identifier.wind import read_windage
 from trials.conditions import MODEL_SCALE_MAX_LENGTH_M
 from trials.logs import read_log
 
 __all__ = ["add_parser", "run"]
-
-PROGRESS_DELAY_S = 0.5
-"""The progress bar shows after this long [s]: a log's error found at once prints alone."""
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -269,10 +267,8 @@ def _fit(args: argparse.Namespace) -> int:
     )
     total = 2 * sum(log.n_samples for log in logs)
     compiled_before = numba_compilations()[0]
-    bar = tqdm(
-        total=total, unit="sample", disable=args.quiet, file=sys.stderr, delay=PROGRESS_DELAY_S
-    )
-    with bar:
+    vessel_length(logs, args.length_m)  # a log's missing length prints alone, before the bar
+    with tqdm(total=total, unit="sample", disable=args.quiet, file=sys.stderr) as bar:
         result = identify(
             logs,
             settings,
