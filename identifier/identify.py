@@ -439,6 +439,12 @@ def _estimate_current(
         settled = alternate(current)
     shape, structure, ls = settled.shape, settled.structure, settled.start
     current, iterations = settled.current, settled.iterations
+    if settled.unsettled_mps:
+        notes.append(
+            f"current: not settled after {iterations} EKF passes (the last moved it "
+            f"{settled.unsettled_mps:.3f} m/s, more than its tolerance): the last pass's start "
+            "is kept, which the EKF followed; the logs barely determine the current"
+        )
     stage("EKF on every sample")
     walk = DRIFTING_RANDOM_WALK_MPS if settings.current == "drifting" else 0.0
     ekf = _run_ekf(
@@ -534,7 +540,8 @@ class _Settled:
 
     The shape, structure and start, the current (North, East) [m/s], the EKF passes
     made, and the last converged pass's RMS distance of its filtered positions from the
-    logged ones, summed over its windows [m].
+    logged ones, summed over its windows [m]; when the current did not settle, how far
+    the last pass moved it [m/s] (0 when it settled).
     """
 
     shape: ShapeSelection | None
@@ -543,6 +550,7 @@ class _Settled:
     current: np.ndarray
     iterations: int
     track_rms_m: float
+    unsettled_mps: float = 0.0
 
 
 def _alternate(
@@ -565,13 +573,16 @@ def _alternate(
     (:data:`SHAPE_PASSES`). The passes run on windows of long logs
     (:data:`ALTERNATION_MAX_SAMPLES`) and report no progress; when one diverges (a start
     the filter cannot follow) the alternation stops where the last pass that converged
-    started.
+    started, and so it does when the current has not settled after the last pass (it
+    wanders at the level of its noise: the next start is one the EKF never ran from; a
+    Mariner fit from one turning circle diverged there).
     """
     per_log = settings.current == PER_LOG
     iterations = 0
     settling = sample_windows(segments, ALTERNATION_MAX_SAMPLES, ALTERNATION_WINDOWS)
     sources = [source for source, _ in settling]
     settled = None  # the last pass that converged
+    moved_mps = math.inf  # the current's change in the last pass
     for _ in range(SHAPE_PASSES):
         water = water_segments(segments, tracks, current)
         speed_mps, n_rps = _nominal(logs, water)
@@ -605,6 +616,7 @@ def _alternate(
                 for window, source in enumerate(sources):
                     found[source] = ekf.current[window]
             change = float(np.max(np.abs(found - current)))
+            moved_mps = change if change >= current_tolerance_mps(ekf.current_covariance) else 0.0
             current = found
             iterations += 1
             ls = equation_error_fit(
@@ -613,9 +625,11 @@ def _alternate(
                 length_m,
                 settings.prior_inflation,
             )
-            if change < current_tolerance_mps(ekf.current_covariance):
+            if not moved_mps:
                 break
     assert settled is not None
+    if moved_mps:  # not settled: where the last pass the EKF followed started
+        return replace(settled, iterations=iterations, unsettled_mps=moved_mps)
     return _Settled(shape, structure, ls, current, iterations, settled.track_rms_m)
 
 

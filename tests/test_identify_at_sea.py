@@ -23,6 +23,7 @@ from identifier.crossval import cross_validate, held_out_errors
 from identifier.current import (
     CURRENT_TOLERANCE_MPS,
     CURRENT_TOLERANCE_SIGMAS,
+    SHAPE_PASSES,
     CurrentEstimate,
     SpeedLogFit,
     approach_course,
@@ -236,6 +237,42 @@ def test_a_diverging_alternation_pass_keeps_the_last_settled_start(
     monkeypatch.setattr(identify_module, "_run_ekf", first_pass_diverges)
     with pytest.raises(IdentificationError, match="non-finite"):
         identify(logs, SEED)
+
+
+def test_a_current_that_does_not_settle_keeps_the_last_pass_the_ekf_followed(
+    calm_logs: list[ManeuverLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """(A Mariner fit from one turning circle: the current wandered some 0.05 m/s at the
+    level of its noise for all 30 passes, and the estimate's pass, started where the last
+    pass had moved it, a start no pass had run from, diverged at sample 20: the fit
+    failed.) With a tolerance no pass meets, the estimate's pass starts where the last
+    alternation pass started, and a note says so."""
+    logs = [_with_current(log, CURRENT_NE) for log in calm_logs]
+    starts: list[np.ndarray] = []
+    run_ekf = identify_module._run_ekf
+
+    def recorded(*args: Any, **kwargs: Any) -> Any:
+        starts.append(np.array(args[6]))  # the pass's starting current
+        return run_ekf(*args, **kwargs)
+
+    monkeypatch.setattr(identify_module, "_run_ekf", recorded)
+    monkeypatch.setattr(identify_module, "current_tolerance_mps", lambda covariance: 0.0)
+    monkeypatch.setattr(identify_module, "MAX_CURRENT_ITERATIONS", 2)
+    result = identify(logs, SEED)
+    assert len(starts) == 2 * SHAPE_PASSES + 1  # the alternation's passes, the estimate's
+    np.testing.assert_array_equal(starts[-1], starts[-2])
+    assert not np.array_equal(starts[-2], starts[-3])  # each pass moved it
+    assert any(
+        re.fullmatch(
+            rf"current: not settled after {2 * SHAPE_PASSES} EKF passes \(the last moved it "
+            r"0\.\d{3} m/s, more than its tolerance\): the last pass's start is kept, which "
+            r"the EKF followed; the logs barely determine the current",
+            note,
+        )
+        for note in result.notes
+    ), result.notes
+    assert result.current is not None
+    np.testing.assert_allclose(result.current.vector, CURRENT_NE, atol=0.05)
 
 
 def test_alternation_tolerance_follows_the_estimate_uncertainty() -> None:
