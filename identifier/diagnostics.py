@@ -97,16 +97,29 @@ def reversal_warning(logs: Sequence[ManeuverLog]) -> str | None:
     default fit of the KVLCC2 reference predicts the 10°/10° zig-zag's overshoots 3.3° /
     4.4° against 5.0° / 14.0° (its EKF estimate diverges in it), the Mariner's 1.1° / 0.2°
     against 6.4° / 5.6°; no envelope warns of it, for a 10° rudder is within a turn's 35°.
-    The mirror of :func:`turn_surge_warning`.
+    The mirror of :func:`turn_surge_warning`. When the turns are all to one side, the
+    other side's turn is extrapolated too: from one starboard 35° turn (seeds 1, 2 and 5
+    of KVLCC2, 1 and 2 of the Mariner and the tanker; by hand, 2026-12-07) the default
+    fit put the port tactical diameter 2–76 % off, or lost the turn (one of seven).
     """
     if any(maneuver_kind(log) == "zigzag" for log in logs):
         return None
-    return (
+    warning = (
         "no log reverses its rudder (turning circles only): the model's response to a "
         "rudder reversal, a zig-zag's overshoots, is not determined by these logs (on the "
         "KVLCC2 reference two 35 deg turns predict the 10/10 zig-zag's second overshoot at "
-        "4.4 deg against 14.0); add a zig-zag to the logs"
+        "4.4 deg against 14.0)"
     )
+    sides = {float(np.sign(log.rudder_rad[np.argmax(np.abs(log.rudder_rad))])) for log in logs}
+    if len(sides) == 1:
+        logged, other = ("starboard", "port") if sides.pop() > 0.0 else ("port", "starboard")
+        warning += (
+            f", and they turn to {logged} only: the {other} turn is extrapolated too (from "
+            f"one 35 deg turn the reference ships' other tactical diameter came out 2-76 % "
+            f"off, or the turn was lost); add a zig-zag and a turn to {other}"
+        )
+        return warning
+    return warning + "; add a zig-zag to the logs"
 
 
 def model_current_warning(length_m: float, current: CurrentEstimate | None) -> str | None:

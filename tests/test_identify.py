@@ -575,6 +575,12 @@ def test_turning_circles_alone_leave_the_response_to_a_reversal_open_and_a_zigza
     warning = reversal_warning([turn, port])  # both sides, each held: no reversal
     assert warning is not None and warning.startswith("no log reverses its rudder")
     assert warning.endswith("add a zig-zag to the logs")
+    assert "turn to" not in warning  # both sides logged
+    for one_side, logged, other in (([turn], "starboard", "port"), ([port], "port", "starboard")):
+        warning = reversal_warning(one_side)
+        assert warning is not None and warning.startswith("no log reverses its rudder")
+        assert f"they turn to {logged} only: the {other} turn is extrapolated too" in warning
+        assert warning.endswith(f"add a zig-zag and a turn to {other}")
     warned = identify([turn], _SURGE_SETTINGS).warnings
     assert sum(w.startswith("no log reverses its rudder") for w in warned) == 1
     assert not any("reverses its rudder" in w for w in kvlcc2_zigzag_fit.warnings)
