@@ -105,6 +105,7 @@ from identifier.diagnostics import (
     heading_span_warning,
     model_current_warning,
     neutral_helm_note,
+    one_sided_model,
     reversal_warning,
     thrust_warning,
     turn_surge_warning,
@@ -808,6 +809,10 @@ def identify(
         helm_note = neutral_helm_note(data, settings.model)
         if helm_note is not None:
             data = replace(data, notes=(*data.notes, helm_note))
+        symmetric = one_sided_model(data.logs, settings.model)
+        if symmetric is not None:  # one side's turns do not determine the asymmetry
+            settings = replace(settings, model=symmetric[0])
+            data = replace(data, notes=(*data.notes, symmetric[1]))
         if settings.current in (DEFAULT_CURRENT, "drifting", "auto"):  # one current for all
             settings, data = _one_current_or_per_log(settings, data, by_default=by_default)
         if settings.current == "none" and any(log.stw_mps is not None for log in data.logs):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -24,6 +25,8 @@ from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
 from identifier.diagnostics import (
     centripetal_warning,
+    logged_side,
+    one_sided_model,
     reversal_warning,
     thrust_warning,
     turn_surge_warning,
@@ -581,9 +584,40 @@ def test_turning_circles_alone_leave_the_response_to_a_reversal_open_and_a_zigza
         assert warning is not None and warning.startswith("no log reverses its rudder")
         assert f"they turn to {logged} only: the {other} turn is extrapolated too" in warning
         assert warning.endswith(f"add a zig-zag and a turn to {other}")
-    warned = identify([turn], _SURGE_SETTINGS).warnings
-    assert sum(w.startswith("no log reverses its rudder") for w in warned) == 1
+    alone = identify([turn], _SURGE_SETTINGS)
+    assert sum(w.startswith("no log reverses its rudder") for w in alone.warnings) == 1
+    # One side's turn holds the family's asymmetry at 0: the other side its mirror.
+    assert all(
+        re.search(rf"[\[,]{c}=0[,\]]", alone.params.model) for c in ("dgamma", "dwake", "d0")
+    )
+    assert any(n.startswith("the logs turn to starboard only: dgamma, dwake, d0 held at 0")
+               for n in alone.notes)  # fmt: skip
     assert not any("reverses its rudder" in w for w in kvlcc2_zigzag_fit.warnings)
+
+
+def test_logs_of_one_side_hold_the_familys_asymmetry_at_zero(
+    kvlcc2_zigzag_and_turn: tuple[ManeuverLog, ManeuverLog],
+) -> None:
+    """Turns to one side only cannot determine Δγ, dwake and δ₀ (searched, they put the
+    other side's tactical diameter 2-76 % off on the reference ships): held at 0 unless
+    the model name fixes them; logs turning both ways, or a model without them, keep it."""
+    zigzag, turn = kvlcc2_zigzag_and_turn
+    port = replace(turn, rudder_rad=-turn.rudder_rad, y_m=-turn.y_m, heading_rad=-turn.heading_rad)
+    assert (logged_side([turn]), logged_side([port])) == ("starboard", "port")
+    assert logged_side([turn, port]) is None and logged_side([zigzag]) is None
+    held = one_sided_model([turn], "prime-rudder-offset")
+    assert held is not None and held[0] == "prime-rudder-offset[dgamma=0,dwake=0,d0=0]"
+    assert held[1].startswith("the logs turn to starboard only: dgamma, dwake, d0 held at 0")
+    given = one_sided_model([port], "prime-rudder-offset[l=-0.7,d0=0.01]")
+    assert given is not None
+    assert given[0] == "prime-rudder-offset[dgamma=0,l=-0.7,dwake=0,d0=0.01]"
+    assert "the logs turn to port only: dgamma, dwake held at 0" in given[1]
+    assert get_model(
+        given[0].replace("[", "[k=0.001,gamma=0.5,").replace("dwake", "wake=0.3,dwake")
+    )
+    assert one_sided_model([turn, port], "prime-rudder-offset") is None
+    assert one_sided_model([turn], "shi2009") is None
+    assert one_sided_model([turn], "prime-rudder-offset[dgamma=0.1,dwake=0,d0=0]") is None
 
 
 def test_the_surge_drag_prior_leaves_the_centripetal_term_to_a_zigzag(
