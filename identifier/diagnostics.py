@@ -110,9 +110,7 @@ def reversal_warning(logs: Sequence[ManeuverLog]) -> str | None:
     4.4° against 5.0° / 14.0° (its EKF estimate diverges in it), the Mariner's 1.1° / 0.2°
     against 6.4° / 5.6°; no envelope warns of it, for a 10° rudder is within a turn's 35°.
     The mirror of :func:`turn_surge_warning`. When the turns are all to one side, the
-    other side's turn is extrapolated too: from one starboard 35° turn (seeds 1, 2 and 5
-    of KVLCC2, 1 and 2 of the Mariner and the tanker; by hand, 2026-12-07) the default
-    fit put the port tactical diameter 2–76 % off, or lost the turn (one of seven).
+    other side's turn is extrapolated too, as their mirror (:func:`one_sided_model`).
     """
     if any(maneuver_kind(log) == "zigzag" for log in logs):
         return None

@@ -265,8 +265,9 @@ def grown_start(
     replays whole is taken whole), then the same from that refined estimate, until one
     replays the whole logs (at most :data:`MAX_GROWTH_STEPS` refinements). What a start
     from a single turning circle needs, whose turn loses its headway late in the log (on
-    a KVLCC2 35° turn of 1,100 s both estimates did after 840 s; grown, the refined
-    estimate replays it to 0.004 L). None when a head would be shorter than
+    a KVLCC2 35° turn of 1,100 s both estimates did after 840 s; grown in one step, the
+    start replays it to 0.12 L and its refinement to 0.021 L). None when a head would be
+    shorter than
     :data:`MIN_HEAD_TIME_UNITS` L/U₀ (``time_unit_s`` [s]) or the steps run out.
     """
     current = params
