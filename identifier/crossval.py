@@ -58,7 +58,7 @@ from identifier.smoothing import (
     smooth_log,
     smoothed_trajectory,
 )
-from identifier.wind import mean_true_wind_ne
+from identifier.wind import mean_true_wind_ne, speed_and_source
 from trials.conditions import (
     BEYOND_STANDARD_INDICES,
     KINDS,
@@ -415,8 +415,7 @@ def _sailing_wind(
         return None
     if current is not None:
         wind = wind - current.vector
-    north, east = float(wind[0]), float(wind[1])
-    return 0.0, 0.0, math.hypot(north, east), math.atan2(-east, -north) % (2.0 * math.pi)
+    return 0.0, 0.0, *speed_and_source(wind)
 
 
 def _from_execute(traj: np.ndarray, execute_s: float) -> np.ndarray:

@@ -15,6 +15,7 @@ FMU with the same windage adds it back.
 
 from __future__ import annotations
 
+import math
 from dataclasses import fields
 
 import numpy as np
@@ -60,6 +61,16 @@ def mean_true_wind_ne(log: ManeuverLog, track: SmoothedTrack) -> np.ndarray | No
     )
     towards = np.asarray(from_rad) + np.pi
     return np.array([np.mean(speed * np.cos(towards)), np.mean(speed * np.sin(towards))])
+
+
+def speed_and_source(wind_ne: np.ndarray) -> tuple[float, float]:
+    """Return a wind velocity's speed [m/s] and the direction it comes from [rad, 0 to 2π).
+
+    ``wind_ne``: the velocity it blows with, (North, East) [m/s], as
+    :func:`mean_true_wind_ne` returns it; the pair the FMU's wind inputs take.
+    """
+    north, east = float(wind_ne[0]), float(wind_ne[1])
+    return math.hypot(north, east), math.atan2(-east, -north) % (2.0 * math.pi)
 
 
 def read_windage(path: str) -> Windage:

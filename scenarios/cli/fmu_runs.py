@@ -60,7 +60,7 @@ from identifier.current import (
     speed_log_current,
 )
 from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log, smoothed_trajectory
-from identifier.wind import mean_true_wind_ne
+from identifier.wind import mean_true_wind_ne, speed_and_source
 from scenarios.cli.common import (
     EXIT_GATE_FAILED,
     PROG,
@@ -641,10 +641,10 @@ def _warn_of_logged_wind(path: str, log: ManeuverLog, track: SmoothedTrack) -> N
     wind = mean_true_wind_ne(log, track)
     if wind is None:
         return
-    speed = math.hypot(float(wind[0]), float(wind[1]))
+    speed, from_rad = speed_and_source(wind)
     if speed < LOGGED_WIND_WARNING_MPS:
         return
-    source = round(math.degrees(math.atan2(-float(wind[1]), -float(wind[0])))) % 360
+    source = round(math.degrees(from_rad)) % 360
     print(
         f"warning: {path}: its anemometer shows a mean true wind of {speed:.1f} m/s from "
         f"{source} deg, which loaded the logged run; the run sails in still air: give "
