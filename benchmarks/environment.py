@@ -81,6 +81,7 @@ from scenarios.synthesize import (
     synthesize_log,
     with_glitches,
 )
+from trials.errors import IdentificationError
 from trials.logs import ManeuverLog
 from trials.run import ModelPlant
 
@@ -401,13 +402,16 @@ def main(argv: Sequence[str] | None = None) -> int:
             start = time.perf_counter()
             sea = identify(logs, replace(settings, windage=windage))
             seconds = time.perf_counter() - start
-            still = identify(logs, replace(settings, windage=windage, current="none"))
             sea_turn, sea_os = worst_differences(
                 indices(ModelPlant(sea.params), ship, args.dt_s), calm[draw][0], truth
             )
-            still_turn, still_os = worst_differences(
-                indices(ModelPlant(still.params), ship, args.dt_s), calm[draw][0], truth
-            )
+            try:  # the still-water fit of logs in a current may fail: recorded as inf
+                still = identify(logs, replace(settings, windage=windage, current="none"))
+                still_turn, still_os = worst_differences(
+                    indices(ModelPlant(still.params), ship, args.dt_s), calm[draw][0], truth
+                )
+            except IdentificationError:
+                still_turn = still_os = math.inf
             turned = replace(condition, current_to_deg=condition.current_to_deg + args.tide_deg)
             truths = [condition] + [turned] * (len(logs) - 1)
             speed_err, angle_err = current_error(sea, logs, truths)
