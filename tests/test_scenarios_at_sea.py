@@ -34,6 +34,9 @@ import pytest
 from fmu_model import ModelParameters
 from fmu_model.environment import apparent_wind
 from fmu_model.export_native import build_native_fmu
+from identifier.current import speed_log_current
+from identifier.smoothing import smooth_log
+from identifier.wind import mean_true_wind_ne
 from scenarios.cli import PROG, build_parser, main
 from scenarios.cli.sea import sea_environment
 from scenarios.cli.synthesize import MAX_CURRENT_MPS, MAX_DIRECTION_DEG, MAX_WIND_MPS
@@ -449,3 +452,28 @@ def test_like_a_log_in_a_wind_warns_and_sails_in_it_when_asked(
         assert still_air[key] < logged - 1.0, key
     _run(tmp_path, "no-windage", ["zigzag", "--fmu", str(fmu), "--like", str(log)])
     assert "mean true wind" not in capsys.readouterr().err
+
+
+def test_a_run_at_sea_is_written_as_a_sea_trials_log(windy_fmu, tmp_path) -> None:
+    """``--csv`` of a zig-zag sailed in 0.5 m/s towards 90 deg and 12 m/s of wind from
+    45 deg carries a speed log (the FMU's u through the water) and an anemometer (the
+    apparent wind): read back, the speed log shows the current and the anemometer the
+    true wind, as ``identifier`` reads them from a sea trial's log. In calm water the log
+    is as before, without them."""
+    csv = tmp_path / "sea.csv"
+    zz = ["zigzag", "--fmu", str(windy_fmu), "--rudder-deg", "20", "--heading-deg", "20"]
+    sea = ["--current-mps", "0.5", "--current-to-deg", "90", "--wind-mps", "12",
+           "--wind-from-deg", "45"]  # fmt: skip
+    _run(tmp_path, "sea", [*zz, *sea, "--csv", str(csv)])
+    log = read_log(csv)
+    assert log.stw_mps is not None and log.wind_speed_mps is not None
+    track = smooth_log(log)
+    current = speed_log_current([log], [track])
+    assert current is not None
+    np.testing.assert_allclose(current.current_ne, [0.0, 0.5], atol=0.02)
+    wind = mean_true_wind_ne(log, track)
+    assert wind is not None  # blowing towards 225 deg
+    np.testing.assert_allclose(wind, 12.0 * np.array([-(0.5**0.5), -(0.5**0.5)]), atol=0.1)
+    _run(tmp_path, "calm", [*zz, "--csv", str(csv)])
+    calm = read_log(csv)
+    assert calm.stw_mps is None and calm.wind_speed_mps is None

@@ -51,6 +51,7 @@ import numpy as np
 
 from fmu_model import argtypes, load_params
 from fmu_model.envelope import Envelope, trajectory_envelope
+from fmu_model.environment import apparent_wind, ground_velocity_body
 from fmu_model.interface import logged_envelope
 from identifier.conventions import log_problem
 from identifier.current import (
@@ -389,9 +390,40 @@ def _sea_text(args: argparse.Namespace, info: FmuInfo) -> list[str]:
     return lines
 
 
-def _write_csv(path: str, trajectory: np.ndarray, info: FmuInfo, source: str) -> None:
+def _sensors(
+    trajectory: np.ndarray, environment: SeaEnvironment | None
+) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+    """Return what a sea trial's log carries beside the track: speed log and anemometer.
+
+    (``stw_mps``, ``wind_speed_mps``, ``wind_angle_rad``): at sea the run's speed through
+    the water along the ship (the FMU's u) and, in a wind, the apparent wind an anemometer
+    measures (``fmu_model.environment.apparent_wind`` of the true wind and the velocity
+    over ground, the current added), so that the written run is a log ``identifier fit``
+    takes the current and wind out of; None each in calm water (the log as before).
+    """
+    if environment is None:
+        return None, None, None
+    u, v, psi = trajectory["u_mps"], trajectory["v_mps"], trajectory["psi_rad"]
+    if not environment.has_wind:
+        return np.array(u), None, None
+    current_n, current_e, _, _ = environment.current_ne(0.0)  # the CLI's is steady
+    u_ground, v_ground = ground_velocity_body(u, v, psi, current_n, current_e)
+    speed, angle = apparent_wind(
+        environment.wind_speed_mps, environment.wind_from_rad, psi, u_ground, v_ground
+    )
+    return np.array(u), np.asarray(speed), np.mod(angle, 2.0 * np.pi)
+
+
+def _write_csv(
+    path: str,
+    trajectory: np.ndarray,
+    info: FmuInfo,
+    source: str,
+    environment: SeaEnvironment | None,
+) -> None:
     from trials.logs import ManeuverLog, write_log
 
+    stw_mps, wind_speed_mps, wind_angle_rad = _sensors(trajectory, environment)
     log = ManeuverLog(
         time_s=trajectory["time_s"],
         x_m=trajectory["x_m"],
@@ -405,6 +437,9 @@ def _write_csv(path: str, trajectory: np.ndarray, info: FmuInfo, source: str) ->
             "source": source,
             "execute_time_s": "0.0",
         },
+        stw_mps=stw_mps,
+        wind_speed_mps=wind_speed_mps,
+        wind_angle_rad=wind_angle_rad,
     )
     write_log(path, log)
 
@@ -742,7 +777,8 @@ def _save_outputs(
     if args.json:
         write_json(args.json, record)
     if args.csv:
-        _write_csv(args.csv, trajectory, info, _source(args, info, program, condition))
+        source = _source(args, info, program, condition)
+        _write_csv(args.csv, trajectory, info, source, sea_environment(args))
     if args.plot and figure is not None:
         from scenarios.plots import save_png
 
