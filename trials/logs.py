@@ -232,7 +232,9 @@ _BOUNDS: Final = {
         f"a transverse speed through the water within ±{MAX_STW_MPS:g} m/s",
     ),
 }
-# ManeuverLog's optional arrays, in the order of OPTIONAL_COLUMNS.
+# ManeuverLog's arrays: the required ones, and the optional ones in the order of
+# OPTIONAL_COLUMNS.
+_REQUIRED_FIELDS: Final = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
 _OPTIONAL_FIELDS: Final = ("wind_speed_mps", "wind_angle_rad", "stw_mps", "stw_transverse_mps")
 _ASTERN_HINT: Final = (
     " (astern: the models have no astern-propeller terms, so astern running cannot be "
@@ -321,8 +323,8 @@ class ManeuverLog:
     def __post_init__(self) -> None:
         if self.stw_transverse_mps is not None and self.stw_mps is None:
             raise ValueError("ManeuverLog stw_transverse_mps needs stw_mps (a two-axis log)")
-        names: tuple[str, ...] = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps")
-        names += tuple(name for name in _OPTIONAL_FIELDS if getattr(self, name) is not None)
+        present = tuple(name for name in _OPTIONAL_FIELDS if getattr(self, name) is not None)
+        names = _REQUIRED_FIELDS + present
         for name in names:
             object.__setattr__(self, name, _frozen_float_array(name, getattr(self, name)))
         lengths = {name: len(getattr(self, name)) for name in names}
@@ -489,12 +491,11 @@ def log_head(log: ManeuverLog, n_samples: int) -> ManeuverLog:
     """
     if not 1 <= n_samples <= log.n_samples:
         raise ValueError(f"a head of 1 to {log.n_samples} samples, got {n_samples}")
-    columns = ("time_s", "x_m", "y_m", "heading_rad", "rudder_rad", "n_rps", *_OPTIONAL_FIELDS)
     return replace(
         log,
         **{
             name: getattr(log, name)[:n_samples]
-            for name in columns
+            for name in (*_REQUIRED_FIELDS, *_OPTIONAL_FIELDS)
             if getattr(log, name) is not None
         },
     )
