@@ -70,7 +70,7 @@ from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship
 from trials.run import ModelPlant
 from trials.spikes import despiked_inputs
-from trials.trajectory import empty_trajectory
+from trials.trajectory import trajectory_of
 
 # --------------------------------------------------------------------------------------
 # Results
@@ -249,17 +249,6 @@ def _name(log: ManeuverLog, index: int) -> str:
 # --------------------------------------------------------------------------------------
 
 
-def _trajectory(
-    time_s: np.ndarray, states: np.ndarray, rudder_rad: np.ndarray, n_rps: np.ndarray
-) -> np.ndarray:
-    traj = empty_trajectory(time_s.size)
-    traj["time_s"] = time_s
-    traj["u_mps"], traj["v_mps"], traj["r_radps"] = states[:, 0], states[:, 1], states[:, 2]
-    traj["x_m"], traj["y_m"], traj["psi_rad"] = states[:, 3], states[:, 4], states[:, 5]
-    traj["rudder_rad"], traj["n_rps"] = rudder_rad, n_rps
-    return traj
-
-
 def _held_out_current(
     current: CurrentEstimate, log: ManeuverLog, track: SmoothedTrack, name: str
 ) -> tuple[CurrentEstimate, str]:
@@ -372,7 +361,9 @@ def held_out_errors(
         logged = maneuver_indices(kind, smoothed, execute_s)
         good = int(np.argmin(finite)) if not finite.all() else states.shape[0]
         end = k + good
-        run = _trajectory(log.time_s[k:end], states[:good], log.rudder_rad[k:end], log.n_rps[k:end])
+        run = trajectory_of(
+            log.time_s[k:end], states[:good], log.rudder_rad[k:end], log.n_rps[k:end]
+        )
         predicted = maneuver_indices(kind, run, execute_s) if good > 2 else {}
         run["time_s"] -= execute_s
     else:

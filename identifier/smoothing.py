@@ -107,7 +107,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from trials.angles import unwrap_heading
 from trials.logs import ManeuverLog
-from trials.trajectory import empty_trajectory
+from trials.trajectory import trajectory_of
 
 __all__ = [
     "DEFAULT_TAU_S",
@@ -1831,12 +1831,10 @@ def smoothed_trajectory(log: ManeuverLog, track: SmoothedTrack) -> np.ndarray:
     and the peak of a 1 Hz log's raw headings with 0.1° of noise put its time to check
     yaw 0.3–0.54 s off in four draws of four (``tests/test_scenarios_cli.py``).
     """
-    traj = empty_trajectory(log.n_samples)
-    traj["time_s"] = log.time_s
-    traj["u_mps"], traj["v_mps"], traj["r_radps"] = track.u_mps, track.v_mps, track.r_radps
-    traj["x_m"], traj["y_m"], traj["psi_rad"] = track.x_m, track.y_m, track.heading_rad
-    traj["rudder_rad"], traj["n_rps"] = log.rudder_rad, log.n_rps
-    return traj
+    states = np.column_stack(
+        (track.u_mps, track.v_mps, track.r_radps, track.x_m, track.y_m, track.heading_rad)
+    )
+    return trajectory_of(log.time_s, states, log.rudder_rad, log.n_rps)
 
 
 def deglitched_log(log: ManeuverLog, track: SmoothedTrack) -> ManeuverLog:

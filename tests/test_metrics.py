@@ -21,7 +21,7 @@ from trials.metrics import (
     turning_metrics,
     zigzag_metrics,
 )
-from trials.trajectory import empty_trajectory
+from trials.trajectory import STATE_FIELDS, empty_trajectory, trajectory_of
 
 DEG = math.pi / 180.0
 
@@ -255,6 +255,16 @@ def test_malformed_trajectory_is_rejected(
 def test_execute_time_outside_the_run_is_rejected() -> None:
     with pytest.raises(MetricsError, match="not inside the trajectory"):
         turning_metrics(circle_run(), execute_time_s=-1.0)
+
+
+def test_trajectory_of_puts_each_state_column_in_its_field() -> None:
+    time_s = np.array([0.0, 1.0])
+    states = np.arange(12.0).reshape(2, 6)
+    traj = trajectory_of(time_s, states, np.array([0.1, 0.2]), np.array([1.5, 1.6]))
+    assert [list(traj[name]) for name in STATE_FIELDS] == [list(c) for c in states.T]
+    assert list(traj["x_m"]) == [3.0, 9.0] and list(traj["psi_rad"]) == [5.0, 11.0]
+    assert list(traj["time_s"]) == [0.0, 1.0] and list(traj["n_rps"]) == [1.5, 1.6]
+    assert list(traj["rudder_rad"]) == [0.1, 0.2]
 
 
 def test_plain_array_is_rejected() -> None:

@@ -40,7 +40,7 @@ from trials.maneuvers import Leg, Program, Until, turning_circle
 from trials.metrics import MetricsError, turning_metrics, zigzag_metrics
 from trials.run import Plant, run_batch
 from trials.spikes import despiked_inputs
-from trials.trajectory import empty_trajectory
+from trials.trajectory import trajectory_of
 
 KINDS = ("turning", "zigzag")
 EXECUTE_RUDDER_RAD = math.radians(0.5)
@@ -471,17 +471,20 @@ def log_trajectory(log: ManeuverLog) -> np.ndarray:
     point (:func:`~trials.logs.at_midship`), as the indices are defined.
     """
     log = at_midship(log)
-    traj = empty_trajectory(log.n_samples)
     x_dot = np.gradient(log.x_m, log.time_s)
     y_dot = np.gradient(log.y_m, log.time_s)
     cos_psi, sin_psi = np.cos(log.heading_rad), np.sin(log.heading_rad)
-    traj["time_s"] = log.time_s
-    traj["u_mps"] = cos_psi * x_dot + sin_psi * y_dot
-    traj["v_mps"] = -sin_psi * x_dot + cos_psi * y_dot
-    traj["r_radps"] = np.gradient(log.heading_rad, log.time_s)
-    traj["x_m"], traj["y_m"], traj["psi_rad"] = log.x_m, log.y_m, log.heading_rad
-    traj["rudder_rad"], traj["n_rps"] = log.rudder_rad, log.n_rps
-    return traj
+    states = np.column_stack(
+        (
+            cos_psi * x_dot + sin_psi * y_dot,
+            -sin_psi * x_dot + cos_psi * y_dot,
+            np.gradient(log.heading_rad, log.time_s),
+            log.x_m,
+            log.y_m,
+            log.heading_rad,
+        )
+    )
+    return trajectory_of(log.time_s, states, log.rudder_rad, log.n_rps)
 
 
 @dataclass(frozen=True)

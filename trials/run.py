@@ -23,7 +23,7 @@ import numpy as np
 
 from fmu_model import ModelParameters, n_substeps, numeric_model, rk4_step
 from trials.maneuvers import Program
-from trials.trajectory import STATE_FIELDS, empty_trajectory
+from trials.trajectory import trajectory_of
 
 
 class Plant(Protocol):
@@ -296,11 +296,8 @@ def run_batch(
 
     trajectories = []
     for j in range(n_ships):
-        traj = empty_trajectory(int(rows[j]))
-        traj["time_s"] = time_s[: rows[j]]
-        for f, name in enumerate((*STATE_FIELDS, "rudder_rad", "n_rps")):
-            traj[name] = history[: rows[j], f, j]
-        trajectories.append(traj)
+        ship = history[: rows[j], :, j]
+        trajectories.append(trajectory_of(time_s[: rows[j]], ship[:, :6], ship[:, 6], ship[:, 7]))
     return BatchRun(tuple(trajectories), diverged, diverged_at)
 
 

@@ -29,3 +29,15 @@ STATE_FIELDS = ("u_mps", "v_mps", "r_radps", "x_m", "y_m", "psi_rad")
 def empty_trajectory(n_samples: int) -> np.ndarray:
     """Return a zero-filled trajectory with ``n_samples`` rows."""
     return np.zeros(n_samples, dtype=TRAJECTORY_DTYPE)
+
+
+def trajectory_of(
+    time_s: np.ndarray, states: np.ndarray, rudder_rad: np.ndarray, n_rps: np.ndarray
+) -> np.ndarray:
+    """Return the trajectory of ``states`` (N, 6) in :data:`STATE_FIELDS` order at ``time_s``."""
+    traj = empty_trajectory(time_s.size)
+    traj["time_s"] = time_s
+    for column, name in enumerate(STATE_FIELDS):
+        traj[name] = states[:, column]
+    traj["rudder_rad"], traj["n_rps"] = rudder_rad, n_rps
+    return traj
