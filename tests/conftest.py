@@ -4,8 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
 from fmu_model import ModelParameters
+
+# CI gates a change on these tests, so a property test draws the same examples on every
+# run (seeded by the test itself): a run goes red for a change of the code, not for a
+# new draw. `pytest --hypothesis-profile explore` draws anew, to look for what the fixed
+# draws miss (three such runs of the property tests, seeds 11-13, passed when this was set).
+settings.register_profile("ci", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile("ci")
 
 # A 100 m single-screw ship at 5 m/s and 2 rev/s in the Shi et al. (2009) structure.
 # Straight-run equilibrium: a1 u0^2 + a8 u0 n0 + a9 n0^2 = 0. Positive rudder turns to
