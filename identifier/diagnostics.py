@@ -13,6 +13,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.ndimage import median_filter
 
 from fmu_model import ModelParameters
 from fmu_model.variants import (
@@ -23,7 +24,7 @@ from fmu_model.variants import (
     family_name,
     parse_family,
 )
-from identifier.conventions import MIN_COMMAND_RAD
+from identifier.conventions import MIN_COMMAND_RAD, MIN_TURN_RAD
 from identifier.current import MIN_HEADING_SPAN_RAD, CurrentEstimate, heading_span_rad
 from identifier.preparation import SmoothedLogs
 from identifier.smoothing import SmoothedTrack
@@ -131,18 +132,29 @@ def reversal_warning(logs: Sequence[ManeuverLog]) -> str | None:
 
 
 def logged_side(logs: Sequence[ManeuverLog]) -> str | None:
-    """Return ``"starboard"`` or ``"port"`` when the logs put the rudder to that side only.
+    """Return ``"starboard"`` or ``"port"`` when the logs turn the ship to that side only.
 
-    To one side by :data:`~identifier.conventions.MIN_COMMAND_RAD` or more (a command),
-    to the other by less (an autopilot's or a neutral helm's); None otherwise.
+    A log turns to a side when its rudder goes there by
+    :data:`~identifier.conventions.MIN_COMMAND_RAD` or more (a command) and its heading
+    swings there by :data:`~identifier.conventions.MIN_TURN_RAD` or more (from its last
+    extreme the other way; a five-sample median first, so that a compass spike is no
+    swing): a turning circle turns to one side, a zig-zag to both, and the corrections
+    of an approach held on course, rudder to the other side beyond 5° included, to
+    neither. None when the logs turn both ways, or neither.
     """
-    starboard = max(float(np.max(log.rudder_rad)) for log in logs)
-    port = -min(float(np.min(log.rudder_rad)) for log in logs)
-    if starboard >= MIN_COMMAND_RAD > port:
-        return "starboard"
-    if port >= MIN_COMMAND_RAD > starboard:
-        return "port"
+    starboard = any(_turns_to(log, +1.0) for log in logs)
+    port = any(_turns_to(log, -1.0) for log in logs)
+    if starboard != port:
+        return "starboard" if starboard else "port"
     return None
+
+
+def _turns_to(log: ManeuverLog, side: float) -> bool:
+    """Whether ``log`` turns the ship to ``side`` (+1 starboard, -1 port): :func:`logged_side`."""
+    if float(np.max(side * log.rudder_rad)) < MIN_COMMAND_RAD:
+        return False
+    heading = side * median_filter(log.heading_rad, size=5, mode="nearest")
+    return float(np.max(heading - np.minimum.accumulate(heading))) >= MIN_TURN_RAD
 
 
 def one_sided_model(logs: Sequence[ManeuverLog], model: str) -> tuple[str, str] | None:

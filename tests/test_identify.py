@@ -605,6 +605,14 @@ def test_logs_of_one_side_hold_the_familys_asymmetry_at_zero(
     port = replace(turn, rudder_rad=-turn.rudder_rad, y_m=-turn.y_m, heading_rad=-turn.heading_rad)
     assert (logged_side([turn]), logged_side([port])) == ("starboard", "port")
     assert logged_side([turn, port]) is None and logged_side([zigzag]) is None
+    # A helmsman's 8° to port for 5 s on the approach, and a compass spike of 30° to port
+    # in the turn, do not turn the ship to port: the logs still turn to starboard only.
+    approach = np.flatnonzero(turn.time_s < turn.time_s[0] + 5.0)
+    helmed = turn.rudder_rad.copy()
+    helmed[approach] = -math.radians(8.0)
+    spiked = turn.heading_rad.copy()
+    spiked[turn.n_samples // 2] -= math.radians(30.0)
+    assert logged_side([replace(turn, rudder_rad=helmed, heading_rad=spiked)]) == "starboard"
     held = one_sided_model([turn], "prime-rudder-offset")
     assert held is not None and held[0] == "prime-rudder-offset[dgamma=0,dwake=0,d0=0]"
     assert held[1].startswith("the logs turn to starboard only: dgamma, dwake, d0 held at 0")
