@@ -304,13 +304,19 @@ def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candida
     result = refine_output_error(truth, list(logs.values()), **best_replay)
     assert result.initial_method == "equation-error" and result.kept == "initial"
     np.testing.assert_array_equal(result.params.to_vector(), other.to_vector())
+    failure = (
+        "a virtual hard-over turn diverges, turns back, loses its headway or does not pass 360 deg"
+    )
     why = (
-        "the EKF start fails the sanity guard (a virtual hard-over turn diverges, turns back, "
-        "loses its headway or does not pass 360 deg) and its refinement was not kept; refined "
-        "again from the equation-error estimate, which sails the virtual turns and zig-zags"
+        f"the EKF start fails the sanity guard ({failure}) and its refinement was not kept "
+        f"(output-error estimate rejected: {failure}); refined again from the equation-error "
+        "estimate, which sails the virtual turns and zig-zags"
     )
     assert why in result.warnings and why in result.reason
     assert why in result.params.identification["refinement"]["reason"]
+    # Said once, and not what the first decision kept: that was superseded.
+    assert not any("kept the EKF estimate" in w for w in result.warnings)
+    assert not any(w.startswith("the EKF estimate fails the sanity guard") for w in result.warnings)
     others_sane["yes"] = False
     stuck = refine_output_error(truth, list(logs.values()), **best_replay)
     assert stuck.initial_method == "ekf" and not any("refined again" in w for w in stuck.warnings)

@@ -184,8 +184,9 @@ def refine_output_error(
     )
     if grown_note is not None:
         warnings.insert(0, grown_note)
+    insane_start = f"the {label} estimate fails the sanity guard: {SANITY_FAILURE}"
     if not all(t.sane for t in initial.turns):
-        warnings.append(f"the {label} estimate fails the sanity guard: {SANITY_FAILURE}")
+        warnings.append(insane_start)
     opt = objective.solve(np.zeros(objective.size), settings.max_nfev)
     refined_params = params.with_vector(objective.theta(opt.x), _covariance(objective, opt))
     refined = _summarise(objective, opt.x, refined_params, approach)
@@ -200,8 +201,7 @@ def refine_output_error(
         label=label,
         both_sides_logged=covers_both_sides([t.heading_rad for t in tracks]),
     )
-    if kept == "initial":
-        warnings.append(reason)
+    decided = reason
     if grown_note is not None:
         reason = f"{grown_note}; {reason}"
     kept_fit = refined if kept == "refined" else initial
@@ -211,12 +211,13 @@ def refine_output_error(
             again = refine_output_error(
                 others[sane], logs, tracks=tracks, settings=settings, method=sane
             )
+            # What the first decision kept is superseded, and `failing` says the start fails.
             failing = (
                 f"the output-error estimate from the {label} start fails the sanity guard "
                 f"({SANITY_FAILURE})"
                 if kept == "refined"
                 else f"the {label} start fails the sanity guard ({SANITY_FAILURE}) and its "
-                "refinement was not kept"
+                f"refinement was not kept ({decided.removesuffix(f'; kept the {label} estimate')})"
             )
             why = (
                 f"{failing}; refined again from the {method_label(sane)} estimate, which "
@@ -225,8 +226,14 @@ def refine_output_error(
             return replace(
                 again,
                 reason=f"{again.reason}; {why}",
-                warnings=(*warnings, why, *again.warnings),
+                warnings=(
+                    *(w for w in warnings if kept == "refined" or w != insane_start),
+                    why,
+                    *again.warnings,
+                ),
             ).recorded()
+    if kept == "initial":
+        warnings.append(decided)
     if kept_fit.position_rms_L > POOR_REPLAY_L:  # of the estimate kept, not a rescued one
         warnings.append(_poor_replay_warning(kept_fit, refined, label))
     if not kept_fit.zigzags_complete:
