@@ -58,7 +58,12 @@ SHAPE_MAX_ROWS = 10_000
 #: held-out turns get worse (ten draws each, worst turning error in sum: KVLCC2 89.4
 #: against 87.0 points, the Mariner 131.8 against 77.4; benchmarks/fidelity.md, "The
 #: shape search's polish, converged"). Along J's flat valleys the cap keeps the shape
-#: near the best grid point, a regularisation the zig-zags need.
+#: near the best grid point, a regularisation the zig-zags need. It is also where the
+#: polish is not continuous in the data: 300 evaluations end inside Powell's fourth sweep,
+#: at a point the data's last digits decide (issue 14's glitch bar, one draw 1.17 points).
+#: Stopped after two or three whole sweeps instead, that draw is within 0.31 points and
+#: every draw within 0.44, but the Mariner's turns lose 16.4 / 6.3 points over ten draws
+#: (benchmarks/fidelity.md, "The shape polish stopped after whole sweeps").
 SHAPE_POLISH_MAX_EVALUATIONS = 300
 
 
