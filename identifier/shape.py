@@ -63,7 +63,8 @@ SHAPE_MAX_ROWS = 10_000
 #: at a point the data's last digits decide (issue 14's glitch bar, one draw 1.17 points).
 #: Stopped after two or three whole sweeps instead, that draw is within 0.31 points and
 #: every draw within 0.44, but the Mariner's turns lose 16.4 / 6.3 points over ten draws
-#: (benchmarks/fidelity.md, "The shape polish stopped after whole sweeps").
+#: and the measured HSVA runs 0.4° (two sweeps win 4.5 / 9.1 points on KVLCC2 / the
+#: tanker; benchmarks/fidelity.md, "The shape polish stopped after whole sweeps").
 SHAPE_POLISH_MAX_EVALUATIONS = 300
 
 
