@@ -194,8 +194,13 @@ class ModelFamily:
         return tuple(i for i, t in enumerate(self.terms) if t.regressor.free_symbols & symbols)
 
     def structure_name(self, shape: Mapping[str, float]) -> str:
-        """Canonical name of the structure with ``shape``."""
-        return f"{self.name}[" + ",".join(f"{c.name}={shape[c.name]:.6g}" for c in self.shape) + "]"
+        """Canonical name of the structure with ``shape``, in the family's order.
+
+        A ``shape`` that gives only some constants names the family with those fixed (the
+        others searched), as ``parse_family`` reads it.
+        """
+        given = ",".join(f"{c.name}={shape[c.name]:.6g}" for c in self.shape if c.name in shape)
+        return f"{self.name}[{given}]"
 
     def check(self, shape: Mapping[str, float]) -> None:
         """Raise ValueError unless ``shape`` holds known constants inside their bounds."""

@@ -142,19 +142,19 @@ def logged_side(logs: Sequence[ManeuverLog]) -> str | None:
     of an approach held on course, rudder to the other side beyond 5° included, to
     neither. None when the logs turn both ways, or neither.
     """
-    starboard = any(_turns_to(log, +1.0) for log in logs)
-    port = any(_turns_to(log, -1.0) for log in logs)
-    if starboard != port:
-        return "starboard" if starboard else "port"
-    return None
+    sides = set().union(*(_sides_turned(log) for log in logs))
+    return sides.pop() if len(sides) == 1 else None
 
 
-def _turns_to(log: ManeuverLog, side: float) -> bool:
-    """Whether ``log`` turns the ship to ``side`` (+1 starboard, -1 port): :func:`logged_side`."""
-    if float(np.max(side * log.rudder_rad)) < MIN_COMMAND_RAD:
-        return False
-    heading = side * median_filter(log.heading_rad, size=5, mode="nearest")
-    return float(np.max(heading - np.minimum.accumulate(heading))) >= MIN_TURN_RAD
+def _sides_turned(log: ManeuverLog) -> set[str]:
+    """Return the sides ``log`` turns the ship to (:func:`logged_side`)."""
+    heading = median_filter(log.heading_rad, size=5, mode="nearest")
+    sides: set[str] = set()
+    for side, sign in (("starboard", 1.0), ("port", -1.0)):
+        swing = sign * heading - np.minimum.accumulate(sign * heading)
+        if np.max(sign * log.rudder_rad) >= MIN_COMMAND_RAD and np.max(swing) >= MIN_TURN_RAD:
+            sides.add(side)
+    return sides
 
 
 def one_sided_model(logs: Sequence[ManeuverLog], model: str) -> tuple[str, str] | None:
@@ -177,13 +177,7 @@ def one_sided_model(logs: Sequence[ManeuverLog], model: str) -> tuple[str, str] 
     held = [c.name for c in family.shape if c.symbol in ASYMMETRY_SHAPE and c.name not in fixed]
     if not held:
         return None
-    shape = {**fixed, **dict.fromkeys(held, 0.0)}
-    name = (
-        family.name
-        + "["
-        + ",".join(f"{c.name}={shape[c.name]:g}" for c in family.shape if c.name in shape)
-        + "]"
-    )
+    name = family.structure_name({**fixed, **dict.fromkeys(held, 0.0)})
     note = (
         f"the logs turn to {side} only: {', '.join(held)} held at 0 ({name}), the other "
         "side's turn the mirror of theirs; one side does not determine them, and searched "

@@ -438,7 +438,7 @@ def decide(
         "initial" or "refined", and the reason in one sentence.
 
     """
-    keep = f"kept the {label} estimate"
+    keep = kept_phrase(label)
     if refined.diverged:
         return "initial", (
             "output-error estimate rejected: replaying "
@@ -469,6 +469,11 @@ def decide(
             f"{keep}"
         )
     return "refined", "output-error estimate accepted"
+
+
+def kept_phrase(label: str) -> str:
+    """Return how :func:`decide`'s reason ends when it keeps the ``label`` start."""
+    return f"kept the {label} estimate"
 
 
 def _no_worse(start: VirtualTurn, refined: VirtualTurn) -> bool:

@@ -44,6 +44,7 @@ from identifier.output_error.guards import (
     covers_both_sides,
     covers_turn,
     decide,
+    kept_phrase,
     method_label,
     training_approach,
     turn_spread,
@@ -217,7 +218,7 @@ def refine_output_error(
                 f"({SANITY_FAILURE})"
                 if kept == "refined"
                 else f"the {label} start fails the sanity guard ({SANITY_FAILURE}) and its "
-                f"refinement was not kept ({decided.removesuffix(f'; kept the {label} estimate')})"
+                f"refinement was not kept ({decided.removesuffix(f'; {kept_phrase(label)}')})"
             )
             why = (
                 f"{failing}; refined again from the {method_label(sane)} estimate, which "
