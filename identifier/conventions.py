@@ -85,6 +85,7 @@ __all__ = [
     "rudder_side_problem",
     "turning_yaw_rate",
     "unit_warnings",
+    "yaw_rate_prime",
 ]
 
 MIN_COURSE_SPREAD_RAD = math.radians(3.0)
@@ -130,7 +131,7 @@ of (rev/s read as rpm?)."""
 _EXPECTED_FRAME = "expected x_m North, y_m East and heading_deg clockwise from North"
 
 
-def _yaw_rate_prime(track: SmoothedTrack, length_m: float) -> np.ndarray:
+def yaw_rate_prime(track: SmoothedTrack, length_m: float) -> np.ndarray:
     """Return r′ = |r| L / U over ground of every sample of ``track``."""
     speed = np.maximum(np.asarray(track.speed_mps), np.finfo(float).tiny)
     return np.abs(np.asarray(track.r_radps)) * length_m / speed
@@ -232,7 +233,7 @@ def approach_problem(
     k = execute
     if k < 1:
         return None
-    turning = float(np.median(_yaw_rate_prime(track, length_m)[:k]))
+    turning = float(np.median(yaw_rate_prime(track, length_m)[:k]))
     if turning <= MAX_APPROACH_YAW_RATE:
         return None
     never = " (its rudder never moves)" if k == log.n_samples - 1 else ""
@@ -270,7 +271,7 @@ def log_problem(
 def turning_yaw_rate(tracks: Sequence[SmoothedTrack], length_m: float) -> float:
     """Return the largest r′ = |r| L / U of the smoothed ``tracks`` under way (L = ``length_m``)."""
     return max(
-        float(np.max(_yaw_rate_prime(track, length_m)[_under_way(track)])) for track in tracks
+        float(np.max(yaw_rate_prime(track, length_m)[_under_way(track)])) for track in tracks
     )
 
 

@@ -58,6 +58,7 @@ from identifier.smoothing import (
     smooth_log,
     smoothed_trajectory,
 )
+from identifier.split import several_manoeuvres
 from identifier.wind import mean_true_wind_ne, speed_and_source
 from trials.conditions import (
     BEYOND_STANDARD_INDICES,
@@ -317,6 +318,8 @@ def held_out_errors(
     log = despiked_inputs(deglitched_log(log, track), params.length_m)[0]
     name = name or log.path or "log"
     notes: list[str] = []
+    if (several := several_manoeuvres(log, params.length_m, track)) is not None:
+        notes.append(several)
     if current is None:
         k, states = predict_log(params, log, track)
     else:

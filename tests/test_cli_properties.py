@@ -4,7 +4,8 @@ Every numeric input of the command lines gets random text: finite and non-finite
 doubles (±1e±308, subnormals, nan, inf, -0.0), huge integers, empty and malformed
 words. The trial-log columns and ``# length_m:`` given to ``python -m identifier fit``
 and its numeric options; the columns of a lat/lon CSV and the numeric options of
-``python -m identifier convert``; the numbers of a params.json and ``--max-step-s`` of
+``python -m identifier convert``; the trial-log columns and ``--length-m`` of ``python -m
+identifier split``; the numbers of a params.json and ``--max-step-s`` of
 ``build_fmu.py``; ``--max-error-pct`` of ``python -m scenarios validate`` and
 ``--speed-mps``, ``--rpm`` of ``turning-circle`` (validate has neither). Whatever the
 input, the command either exits 0 (3: a failed gate) and writes its output, or exits
@@ -203,6 +204,16 @@ def _check(
     assert _files(directory) == inputs, f"exit {status} but wrote {_files(directory) - inputs}"
 
 
+@contextmanager
+def _input_file(name: str, text: str) -> Iterator[tuple[Path, Path]]:
+    """A temporary directory holding one input file ``name`` of ``text``: (directory, file)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        directory = Path(tmp)
+        path = directory / name
+        path.write_text(text, encoding="utf-8")
+        yield directory, path
+
+
 # -------------------------------------------------------------- python -m identifier
 
 LOG_COLUMNS = ("time_s", "x_m", "y_m", "heading_deg", "rudder_deg", "rpm")
@@ -283,10 +294,7 @@ def _edited_log(lines: list[str], field: str, row: int, word: str) -> str:
 def _fit(
     log_text: str, options: list[str], capfd: pytest.CaptureFixture[str]
 ) -> tuple[int, str, str, Path, Path]:
-    with tempfile.TemporaryDirectory() as tmp:
-        directory = Path(tmp)
-        log = directory / "trial.csv"
-        log.write_text(log_text, encoding="utf-8")
+    with _input_file("trial.csv", log_text) as (directory, log):
         output = directory / "out" / "params.json"
         argv = [
             "fit",
@@ -343,6 +351,30 @@ def test_fit_any_number_in_its_options(
     _fit("\n".join(log_lines) + "\n", [f"{option}={word}", *extra], capfd)
 
 
+def _split(log_text: str, options: list[str], capfd: pytest.CaptureFixture[str]) -> None:
+    with _input_file("trial.csv", log_text) as (directory, log):
+        out = directory / "out"
+        argv = ["split", str(log), "--quiet", "-o", str(out), *options]
+        status, _, err = _run(identifier_cli.main, argv, capfd)
+        _check(status, err, inputs={log}, directory=directory, written=out.is_dir)
+
+
+@_examples(30)
+@given(edit=log_edits())
+def test_split_any_number_in_the_log(
+    edit: tuple[str, int, str], log_lines: list[str], capfd: pytest.CaptureFixture[str]
+) -> None:
+    _split(_edited_log(log_lines, *edit), [], capfd)
+
+
+@_examples(12)
+@given(word=numbers(0.5, 500.0))
+def test_split_any_length(
+    word: str, log_lines: list[str], capfd: pytest.CaptureFixture[str]
+) -> None:
+    _split("\n".join(log_lines) + "\n", [f"--length-m={word}"], capfd)
+
+
 LATLON_COLUMNS = ("time_s", "lat_deg", "lon_deg", "heading_deg", "rudder_deg", "rpm")
 LATLON_RANGES = {
     "time_s": (0.0, 40.0),
@@ -377,10 +409,7 @@ def _latlon_lines() -> list[str]:
 
 
 def _convert(csv_text: str, options: list[str], capfd: pytest.CaptureFixture[str]) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        directory = Path(tmp)
-        recording = directory / "recording.csv"
-        recording.write_text(csv_text, encoding="utf-8")
+    with _input_file("recording.csv", csv_text) as (directory, recording):
         out = directory / "out"
         argv = ["convert", str(recording), "--quiet", "-o", str(out / "trial.csv"), *options]
         status, _, err = _run(identifier_cli.main, argv, capfd)
@@ -482,10 +511,7 @@ def _params_text(where: tuple[Any, ...], both: bool, word: str) -> str:
 
 
 def _build(params_text: str, options: list[str], capfd: pytest.CaptureFixture[str]) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        directory = Path(tmp)
-        params = directory / "params.json"
-        params.write_text(params_text, encoding="utf-8")
+    with _input_file("params.json", params_text) as (directory, params):
         fmu = directory / "out" / "ship.fmu"
         argv = ["--params", str(params), "-o", str(fmu), *options]
         status, _, err = _run(build_fmu.main, argv, capfd)

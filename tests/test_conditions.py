@@ -115,6 +115,33 @@ def test_a_synthetic_logs_condition_is_the_one_it_was_sailed_in(
     assert c.execute_time_s == pytest.approx(60.0)
 
 
+def test_a_zigzag_that_ends_back_at_midship_is_read_as_its_zigzag(
+    reference_zigzag: ManeuverLog,
+) -> None:
+    """A log ending with the rudder returned to midship and a straight run (a zig-zag cut
+    from a trial day, ``identifier split``): the return is no reversal. Before, it counted
+    as one to a plateau of 0 deg, and the amplitude came out 8 deg (``zigzag-8-10``)."""
+    log = reference_zigzag
+    tail_s = np.arange(1, 1001) * 0.1  # 100 s at the log's 10 Hz
+    rate = reference_ship("kvlcc2", "full").rudder_rate_radps
+    last = float(log.rudder_rad[-1])
+    back = np.sign(last) * np.maximum(abs(last) - rate * tail_s, 0.0)
+    ended = ManeuverLog(
+        np.concatenate((log.time_s, log.time_s[-1] + tail_s)),
+        np.concatenate((log.x_m, np.full(tail_s.size, log.x_m[-1]) + 8.0 * tail_s)),
+        np.concatenate((log.y_m, np.full(tail_s.size, log.y_m[-1]))),
+        np.concatenate((log.heading_rad, np.full(tail_s.size, log.heading_rad[-1]))),
+        np.concatenate((log.rudder_rad, back)),
+        np.concatenate((log.n_rps, np.full(tail_s.size, log.n_rps[-1]))),
+    )
+    assert back[-1] == 0.0 and maneuver_kind(ended) == "zigzag"
+    whole, cut = logged_condition(log), logged_condition(ended)
+    assert cut.program.name == whole.program.name == "zigzag-10-10-port"
+    assert cut.program.rudder_rad == pytest.approx(whole.program.rudder_rad, abs=1e-12)
+    assert cut.switch_headings_rad == pytest.approx(whole.switch_headings_rad, abs=1e-12)
+    assert cut.rudder_rate_radps == pytest.approx(whole.rudder_rate_radps, rel=1e-9)
+
+
 def test_the_ship_that_sailed_a_log_sails_it_again_to_the_same_overshoots(
     reference_zigzag: ManeuverLog,
 ) -> None:

@@ -31,6 +31,7 @@ from scenarios.synthesize import (
     with_gnss_jumps,
 )
 from tests.conftest import SEED_COEFFICIENTS
+from tests.trial_day import joined
 from trials.conditions import logged_condition, maneuver_kind, sail_again
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log, write_log
@@ -176,6 +177,19 @@ def test_a_held_out_logs_trajectories_are_those_its_indices_were_read_off(
     held = int(np.argmax(rudder >= rudder.max() - 1e-9))
     reversal = held + int(np.argmax(rudder[held:] < rudder.max() - 1e-9))
     assert abs(heading[reversal]) == pytest.approx(10.0, abs=0.2)  # at the check heading
+
+
+def test_a_held_out_log_of_several_manoeuvres_is_noted(logs: dict[str, ManeuverLog]) -> None:
+    """A port zig-zag and then a starboard turn in one held-out log: predicted as one
+    manoeuvre, with a note to split it; a log of one manoeuvre has no such note."""
+    zig, turn = logs["zigzag-10-port"], logs["turning-35"]
+    both = held_out_errors(_truth(), joined(zig, turn))
+    executes = f"60.0, {zig.time_s[-1] + 61.0:.1f}"
+    assert (
+        f"the log holds 2 manoeuvres (executed at t = {executes} s), read here as one: split it "
+        "into one log each first (python -m identifier split)"
+    ) in both.notes
+    assert not any("manoeuvres" in note for note in held_out_errors(_truth(), zig).notes)
 
 
 def test_a_held_out_logs_glitches_are_taken_out_as_the_fits_are(

@@ -42,7 +42,7 @@ from identifier.smoothing import smooth_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log, synthesize_logs
 from tests.conftest import SEED_COEFFICIENTS
 from trials.conditions import execute_index
-from trials.logs import ManeuverLog, log_head, read_log
+from trials.logs import ManeuverLog, log_piece, read_log
 
 RUDDER_RATE = math.radians(5.0)
 # Coefficients that shape the manoeuvres, and how the start is perturbed from the truth.
@@ -265,18 +265,21 @@ def test_a_start_whose_replay_diverges_everywhere_is_grown_over_a_horizon(
     assert grown_start(start, [log], [track], RefineSettings(), "equation-error", 100.0) is None
 
 
-def test_a_log_head_keeps_every_column_and_the_metadata(logs: dict[str, ManeuverLog]) -> None:
+def test_a_log_piece_keeps_every_column_the_metadata_and_the_times(
+    logs: dict[str, ManeuverLog],
+) -> None:
     log = logs["zigzag-10"]
     windy = replace(log, wind_speed_mps=np.full(log.n_samples, 7.0),
                     wind_angle_rad=np.zeros(log.n_samples))  # fmt: skip
-    head = log_head(windy, 50)
-    assert head.n_samples == 50 and head.metadata == log.metadata
-    np.testing.assert_array_equal(head.time_s, log.time_s[:50])
-    assert head.wind_speed_mps is not None and head.wind_speed_mps.size == 50
-    assert head.stw_mps is None
-    for bad in (0, log.n_samples + 1):
-        with pytest.raises(ValueError, match=f"a head of 1 to {log.n_samples} samples"):
-            log_head(log, bad)
+    piece = log_piece(windy, 20, 70)
+    assert piece.n_samples == 50 and piece.metadata == log.metadata
+    np.testing.assert_array_equal(piece.time_s, log.time_s[20:70])
+    np.testing.assert_array_equal(piece.rudder_rad, log.rudder_rad[20:70])
+    assert piece.wind_speed_mps is not None and piece.wind_speed_mps.size == 50
+    assert piece.stw_mps is None
+    for start, stop in ((0, 0), (5, 5), (-1, 5), (0, log.n_samples + 1)):
+        with pytest.raises(ValueError, match=f"a piece within samples 0 to {log.n_samples}"):
+            log_piece(log, start, stop)
 
 
 def test_a_kept_estimate_that_fails_the_sanity_guard_gives_way_to_a_sane_candidate(

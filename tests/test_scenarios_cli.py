@@ -28,6 +28,7 @@ from scenarios.runs import reference_runs
 from scenarios.synthesize import FULL_SCALE_LOGGING, default_logging, maneuver_seed
 from tests.conftest import SEED_COEFFICIENTS
 from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
+from tests.trial_day import joined
 from trials.logs import ManeuverLog, on_board_offset, read_log, write_log
 from trials.maneuvers import turning_circle, zigzag
 from trials.metrics import turning_metrics, zigzag_metrics
@@ -642,6 +643,35 @@ def test_a_log_is_laid_over_the_run_at_its_execute_point_and_heading(params) -> 
     np.testing.assert_allclose(laid["psi_rad"], later["psi_rad"], atol=1e-9)  # the smoother
     np.testing.assert_array_equal(laid["u_mps"], smoothed["u_mps"][log.time_s >= 120.0])
     assert abs(later["x_m"][-1] - log.x_m[-1]) > 100.0  # where the log was: moved
+
+
+def test_like_warns_of_a_log_of_several_manoeuvres(fmu, params, tmp_path, capsys):
+    """Two 10/10 zig-zags in one log, each after 60 s (3 L) of straight running: ``--like``
+    reads it as one manoeuvre, and says to split it first."""
+    program = replace(
+        zigzag(math.radians(10.0), math.radians(10.0), max_time_s=600.0), approach_s=60.0
+    )
+    truth = run_program(
+        ModelPlant(params), program, speed_mps=5.0, n_rps=2.0,
+        rudder_rate_radps=math.radians(5.0), dt_s=1.0,
+    )  # fmt: skip
+    one = ManeuverLog(
+        truth["time_s"] - truth["time_s"][0], truth["x_m"], truth["y_m"], truth["psi_rad"],
+        truth["rudder_rad"], truth["n_rps"], metadata={"length_m": "100.0"},
+    )  # fmt: skip
+    for log, warned in ((one, False), (joined(one, one), True)):
+        write_log(tmp_path / "logged.csv", log)
+        assert (
+            main(["zigzag", "--fmu", str(fmu), "--like", str(tmp_path / "logged.csv"), "--quiet"])
+            == 0
+        )
+        err = capsys.readouterr().err
+        expected = (
+            f"warning: {tmp_path / 'logged.csv'}: the log holds 2 manoeuvres (executed at t = "
+            f"60.0, {one.time_s[-1] + 61.0:.1f} s), read here as one: split it into one log "
+            "each first (python -m identifier split)\n"
+        )
+        assert err == (expected if warned else "")
 
 
 def test_zigzag_like_a_log_sails_its_condition_and_prints_both(fmu, params, tmp_path, capsys):

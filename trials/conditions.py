@@ -128,10 +128,18 @@ def _execute_index(log: ManeuverLog) -> int:
     moved = np.flatnonzero(np.abs(rudder - rudder[0]) > EXECUTE_RUDDER_RAD)
     if not moved.size:
         return log.n_samples - 1
-    # Back to the first sample of that movement (the rudder already moving that way).
     k = int(moved[0])
-    sign = math.copysign(1.0, rudder[k] - rudder[0])
-    while k > 1 and sign * (rudder[k - 1] - rudder[k - 2]) > RUDDER_STEP_RAD:
+    return movement_start(rudder, k, math.copysign(1.0, rudder[k] - rudder[0]))
+
+
+def movement_start(rudder_rad: np.ndarray, k: int, sign: float, first: int = 0) -> int:
+    """Return the first sample of the rudder movement that reaches sample ``k``.
+
+    Back from ``k`` while the rudder was already moving to the side of ``sign`` (+1
+    starboard, −1 port) by more than :data:`RUDDER_STEP_RAD` a sample, not before sample
+    ``first`` + 1: the execute point of a command first seen at ``k``.
+    """
+    while k > first + 1 and sign * (rudder_rad[k - 1] - rudder_rad[k - 2]) > RUDDER_STEP_RAD:
         k -= 1
     return k
 
@@ -147,7 +155,10 @@ def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
     """Return the samples (≥ k) at which the rudder has left a plateau for the other side.
 
     A plateau is the extreme rudder angle reached on one side; the rudder has left it
-    when it is :data:`REVERSAL_RUDDER_RAD` back from it towards the other side.
+    when it is :data:`REVERSAL_RUDDER_RAD` back from it towards the other side, and it
+    goes on past midship to that side by as much before it turns back: a return to
+    midship (a zig-zag ended, the log's straight run after it) is no reversal, and the
+    reversals end there.
     """
     out = []
     side = sign
@@ -160,6 +171,11 @@ def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
             out.append(i)
             side = -side
             extreme = side * float(log.rudder_rad[i])
+    for j, i in enumerate(out):
+        to_side = -sign if j % 2 == 0 else sign
+        end = out[j + 1] if j + 1 < len(out) else log.n_samples
+        if float(np.max(to_side * log.rudder_rad[i:end])) <= REVERSAL_RUDDER_RAD:
+            return np.array(out[:j], dtype=int)
     return np.array(out, dtype=int)
 
 

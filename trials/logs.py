@@ -124,7 +124,7 @@ __all__ = [
     "ManeuverLog",
     "at_midship",
     "format_log",
-    "log_head",
+    "log_piece",
     "on_board_offset",
     "parse_log",
     "read_log",
@@ -480,21 +480,23 @@ def at_midship(log: ManeuverLog) -> ManeuverLog:
     )
 
 
-def log_head(log: ManeuverLog, n_samples: int) -> ManeuverLog:
-    """Return the first ``n_samples`` samples of ``log`` (every column; the metadata kept).
+def log_piece(log: ManeuverLog, start: int, stop: int) -> ManeuverLog:
+    """Return samples ``start`` to ``stop`` − 1 of ``log`` (every column; the metadata kept).
+
+    Times as they are in ``log`` (so that its ``time_origin_utc`` holds for the piece).
 
     Raises
     ------
     ValueError
-        If ``n_samples`` is not from 1 to the log's number of samples.
+        If the piece is not a non-empty range of the log's samples.
 
     """
-    if not 1 <= n_samples <= log.n_samples:
-        raise ValueError(f"a head of 1 to {log.n_samples} samples, got {n_samples}")
+    if not 0 <= start < stop <= log.n_samples:
+        raise ValueError(f"a piece within samples 0 to {log.n_samples}, got {start} to {stop}")
     return replace(
         log,
         **{
-            name: getattr(log, name)[:n_samples]
+            name: getattr(log, name)[start:stop]
             for name in (*_REQUIRED_FIELDS, *_OPTIONAL_FIELDS)
             if getattr(log, name) is not None
         },

@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-from fmu_model import ParamsFormatError
+from fmu_model import ParamsFormatError, argtypes
+from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from trials.errors import IdentificationError, LogFormatError
 
-__all__ = ["DATA_ERRORS", "add_windage_argument", "error", "os_error_text"]
+__all__ = ["DATA_ERRORS", "add_length_argument", "add_windage_argument", "error", "os_error_text"]
 
 DATA_ERRORS = (LogFormatError, IdentificationError, ParamsFormatError)
 """Exceptions that mean bad input data: ``error: <message>``, exit status 1."""
@@ -49,4 +50,16 @@ def add_windage_argument(parser: argparse.ArgumentParser, then: str) -> None:
         metavar="FILE.json",
         help="the vessel's windage (areas, centroid, effective inertias; README): the load of "
         f"the logs' measured wind is taken out of the coefficients, {then}",
+    )
+
+
+def add_length_argument(parser: argparse.ArgumentParser, then: str = "") -> None:
+    """Add ``--length-m L``: the ship's length [m], within the FMU's bounds.
+
+    ``then``: the end of its help, e.g. its default.
+    """
+    parser.add_argument(
+        "--length-m",
+        type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
+        help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g}{then}",
     )

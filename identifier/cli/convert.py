@@ -14,9 +14,8 @@ from typing import Any
 import scipy.constants
 
 from fmu_model import argtypes
-from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
 from fmu_model.params import text_problem
-from identifier.cli.common import error, os_error_text
+from identifier.cli.common import add_length_argument, error, os_error_text
 from identifier.conventions import log_problem
 from identifier.ingest import (
     DEFAULT_MAX_GAP_S,
@@ -101,11 +100,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "--format", choices=("auto", "nmea", "csv"), default="auto", help="default: from content"
     )
     convert.add_argument("--vessel", type=_vessel, help="written as '# vessel:'")
-    convert.add_argument(
-        "--length-m",
-        type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
-        help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g}",
-    )
+    add_length_argument(convert)
     on_board = argtypes.within(-MAX_ON_BOARD_M, MAX_ON_BOARD_M, "m")
     convert.add_argument(
         "--gnss-x-m",

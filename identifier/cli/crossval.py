@@ -13,10 +13,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from fmu_model import DEFAULT_MODEL, argtypes, model_names
+from fmu_model import DEFAULT_MODEL, model_names
 from fmu_model.atomic import write_atomic
-from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M
-from identifier.cli.common import DATA_ERRORS, add_windage_argument, error, os_error_text
+from identifier.cli.common import (
+    DATA_ERRORS,
+    add_length_argument,
+    add_windage_argument,
+    error,
+    os_error_text,
+)
 from identifier.crossval import KINDS, format_table, run_cross_validation
 from identifier.current import CURRENT_MODES
 from identifier.identify import METHODS, FitSettings
@@ -72,11 +77,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "the current its own speed log shows, else in the training logs' mean with the "
         "component across its approach as the approach shows it)",
     )
-    cv.add_argument(
-        "--length-m",
-        type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
-        help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} (default: from logs)",
-    )
+    add_length_argument(cv, " (default: from logs)")
     add_windage_argument(
         cv,
         "the held-out logs are replayed in their logged wind and their zig-zags sailed "

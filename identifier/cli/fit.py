@@ -12,10 +12,16 @@ import numpy as np
 from tqdm import tqdm
 
 from fmu_model import DEFAULT_MODEL, argtypes, model_names, save_params
-from fmu_model.interface import MAX_LENGTH_M, MIN_LENGTH_M, logged_envelope
+from fmu_model.interface import logged_envelope
 from fmu_model.kernels import numba_compilations
 from fmu_model.variants import family_name
-from identifier.cli.common import DATA_ERRORS, add_windage_argument, error, os_error_text
+from identifier.cli.common import (
+    DATA_ERRORS,
+    add_length_argument,
+    add_windage_argument,
+    error,
+    os_error_text,
+)
 from identifier.current import CURRENT_MODES, SPEED_LOG_SCALE_STD, CurrentEstimate
 from identifier.identify import (
     ALPHA_RANGE,
@@ -51,11 +57,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     )
     fit.add_argument("-o", "--output", required=True, metavar="params.json")
     fit.add_argument("--model", default=DEFAULT_MODEL, choices=model_names())
-    fit.add_argument(
-        "--length-m",
-        type=argtypes.within(MIN_LENGTH_M, MAX_LENGTH_M, "m"),
-        help=f"ship length [m], {MIN_LENGTH_M:g} to {MAX_LENGTH_M:g} (default: from logs)",
-    )
+    add_length_argument(fit, " (default: from logs)")
     fit.add_argument(
         "--initial",
         choices=("equation-error", "zero"),

@@ -61,7 +61,7 @@ from identifier.output_error.records import (
 )
 from identifier.smoothing import SmoothedTrack, smooth_log
 from trials.errors import IdentificationError
-from trials.logs import ManeuverLog, log_head
+from trials.logs import ManeuverLog, log_piece
 
 HEAD_FRACTION = 0.75
 """A start whose replay of a log diverges is refined first on the log's head: this share
@@ -290,7 +290,7 @@ def grown_start(
             end = k + int(HEAD_FRACTION * int(np.argmin(finite)))
             if end <= k or log.time_s[end - 1] - log.time_s[k] < MIN_HEAD_TIME_UNITS * time_unit_s:
                 return None
-            head = log_head(log, end)
+            head = log_piece(log, 0, end)
             heads.append((head, smooth_log(head)))
         if all(head is log for (head, _), log in zip(heads, logs, strict=True)):
             if step == 0:

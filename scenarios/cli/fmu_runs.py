@@ -61,6 +61,7 @@ from identifier.current import (
     speed_log_current,
 )
 from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log, smoothed_trajectory
+from identifier.split import several_manoeuvres
 from identifier.wind import mean_true_wind_ne, speed_and_source
 from scenarios.cli.common import (
     EXIT_GATE_FAILED,
@@ -537,6 +538,8 @@ def _measured_run(
             message, sample = problem
             at = "" if sample is None else f"sample {sample}: "
             raise ScenarioError(f"{args.like}: {at}{message}")
+        if (several := several_manoeuvres(log, info.length_m, track)) is not None:
+            print(f"warning: {args.like}: {several}", file=sys.stderr)
         log = deglitched_log(log, track)  # a compass spike is no overshoot
         limit_s = _limit_s(args, info, condition)
         like = logged_condition(log, max_time_s=limit_s)
