@@ -657,9 +657,12 @@ def _speed_log_fit(current_ne: np.ndarray) -> SpeedLogFit:
 
 
 def test_the_current_model_form_term_holds_the_structure_error_of_the_reference() -> None:
-    """KVLCC2 (MMG, cubic hull) fitted by the modulus family: its current is off by more than
-    the EKF's σ says; with the distance to the speed log's own estimate it is not (the
-    benchmark's draw 0, 0.5 m/s towards 45° in a 10 m/s beam wind: eᵀC⁻¹e 11.9 and 1.9)."""
+    """KVLCC2 (MMG, cubic hull) fitted by the modulus family: its current is further off than
+    the EKF's σ says; with the distance to the speed log's own estimate it is inside its
+    95 % ellipse (the benchmark's draw 0, 0.5 m/s towards 45° in a 10 m/s beam wind:
+    eᵀC⁻¹e 4.7 and 1.6 since the shape polish's two whole sweeps, 11.9 and 1.9 with the
+    cap of 300 evaluations before; over draws 0–4 the EKF's own 4.7 / 3.8 / 0.4 / 1.2 /
+    10.5, a mean of 4.1 where χ²₂'s is 2)."""
     truth = 0.5 * np.array([math.cos(math.radians(45.0)), math.sin(math.radians(45.0))])
     sea = SeaEnvironment(
         current_speed_mps=0.5,
@@ -677,10 +680,12 @@ def test_the_current_model_form_term_holds_the_structure_error_of_the_reference(
     assert current is not None and current.speed_log is not None
     error = current.vector - truth
     assert np.max(np.abs(error)) < 0.05  # issue 14's bar
-    chi2_2_99, chi2_2_95, chi2_2_5 = 9.21, 5.99, 0.103
-    assert error @ np.linalg.solve(current.covariance, error) > chi2_2_99
+    chi2_2_95, chi2_2_5 = 5.99, 0.103
+    ekf_only = error @ np.linalg.solve(current.covariance, error)
+    total = error @ np.linalg.solve(current.total_covariance, error)
+    assert total < 0.5 * ekf_only  # the model-form term takes the larger part
     # within the 95 % ellipse, and not so wide that the error sits in its innermost 5 %
-    assert chi2_2_5 < error @ np.linalg.solve(current.total_covariance, error) < chi2_2_95
+    assert chi2_2_5 < total < chi2_2_95
 
 
 def test_the_ekf_tells_a_speed_logs_scale_error_from_the_current(
