@@ -26,6 +26,7 @@ from fmu_model.variants import (
 )
 from identifier.conventions import MIN_COMMAND_RAD, MIN_TURN_RAD
 from identifier.current import MIN_HEADING_SPAN_RAD, CurrentEstimate, heading_span_rad
+from identifier.output_error import centripetal_is_a_ships
 from identifier.preparation import SmoothedLogs
 from identifier.smoothing import SmoothedTrack
 from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, approach_helm_rad, maneuver_kind
@@ -208,22 +209,18 @@ def model_current_warning(length_m: float, current: CurrentEstimate | None) -> s
 def centripetal_warning(params: ModelParameters) -> str | None:
     """Return a warning when the estimate's surge v·r term has no ship's sign, else None.
 
-    In the prime families u̇ holds X_vr·v·r, the centripetal term of the surge equation,
-    (m + m_y + X′_vr)/(m + m_x) for a ship: positive, about 1–2 (1.85 for the KVLCC2 MMG
-    model, 0.95 for the Mariner's Abkowitz model). Zig-zags at one rpm leave the surge
-    terms of a turn nearly collinear, and a fit can end with X_vr ≤ 0 (the HSVA 10/10 pair
-    fitted with a current estimated: −20, benchmarks/hsva.md, "Where the 20°/10° second
-    overshoots go wrong"): its speed in manoeuvres harder than the logs' is then no ship's.
-    Families without the term: None.
+    ``identifier.output_error.guards.centripetal_is_a_ships``: X_vr > 0, about 1–2 (the
+    HSVA 10/10 pair fitted with a current estimated: −20, benchmarks/hsva.md, "Where the
+    20°/10° second overshoots go wrong"). The refinement keeps no estimate that breaks
+    it; a start that has it is warned of. Families without the term: None.
     """
-    x_vr = params.as_dict().get("X_vr")
-    if x_vr is None or x_vr > 0.0:
+    if centripetal_is_a_ships(params):
         return None
     return (
-        f"the identified centripetal surge term X_vr = {x_vr:.3g} is not positive, as a ship's "
-        "is ((m + m_y)/(m + m_x), about 1 to 2): the speed the model keeps in harder "
-        "manoeuvres than the logs' is not to be trusted; add a turning circle, or fit tank "
-        "tests with --current none"
+        f"the identified centripetal surge term X_vr = {params.as_dict()['X_vr']:.3g} is not "
+        "positive, as a ship's is ((m + m_y)/(m + m_x), about 1 to 2): the speed the model "
+        "keeps in harder manoeuvres than the logs' is not to be trusted; add a turning "
+        "circle, or fit tank tests with --current none"
     )
 
 

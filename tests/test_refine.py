@@ -30,6 +30,7 @@ from identifier.output_error import (
 )
 from identifier.output_error.guards import (
     candidate_disagreement,
+    centripetal_is_a_ships,
     covers_both_sides,
     decide,
     training_approach,
@@ -41,6 +42,7 @@ from identifier.output_error.refine import grown_start
 from identifier.smoothing import smooth_log
 from scenarios.synthesize import MANEUVERS, model_ship, synthesize_log, synthesize_logs
 from tests.conftest import SEED_COEFFICIENTS
+from tests.test_shape import COEFFICIENTS as PRIME_COEFFICIENTS
 from trials.conditions import execute_index
 from trials.logs import ManeuverLog, log_piece, read_log
 
@@ -587,6 +589,37 @@ def test_decide_keeps_the_start_when_a_guard_fires(
     choice, reason = _decide(initial, refined, turn_check=turn_check, tolerance=0.05, label="EKF")
     assert choice == kept and words in reason
     assert ("kept the EKF estimate" in reason) == (kept == "initial")
+
+
+@pytest.mark.parametrize(("start_x_vr", "kept"), [(1.8, "initial"), (-0.5, "refined")])
+def test_decide_rejects_a_refined_centripetal_term_of_no_ships_sign(
+    start_x_vr: float, kept: str
+) -> None:
+    """A refined X_vr ≤ 0 (the demo's logs at seed 5 with the two-sweep shape: −0.25, whose
+    port turn's intervals then missed the reference) where the start's is a ship's: the
+    start is kept. A start without it is no better: the refined estimate is judged as
+    before."""
+    names = list(PRIME_COEFFICIENTS)
+    theta = np.array(list(PRIME_COEFFICIENTS.values()))
+
+    def with_x_vr(value: float) -> ModelParameters:
+        vector = theta.copy()
+        vector[names.index("X_vr")] = value
+        return ModelParameters.from_vector(
+            "prime-rudder", vector, length_m=320.0, vessel_name="tanker",
+            nominal_speed_mps=8.0, nominal_n_rps=1.75,
+        )  # fmt: skip
+
+    initial = replace(_fit(2.0, (300.0, 300.0)), params=with_x_vr(start_x_vr))
+    refined = replace(_fit(1.0, (300.0, 300.0)), params=with_x_vr(-0.25))
+    choice, reason = _decide(initial, refined, turn_check=False, tolerance=0.05, label="EKF")
+    assert choice == kept
+    if kept == "initial":
+        assert reason == (
+            "output-error estimate rejected: its centripetal surge term X_vr = -0.25 is not "
+            "positive, as a ship's is; kept the EKF estimate"
+        )
+    assert centripetal_is_a_ships(_truth())  # a family without the term
 
 
 def test_whether_an_insane_start_turned_through_180_deg_does_not_choose_the_estimate() -> None:

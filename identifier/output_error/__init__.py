@@ -21,6 +21,7 @@ The one place to import the refinement from. Its modules, one job each:
 from identifier.output_error.covariance import newey_west_covariance
 from identifier.output_error.guards import (
     HARD_OVER_RAD,
+    centripetal_is_a_ships,
     covers_turn,
     turn_spread,
     virtual_turns,
@@ -41,6 +42,7 @@ __all__ = [
     "RefineSettings",
     "RefinementResult",
     "VirtualTurn",
+    "centripetal_is_a_ships",
     "covers_turn",
     "execute_state",
     "fit_initial_state",

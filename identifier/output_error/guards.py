@@ -13,8 +13,10 @@ log, output error is a check on the turn, not an estimate of it. Independently, 
 refined estimate is only kept when it lowers the cost, every training log replays
 without divergence and both virtual turns stay bounded, never fall back against their
 rudder and pass 360° (or, when the start's do not either, go at least as far as the
-start's), and, when the start's do, its virtual 20°/20° zig-zags to both sides reach
-their second overshoot without diverging (:func:`virtual_zigzags`; :func:`decide`).
+start's), its centripetal surge term keeps a ship's sign where the start's has it
+(:func:`centripetal_is_a_ships`), and, when the start's do, its virtual 20°/20° zig-zags
+to both sides reach their second overshoot without diverging (:func:`virtual_zigzags`;
+:func:`decide`).
 Unless the logs turn through 180° to both sides, a refined estimate whose two virtual
 turns differ by more than :data:`MAX_SIDE_ASYMMETRY` (and more than the start's) is
 rejected too: the side no log verifies is then the refinement's guess.
@@ -447,6 +449,12 @@ def decide(
         )
     if not all(_no_worse(a, b) for a, b in zip(initial.turns, refined.turns, strict=True)):
         return "initial", f"output-error estimate rejected: {SANITY_FAILURE}; {keep}"
+    if centripetal_is_a_ships(initial.params) and not centripetal_is_a_ships(refined.params):
+        x_vr = refined.params.as_dict()["X_vr"]
+        return "initial", (
+            f"output-error estimate rejected: its centripetal surge term X_vr = {x_vr:.3g} is "
+            f"not positive, as a ship's is; {keep}"
+        )
     if initial.zigzags_complete and not refined.zigzags_complete:
         return "initial", (
             "output-error estimate rejected: a virtual 20/20 zig-zag diverges or does not "
@@ -469,6 +477,19 @@ def decide(
             f"{keep}"
         )
     return "refined", "output-error estimate accepted"
+
+
+def centripetal_is_a_ships(params: ModelParameters) -> bool:
+    """Whether the estimate's surge v·r term has a ship's sign (or the family has none).
+
+    In the prime families u̇ holds X_vr·v·r, the centripetal term of the surge equation,
+    (m + m_y + X′_vr)/(m + m_x) for a ship: positive, about 1–2 (1.85 for the KVLCC2 MMG
+    model, 0.95 for the Mariner's Abkowitz model). Zig-zags at one rpm leave the surge
+    terms of a turn nearly collinear, and a fit can end with X_vr ≤ 0, whose speed in a
+    hard turn is then no ship's.
+    """
+    x_vr = params.as_dict().get("X_vr")
+    return x_vr is None or x_vr > 0.0
 
 
 def kept_phrase(label: str) -> str:
