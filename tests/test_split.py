@@ -108,6 +108,18 @@ def test_an_autopilots_helm_is_no_command_and_a_new_engine_order_ends_the_approa
     day = joined(zig, replace(turn, rudder_rad=rudder))
     _, second = split_log(day, LENGTH_M).pieces
     assert second.start < zig.n_samples + changed - 20
+    # An order given two samples before execute leaves no approach at one propeller
+    # speed: the straight run is kept, and a note says so.
+    n_rps[: k - 2] = turn.n_rps[0] * 0.9
+    n_rps[k - 2 :] = turn.n_rps[k - 2 :]
+    day = joined(zig, replace(turn, n_rps=n_rps))
+    found = split_log(day, LENGTH_M)
+    assert found.pieces[1].start < zig.n_samples + changed - 20
+    execute_s = day.time_s[found.pieces[1].execute]
+    assert found.notes == (
+        f"the manoeuvre executed at t = {execute_s:.1f} s: its propeller speed changes in "
+        "its approach",
+    )
 
 
 def test_a_recording_started_in_a_turn_leaves_that_out_with_a_note(turn: ManeuverLog) -> None:
