@@ -9,8 +9,10 @@ the log's own motion, with the conventions' rules (``identifier.conventions``):
 
 - **A rudder command** is a rudder angle :data:`~identifier.conventions.MIN_COMMAND_RAD`
   (5°) or more off the ship's neutral helm, the median rudder angle within 5° of midship
-  where she runs straight (an autopilot's smaller movements are no commands; the rudder's spikes
-  interpolated, ``trials.spikes``).
+  where she runs straight (an autopilot's smaller movements are no commands; the rudder's
+  spikes interpolated, ``trials.spikes``), under which the heading swings by
+  :data:`~identifier.conventions.MIN_TURN_RAD` (5°) or more before she is straight again
+  (a correction in a gust is no manoeuvre).
 - **She runs straight** where her rudder is not commanded and she turns at r′ = |r| L/U
   of at most :data:`~identifier.conventions.MAX_APPROACH_YAW_RATE` (on the smoothed
   track, its GNSS jumps and compass spikes gated out): what ``fit`` asks of an approach.
@@ -42,7 +44,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from identifier.conventions import MAX_APPROACH_YAW_RATE, MIN_COMMAND_RAD, yaw_rate_prime
+from identifier.conventions import (
+    MAX_APPROACH_YAW_RATE,
+    MIN_COMMAND_RAD,
+    MIN_TURN_RAD,
+    yaw_rate_prime,
+)
 from identifier.smoothing import SmoothedTrack, smooth_log
 from trials.conditions import MIN_APPROACH_SAMPLES, logged_condition, movement_start
 from trials.errors import IdentificationError
@@ -94,6 +101,23 @@ def _run_start(ok: np.ndarray, end: int) -> int:
     return int(broken[-1]) + 1 if broken.size else 0
 
 
+def _turning(commanded: np.ndarray, heading_rad: np.ndarray, calm: np.ndarray) -> np.ndarray:
+    """``commanded`` without the commands under which the heading swings less than 5°.
+
+    Each run of commanded samples, from its first sample until the ship is calm again
+    after it: a helmsman's or an autopilot's correction of more than 5° for a few
+    seconds in a gust is no manoeuvre (:data:`~identifier.conventions.MIN_TURN_RAD`).
+    """
+    out = commanded.copy()
+    edges = np.diff(np.concatenate(([0], commanded.astype(np.int8), [0])))
+    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+        settled = np.flatnonzero(calm[stop:])
+        end = stop + int(settled[0]) + 1 if settled.size else len(commanded)
+        if np.max(np.abs(heading_rad[start:end] - heading_rad[start])) < MIN_TURN_RAD:
+            out[start:stop] = False
+    return out
+
+
 def split_log(log: ManeuverLog, length_m: float, track: SmoothedTrack | None = None) -> Split:
     """Find the manoeuvres of ``log`` (module docstring).
 
@@ -125,7 +149,7 @@ def split_log(log: ManeuverLog, length_m: float, track: SmoothedTrack | None = N
     calm = yaw_rate_prime(track, length_m) <= MAX_APPROACH_YAW_RATE
     held = calm & (np.abs(rudder) < MIN_COMMAND_RAD)  # not a zig-zag's heading peak
     helm = float(np.median(rudder[held])) if held.any() else 0.0
-    commanded = np.abs(rudder - helm) >= MIN_COMMAND_RAD
+    commanded = _turning(np.abs(rudder - helm) >= MIN_COMMAND_RAD, track.heading_rad, calm)
     straight = calm & ~commanded
     onsets = np.flatnonzero(commanded & ~np.r_[False, commanded[:-1]])
     if not onsets.size:

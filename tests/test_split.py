@@ -91,12 +91,14 @@ def test_an_autopilots_helm_is_no_command_and_a_new_engine_order_ends_the_approa
     zig: ManeuverLog, turn: ManeuverLog
 ) -> None:
     """The turn's straight run steered by an autopilot (3° ± 3° of rudder: up to 6° off
-    midship, 3° off its helm), its propeller at 10 % fewer revolutions until 150 s (3.7 L)
-    before execute."""
+    midship, 3° off its helm) with one correction of 8°, its propeller at 10 % fewer
+    revolutions until 150 s (3.7 L) before execute."""
     k = execute_index(turn)
     t = turn.time_s - turn.time_s[0]
     rudder = turn.rudder_rad.copy()
     rudder[:k] = math.radians(3.0) + math.radians(3.0) * np.sin(2.0 * math.pi * t[:k] / 40.0)
+    # A helmsman's correction of 8° for 5 s, 400 s before execute: no manoeuvre.
+    rudder[k - 400 : k - 395] = math.radians(8.0)
     changed = k - 150
     n_rps = turn.n_rps.copy()
     n_rps[:changed] *= 0.9
