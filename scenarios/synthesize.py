@@ -48,7 +48,7 @@ from scenarios.mariner import (
 )
 from scenarios.sea import SeaEnvironment
 from trials.logs import ManeuverLog, on_board_offset, write_log
-from trials.maneuvers import Helm, Program, turning_circle, zigzag
+from trials.maneuvers import Helm, Program, trial_day, turning_circle, zigzag
 from trials.run import ModelPlant, Plant, run_program
 
 STW_NOISE_MPS = 0.05
@@ -71,6 +71,7 @@ MANEUVERS: dict[str, Callable[[], Program]] = {
     "zigzag-20": lambda: zigzag(math.radians(20.0), math.radians(20.0)),
     "zigzag-10-port": lambda: zigzag(-math.radians(10.0), math.radians(10.0)),
     "zigzag-20-port": lambda: zigzag(-math.radians(20.0), math.radians(20.0)),
+    "trial-day": trial_day,
 }
 
 

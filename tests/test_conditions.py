@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +28,7 @@ from trials.conditions import (
 )
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log
-from trials.maneuvers import zigzag
+from trials.maneuvers import Leg, Until, turning_circle, zigzag
 from trials.run import ModelPlant
 
 HSVA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hsva_kvlcc2"
@@ -140,6 +141,34 @@ def test_a_zigzag_that_ends_back_at_midship_is_read_as_its_zigzag(
     assert cut.program.rudder_rad == pytest.approx(whole.program.rudder_rad, abs=1e-12)
     assert cut.switch_headings_rad == pytest.approx(whole.switch_headings_rad, abs=1e-12)
     assert cut.rudder_rate_radps == pytest.approx(whole.rudder_rate_radps, rel=1e-9)
+
+
+@pytest.mark.parametrize("first", ["zigzag", "turning"])
+def test_a_manoeuvre_steadied_by_the_helm_after_it_is_read_as_itself(first: str) -> None:
+    """A zig-zag or a turning circle, then 400 s on the autopilot, which checks the swing
+    with rudder to the other side: a zig-zag's steadying is no reversal but its first,
+    at the check angle where the zig-zag's last leg ended (before, every move was read as
+    one, the tanker's 10/10 as ``zigzag-9-12``), a turn's counter-rudder no zig-zag (a 35°
+    turn read as ``zigzag-22-595``)."""
+    ship = reference_ship("kvlcc2", "full")
+    alone = (
+        zigzag(math.radians(10.0), math.radians(10.0))
+        if first == "zigzag"
+        else turning_circle(-math.radians(35.0))
+    )
+    steady = Leg(0.0, Until(time_s=400.0), label="steady", steer=True)
+    steadied = replace(alone, legs=(*alone.legs, steady))
+    logs = [synthesize_log(ship, p, rate_hz=10.0, position_noise_m=0.0, heading_noise_deg=0.0)
+            for p in (alone, steadied)]  # fmt: skip
+    assert np.ptp(logs[1].rudder_rad[-4000:]) > math.radians(2.0)  # the helm at work
+    whole, then = (logged_condition(log) for log in logs)
+    assert then.program.name == whole.program.name == alone.name
+    assert then.program.rudder_rad == pytest.approx(whole.program.rudder_rad, abs=1e-9)
+    logged = len(whole.switch_headings_rad)
+    assert then.switch_headings_rad[:logged] == pytest.approx(whole.switch_headings_rad, abs=1e-12)
+    if first == "zigzag":  # the helm's first check, at the check angle
+        (extra,) = then.switch_headings_rad[logged:]
+        assert math.degrees(extra) == pytest.approx(10.0, abs=1.5)
 
 
 def test_the_ship_that_sailed_a_log_sails_it_again_to_the_same_overshoots(

@@ -13,7 +13,7 @@ from identifier.cli import main
 from identifier.conventions import log_problem
 from identifier.smoothing import smooth_log
 from identifier.split import MAX_APPROACH_L, manoeuvre_name, piece_logs, split_log
-from scenarios.synthesize import reference_ship, synthesize_log
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
 from tests.trial_day import joined
 from trials.conditions import execute_index, logged_condition
 from trials.errors import IdentificationError
@@ -194,3 +194,18 @@ def test_split_writes_nothing_when_an_input_is_unusable(
     assert err.count("\n") == 1 and not out.exists()
     assert main(["split", str(tmp_path / "day.csv"), "-o", str(tmp_path / "day.csv")]) == 2
     assert "expected a directory" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("vessel", ["kvlcc2", "mariner", "tanker"])
+def test_a_synthesized_trial_day_splits_into_its_zigzag_and_its_turn(vessel: str) -> None:
+    """``synthesize --maneuver trial-day``: a 10/10 zig-zag, 400 s on the autopilot, a 35°
+    port turn, 400 s on the autopilot, in one log of each reference ship (the autopilot's
+    steadying after each manoeuvre takes the rudder to the other side)."""
+    ship = reference_ship(vessel)
+    day = synthesize_log(ship, MANEUVERS["trial-day"](), seed=3)
+    found = split_log(day, ship.length_m)
+    assert found.notes == ()
+    logs = piece_logs(day, found, ship.length_m)
+    assert [manoeuvre_name(log) for log in logs] == ["zigzag-10-10-stbd", "turning-35-port"]
+    assert found.pieces[0].execute == execute_index(day)
+    assert all(log_problem(log, ship.length_m) is None for log in logs)

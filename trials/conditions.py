@@ -49,6 +49,10 @@ RUDDER_STEP_RAD = math.radians(0.01)
 """A rudder change between two samples that counts as moving [rad]."""
 REVERSAL_RUDDER_RAD = math.radians(1.0)
 """Rudder movement away from a plateau that marks a reversal [rad]."""
+TURN_BEFORE_REVERSAL_RAD = math.radians(90.0)
+"""Heading change under the first command beyond which a later counter-rudder steadies a
+turning circle rather than reversing a zig-zag [rad] (zig-zags reverse at 5–20°, a
+turning circle runs through 540°)."""
 NOMINAL_SNAP_RAD = math.radians(1.5)
 """Largest distance of the mean switch heading from a multiple of 5° read as that angle."""
 MIN_APPROACH_SAMPLES = 3
@@ -156,9 +160,11 @@ def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
 
     A plateau is the extreme rudder angle reached on one side; the rudder has left it
     when it is :data:`REVERSAL_RUDDER_RAD` back from it towards the other side, and it
-    goes on past midship to that side by as much before it turns back: a return to
-    midship (a zig-zag ended, the log's straight run after it) is no reversal, and the
-    reversals end there.
+    goes on past midship to that side by as much before it turns back, with the heading
+    off its execute value to the side the rudder left by half the first reversal's switch
+    heading or more (a zig-zag reverses at ±Z in turn). The reversals end at the first
+    that is not one: a return to midship (a zig-zag ended, the log's straight run after
+    it), or a helmsman steadying the ship about the heading where the zig-zag ended.
     """
     out = []
     side = sign
@@ -171,10 +177,14 @@ def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
             out.append(i)
             side = -side
             extreme = side * float(log.rudder_rad[i])
+    heading = log.heading_rad - log.heading_rad[k]
+    first_switch = sign * float(heading[out[0]]) if out else 0.0
     for j, i in enumerate(out):
         to_side = -sign if j % 2 == 0 else sign
         end = out[j + 1] if j + 1 < len(out) else log.n_samples
-        if float(np.max(to_side * log.rudder_rad[i:end])) <= REVERSAL_RUDDER_RAD:
+        past_midship = float(np.max(to_side * log.rudder_rad[i:end])) > REVERSAL_RUDDER_RAD
+        at_check = -to_side * float(heading[i]) >= 0.5 * first_switch
+        if not (past_midship and at_check):
             return np.array(out[:j], dtype=int)
     return np.array(out, dtype=int)
 
@@ -184,7 +194,9 @@ def maneuver_kind(log: ManeuverLog) -> str | None:
 
     A log whose rudder goes to the other side (more than :data:`REVERSAL_RUDDER_RAD`
     past midship) after its first command is a zig-zag; one whose rudder is put over
-    and held (or returned to midship) is a turning circle. The data decide, not the
+    and held (or returned to midship, or sent to the other side only after the heading
+    turned :data:`TURN_BEFORE_REVERSAL_RAD` or more: a turn steadied after it) is a
+    turning circle. The data decide, not the
     file name or the ``# source:`` text (HSVA's source says "turns the ship to port" of
     a zig-zag). The rudder's spikes are interpolated first (``trials.spikes``).
     """
@@ -197,8 +209,11 @@ def _maneuver_kind(log: ManeuverLog) -> str | None:
     if k >= log.n_samples - 1:
         return None
     sign = _first_side(log, k)
-    to_the_other_side = sign * log.rudder_rad[k:] < -REVERSAL_RUDDER_RAD
-    return "zigzag" if to_the_other_side.any() else "turning"
+    to_the_other_side = np.flatnonzero(sign * log.rudder_rad[k:] < -REVERSAL_RUDDER_RAD)
+    if not to_the_other_side.size:
+        return "turning"
+    turned = sign * (log.heading_rad[k : k + int(to_the_other_side[0]) + 1] - log.heading_rad[k])
+    return "turning" if float(np.max(turned)) >= TURN_BEFORE_REVERSAL_RAD else "zigzag"
 
 
 def _nominal_check(switch_rad: float) -> float:

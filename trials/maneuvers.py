@@ -41,12 +41,28 @@ class Until:
 
 @dataclass(frozen=True)
 class Leg:
-    """Hold ``rudder_rad`` (and ``n_rps`` when given) until ``until`` holds."""
+    """Hold ``rudder_rad`` (and ``n_rps`` when given) until ``until`` holds.
+
+    With ``steer``, an autopilot steers the heading the ship has when the leg starts,
+    about ``rudder_rad`` (its helm): δ = δ_helm − K (Δψ + T′ r′), Δψ the heading off that
+    course, r′ = r L/U₀, K = :data:`AUTOPILOT_GAIN`, T′ = :data:`AUTOPILOT_DERIVATIVE_L`,
+    within ±:data:`AUTOPILOT_LIMIT_RAD` of the helm: the straight run of a trial day
+    between manoeuvres (a course-unstable ship at midship rudder keeps turning).
+    """
 
     rudder_rad: float
     until: Until
     n_rps: float | None = None
     label: str = ""
+    steer: bool = False
+
+
+AUTOPILOT_GAIN = 1.5
+"""Rudder per heading error of a steering leg's autopilot [rad/rad]."""
+AUTOPILOT_DERIVATIVE_L = 2.0
+"""Its derivative time, in ship lengths sailed at the approach speed [L/U₀]."""
+AUTOPILOT_LIMIT_RAD = math.radians(10.0)
+"""Most rudder it gives off the leg's helm [rad]."""
 
 
 @dataclass(frozen=True)
@@ -173,6 +189,23 @@ def pullout(rudder_rad: float, *, turn_s: float = 600.0, release_s: float = 600.
     return Program(
         name=f"pullout-{_side(rudder_rad)}", kind="pullout", legs=legs, rudder_rad=rudder_rad
     )
+
+
+def trial_day(*, steady_s: float = 400.0) -> Program:
+    """Return a trial day in one recording (``identifier split`` cuts it in two).
+
+    A 10°/10° zig-zag to starboard, ``steady_s`` of straight running on the autopilot, a
+    35° turning circle to port through 540° and more, and ``steady_s`` on the autopilot
+    again. The end conditions' headings are relative to the zig-zag's execute.
+    """
+    steady = Leg(0.0, Until(time_s=steady_s), label="steady", steer=True)
+    check = zigzag(math.radians(10.0), math.radians(10.0))
+    turn = Leg(
+        -math.radians(35.0),
+        Until(time_s=3600.0, heading_below_rad=-math.radians(540.0 + 45.0)),
+        label="turn to port",
+    )
+    return Program(name="trial-day", kind="trial-day", legs=(*check.legs, steady, turn, steady))
 
 
 def standard_set(

@@ -22,7 +22,12 @@ from typing import Protocol
 import numpy as np
 
 from fmu_model import ModelParameters, n_substeps, numeric_model, rk4_step
-from trials.maneuvers import Program
+from trials.maneuvers import (
+    AUTOPILOT_DERIVATIVE_L,
+    AUTOPILOT_GAIN,
+    AUTOPILOT_LIMIT_RAD,
+    Program,
+)
 from trials.trajectory import trajectory_of
 
 
@@ -211,6 +216,7 @@ def run_batch(
 
     # Per leg, and a last entry for "all legs done" (index n_legs).
     rudder_cmd = np.array([leg.rudder_rad for leg in legs] + [0.0])
+    steer = np.array([leg.steer for leg in legs] + [False])
     n_cmd = np.array([n_rps if leg.n_rps is None else leg.n_rps for leg in legs] + [n_rps])
     time_limit = _per_leg([leg.until.time_s for leg in legs], math.inf)
     above = _per_leg([leg.until.heading_above_rad for leg in legs], math.inf)
@@ -234,11 +240,13 @@ def run_batch(
     leg = np.zeros(n_ships, dtype=int)
     leg_start = np.full(n_ships, t)
     heading0 = np.zeros(n_ships)
+    course = np.zeros(n_ships)  # a steering leg's: the heading at its start
     active = np.ones(n_ships, dtype=bool)
     diverged = np.zeros(n_ships, dtype=bool)
     diverged_at = np.full(n_ships, math.nan)
     rows = np.zeros(n_ships, dtype=int)
     max_move = rudder_rate_radps * dt_s
+    time_unit_s = plant.length_m / speed_mps if steer.any() else 0.0  # L/U₀
     envelope = math.isfinite(divergence_factor)
     max_speed = divergence_factor * speed_mps
     max_yaw_rate = divergence_factor * speed_mps / plant.length_m
@@ -261,12 +269,20 @@ def run_batch(
                     break
                 leg = leg + done
                 leg_start = np.where(done, t, leg_start)
+                course = np.where(done, state[5], course)
             finished = active & ((leg >= n_legs) | (k >= max_steps))
             rows[finished] = k + 1
             going = active & ~finished
             n_now = np.where(going, n_cmd[leg], n_now)
+            command = rudder_cmd[leg]
+            if steer.any():  # the autopilot of a steering leg (trials.maneuvers.Leg)
+                off_course = state[5] - course + AUTOPILOT_DERIVATIVE_L * state[2] * time_unit_s
+                correction = np.clip(
+                    AUTOPILOT_GAIN * off_course, -AUTOPILOT_LIMIT_RAD, AUTOPILOT_LIMIT_RAD
+                )
+                command = np.where(steer[leg], command - correction, command)
             # Steering gear: constant-rate move toward the command within one step.
-            move = np.minimum(np.maximum(rudder_cmd[leg] - rudder, -max_move), max_move)
+            move = np.minimum(np.maximum(command - rudder, -max_move), max_move)
             rudder = np.where(going, rudder + move, rudder)
         # The inputs are held over [t, t + dt).
         time_s[k] = t
