@@ -63,9 +63,9 @@ SHAPE_MAX_ROWS = 10_000
 #: data's last digits decide: 1 % of GNSS jumps gated out moved a calm-water turn 1.3
 #: points (issue 14's glitch bar), after two sweeps every draw is within 0.44. On the
 #: references' held-out turns two sweeps against the cap, worst turning error per draw,
-#: paired over twenty draws: KVLCC2 −1.0 points (better in 17 draws, worse in one), the
-#: tanker −0.9, the Mariner +1.0 (not significant: t 1.8); the HSVA folds 0.4° worse in
-#: sum (benchmarks/fidelity.md, "Two whole sweeps of the shape polish").
+#: paired over twenty draws: KVLCC2 −1.03 ± 0.34 points a draw (closer in 16, further in
+#: none), the tanker −0.64 ± 0.26, the Mariner +1.04 ± 0.55 (t 1.9); the HSVA folds 0.4°
+#: worse in sum (benchmarks/fidelity.md, "Two whole sweeps of the shape polish").
 SHAPE_POLISH_SWEEPS = 2
 
 

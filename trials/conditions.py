@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.ndimage import median_filter
 
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship
@@ -155,6 +156,11 @@ def _first_side(log: ManeuverLog, k: int) -> float:
     return 1.0 if not moved.size or after[moved[0]] > 0.0 else -1.0
 
 
+def _steady_heading(log: ManeuverLog) -> np.ndarray:
+    """Return the log's heading [rad] through a five-sample median: a spike is no swing."""
+    return np.asarray(median_filter(log.heading_rad, size=5, mode="nearest"))
+
+
 def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
     """Return the samples (≥ k) at which the rudder has left a plateau for the other side.
 
@@ -177,7 +183,8 @@ def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
             out.append(i)
             side = -side
             extreme = side * float(log.rudder_rad[i])
-    heading = log.heading_rad - log.heading_rad[k]
+    heading = _steady_heading(log)
+    heading = heading - heading[k]
     first_switch = sign * float(heading[out[0]]) if out else 0.0
     for j, i in enumerate(out):
         to_side = -sign if j % 2 == 0 else sign
@@ -196,9 +203,10 @@ def maneuver_kind(log: ManeuverLog) -> str | None:
     past midship) after its first command is a zig-zag; one whose rudder is put over
     and held (or returned to midship, or sent to the other side only after the heading
     turned :data:`TURN_BEFORE_REVERSAL_RAD` or more: a turn steadied after it) is a
-    turning circle. The data decide, not the
-    file name or the ``# source:`` text (HSVA's source says "turns the ship to port" of
-    a zig-zag). The rudder's spikes are interpolated first (``trials.spikes``).
+    turning circle. The data decide, not the file name or the ``# source:`` text (HSVA's
+    source says "turns the ship to port" of a zig-zag). The rudder's spikes are
+    interpolated first (``trials.spikes``), the heading taken through a five-sample
+    median.
     """
     return _maneuver_kind(despiked_inputs(log)[0])
 
@@ -212,7 +220,8 @@ def _maneuver_kind(log: ManeuverLog) -> str | None:
     to_the_other_side = np.flatnonzero(sign * log.rudder_rad[k:] < -REVERSAL_RUDDER_RAD)
     if not to_the_other_side.size:
         return "turning"
-    turned = sign * (log.heading_rad[k : k + int(to_the_other_side[0]) + 1] - log.heading_rad[k])
+    heading = _steady_heading(log)
+    turned = sign * (heading[k : k + int(to_the_other_side[0]) + 1] - heading[k])
     return "turning" if float(np.max(turned)) >= TURN_BEFORE_REVERSAL_RAD else "zigzag"
 
 

@@ -92,7 +92,8 @@ class Program:
     name : str
         E.g. ``"turning-35-stbd"``, ``"zigzag-10-10-stbd"``.
     kind : str
-        ``"turning"``, ``"zigzag"``, ``"spiral"`` or ``"pullout"`` (selects the metrics).
+        ``"turning"``, ``"zigzag"``, ``"spiral"`` or ``"pullout"`` (selects the metrics), or
+        ``"trial-day"`` (several manoeuvres, :func:`trial_day`: no metrics of its own).
     legs : tuple of Leg
         Executed in order; the run ends after the last leg.
     approach_s : float

@@ -256,6 +256,7 @@ def run_batch(
             executed = True
             leg_start[:] = t
             heading0 = state[5].copy()
+            course = heading0.copy()
         going = active
         if executed:
             change = state[5] - heading0
