@@ -50,7 +50,7 @@ from identifier.conventions import (
     MIN_TURN_RAD,
     yaw_rate_prime,
 )
-from identifier.smoothing import SmoothedTrack, smooth_log
+from identifier.smoothing import SmoothedTrack, deglitched_log, smooth_log
 from trials.conditions import MIN_APPROACH_SAMPLES, logged_condition, movement_start
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, at_midship, log_piece
@@ -229,11 +229,14 @@ def piece_logs(log: ManeuverLog, split: Split, length_m: float) -> list[Maneuver
 def manoeuvre_name(log: ManeuverLog) -> str | None:
     """Return what a piece is, e.g. ``zigzag-10-10-stbd``, ``turning-35-port``; None if neither.
 
-    As ``trials.conditions.logged_condition`` reads it (the zig-zag's check angle from its
-    switch headings; a spiral's steps read as a zig-zag).
+    As ``trials.conditions.logged_condition`` reads it from the log at midship with its
+    GNSS jumps and compass spikes taken out, as ``crossval`` and ``--like`` read it (a
+    spike at a reversal put a 10/10's check angle at 12°, and ``crossval`` takes the
+    check angle a file's name gives); a spiral's steps read as a zig-zag.
     """
+    midship = at_midship(log)
     try:
-        return logged_condition(log).program.name
+        return logged_condition(deglitched_log(midship, smooth_log(midship))).program.name
     except IdentificationError:
         return None
 

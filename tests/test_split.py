@@ -13,7 +13,7 @@ from identifier.cli import main
 from identifier.conventions import log_problem
 from identifier.smoothing import smooth_log
 from identifier.split import MAX_APPROACH_L, manoeuvre_name, piece_logs, split_log
-from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log, synthesize_logs
 from tests.trial_day import joined
 from trials.conditions import execute_index, logged_condition
 from trials.errors import IdentificationError
@@ -202,10 +202,25 @@ def test_a_synthesized_trial_day_splits_into_its_zigzag_and_its_turn(vessel: str
     port turn, 400 s on the autopilot, in one log of each reference ship (the autopilot's
     steadying after each manoeuvre takes the rudder to the other side)."""
     ship = reference_ship(vessel)
-    day = synthesize_log(ship, MANEUVERS["trial-day"](), seed=3)
-    found = split_log(day, ship.length_m)
+    _the_trial_days_manoeuvres(
+        synthesize_log(ship, MANEUVERS["trial-day"](), seed=3), ship.length_m
+    )
+
+
+def test_glitches_of_a_trial_day_are_no_manoeuvre_and_name_none(tmp_path: Path) -> None:
+    """``synthesize --maneuver trial-day --gnss-jump-pct 1 --compass-spike-pct 1``: a
+    compass spike at a reversal named the zig-zag ``zigzag-10-12`` (its condition read off
+    the raw headings), and ``crossval`` takes the check angle a file's name gives."""
+    (path,) = synthesize_logs(
+        tmp_path, ["trial-day"], gnss_jump_fraction=0.01, compass_spike_fraction=0.01
+    )
+    _the_trial_days_manoeuvres(read_log(path), LENGTH_M)
+
+
+def _the_trial_days_manoeuvres(day: ManeuverLog, length_m: float) -> None:
+    found = split_log(day, length_m)
     assert found.notes == ()
-    logs = piece_logs(day, found, ship.length_m)
+    logs = piece_logs(day, found, length_m)
     assert [manoeuvre_name(log) for log in logs] == ["zigzag-10-10-stbd", "turning-35-port"]
     assert found.pieces[0].execute == execute_index(day)
-    assert all(log_problem(log, ship.length_m) is None for log in logs)
+    assert all(log_problem(log, length_m) is None for log in logs)
