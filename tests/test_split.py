@@ -60,7 +60,7 @@ def test_a_trial_day_splits_into_its_manoeuvres_each_with_its_approach(
     assert second.execute == zig.n_samples + execute_index(turn)
     assert second.stop == day.n_samples  # the turn ends the log
     # Five ship lengths of the straight run kept before the turn, and after the zig-zag;
-    # the ten minutes' rest (15 L) is left out.
+    # the rest of the ten minutes' run (15 L in all) is left out.
     step_l = 8.0 / LENGTH_M
     assert _sailed_l(day, second.start, second.execute) == pytest.approx(MAX_APPROACH_L, abs=step_l)
     assert first.stop < second.start
