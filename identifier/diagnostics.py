@@ -13,7 +13,6 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from fmu_model import ModelParameters
 from fmu_model.variants import (
@@ -29,7 +28,12 @@ from identifier.current import MIN_HEADING_SPAN_RAD, CurrentEstimate, heading_sp
 from identifier.output_error import centripetal_is_a_ships
 from identifier.preparation import SmoothedLogs
 from identifier.smoothing import SmoothedTrack
-from trials.conditions import MODEL_SCALE_MAX_LENGTH_M, approach_helm_rad, maneuver_kind
+from trials.conditions import (
+    MODEL_SCALE_MAX_LENGTH_M,
+    approach_helm_rad,
+    maneuver_kind,
+    steady_heading,
+)
 from trials.logs import ManeuverLog
 
 NEUTRAL_HELM_NOTE_RAD = math.radians(0.5)
@@ -149,7 +153,7 @@ def logged_side(logs: Sequence[ManeuverLog]) -> str | None:
 
 def _sides_turned(log: ManeuverLog) -> set[str]:
     """Return the sides ``log`` turns the ship to (:func:`logged_side`)."""
-    heading = median_filter(log.heading_rad, size=5, mode="nearest")
+    heading = steady_heading(log)
     sides: set[str] = set()
     for side, sign in (("starboard", 1.0), ("port", -1.0)):
         swing = sign * heading - np.minimum.accumulate(sign * heading)

@@ -156,8 +156,12 @@ def _first_side(log: ManeuverLog, k: int) -> float:
     return 1.0 if not moved.size or after[moved[0]] > 0.0 else -1.0
 
 
-def _steady_heading(log: ManeuverLog) -> np.ndarray:
-    """Return the log's heading [rad] through a five-sample median: a spike is no swing."""
+def steady_heading(log: ManeuverLog) -> np.ndarray:
+    """Return the log's heading [rad] through a five-sample median: a spike is no swing.
+
+    How a manoeuvre's kind and reversals read the heading here, and which sides a log
+    turns to (``identifier.diagnostics.logged_side``).
+    """
     return np.asarray(median_filter(log.heading_rad, size=5, mode="nearest"))
 
 
@@ -183,7 +187,7 @@ def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
             out.append(i)
             side = -side
             extreme = side * float(log.rudder_rad[i])
-    heading = _steady_heading(log)
+    heading = steady_heading(log)
     heading = heading - heading[k]
     first_switch = sign * float(heading[out[0]]) if out else 0.0
     for j, i in enumerate(out):
@@ -220,7 +224,7 @@ def _maneuver_kind(log: ManeuverLog) -> str | None:
     to_the_other_side = np.flatnonzero(sign * log.rudder_rad[k:] < -REVERSAL_RUDDER_RAD)
     if not to_the_other_side.size:
         return "turning"
-    heading = _steady_heading(log)
+    heading = steady_heading(log)
     turned = sign * (heading[k : k + int(to_the_other_side[0]) + 1] - heading[k])
     return "turning" if float(np.max(turned)) >= TURN_BEFORE_REVERSAL_RAD else "zigzag"
 
