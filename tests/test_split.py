@@ -161,7 +161,7 @@ def test_split_writes_one_log_per_manoeuvre_named_by_what_it_is(
     write_log(tmp_path / "day.csv", replace(day, metadata={"vessel": "kvlcc2"}))
     assert main(["split", str(tmp_path / "day.csv"), "-o", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
-    no_length = "no ship length: pass --length-m or add '# length_m:' to the log"
+    no_length = "no ship length: pass --length-m or add '# length_m:' to the logs"
     assert err == f"error: {tmp_path / 'day.csv'}: {no_length}\n"
     assert not (tmp_path / "out").exists()
 

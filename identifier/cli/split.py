@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from identifier.cli.common import DATA_ERRORS, add_length_argument, error, os_error_text
+from identifier.preparation import vessel_length
 from identifier.split import MAX_APPROACH_L, MIN_APPROACH_L, manoeuvre_name, piece_logs, split_log
 from trials.errors import IdentificationError
 from trials.logs import ManeuverLog, read_log, write_log
@@ -65,11 +66,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         for path in inputs:
             log = read_log(path)
-            length_m = log.length_m if args.length_m is None else args.length_m
-            if length_m is None:
-                raise IdentificationError(
-                    "no ship length: pass --length-m or add '# length_m:' to the log", log=path
-                )
+            try:
+                length_m = vessel_length([log], args.length_m)
+            except IdentificationError as exc:  # the one message of fit's, naming the file
+                raise IdentificationError(exc.message, log=path) from None
             found = split_log(log, length_m)
             notes += [f"{path}: {note}" for note in found.notes]
             for k, piece in enumerate(piece_logs(log, found, length_m), start=1):
