@@ -57,8 +57,10 @@ free one:
   reference/kvlcc2_mmg.md §5) instead of u_P² + k(nL)²: u_R² = η(u_P + κ(S − u_P))² +
   (1 − η)u_P², S² = u_P² + c(nL)², with η = D_P/H_R = 0.7 and κ = 0.5 fixed (KVLCC2:
   0.626, 0.50) and c, which stands for 8K_T D_P²/(πL²) at a constant K_T, searched in
-  place of k (KVLCC2 about 4e-4). Its cross term 2ηκ(1 − κ)·S·u_P, which
-  u_P² + k(nL)² lacks, changes how the inflow falls with the speed in a turn;
+  place of k (KVLCC2 about 2e-3). Its cross term 2ηκ(1 − κ)·S·u_P, which
+  u_P² + k(nL)² lacks, changes how the inflow falls with the speed in a turn. On the
+  default's neutral-rudder offset and surge prior it is ``fmu_model``'s
+  ``prime-rudder-slipstream``, the default since 2026-12-07;
 * ``rudder-cubic``: the rudder force of ``prime-rudder`` with the MMG cubic hull basis
   {v′, r′, v′³, v′²r′, v′r′², r′³} (``prime-cubic``'s) in place of the modulus one: the
   KVLCC2 reference's own hull form;
@@ -105,9 +107,7 @@ from fmu_model.variants import (
     PRIME_RUDDER_LIFT,
     PRIME_RUDDER_OFFSET,
     PRIME_RUDDER_OFFSET_THRUST,
-    PROPELLER_INFLOW,
     RUDDER_INFLOW_SQUARED,
-    SLIPSTREAM_K,
     SLIPSTREAM_SHARE,
     SWAY_MASS,
     YAW_INERTIA,
@@ -120,6 +120,7 @@ from fmu_model.variants import (
     rudder_lift_terms,
     rudder_normal_force,
     with_fixed_thrust,
+    with_mmg_inflow,
     with_prior,
     with_rudder_force,
 )
@@ -130,12 +131,8 @@ _CUBIC_SHARE = ShapeConstant(CUBIC_SHARE, 0.0, 1.0, 0.0, (0.0, 0.5, 1.0))
 #: The modulus basis' nonlinear terms and the cubic ones of the same symmetry.
 HULL_PAIRS = {"vav": "vvv", "rar": "rrr", "var": "vrr", "avr": "vvr"}
 _SWIRL = ShapeConstant(SWIRL_RAD, -0.3, 0.3, 0.0, (-0.15, 0.0, 0.15))
-SLIPSTREAM_C = sp.Symbol("c", nonnegative=True)
-SLIPSTREAM_C_GRID = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # c·(n₀L)² / U₀²
 CUBIC_HULL = ("v", "r", "vvv", "vvr", "vrr", "rrr")  # the MMG hull basis, prime-cubic's
 MODULUS_HULL = ("v", "r", "vav", "rar", "var", "avr")  # prime-rudder's (prime-modulus's)
-MMG_ETA = sp.Rational(7, 10)  # η = D_P/H_R (KVLCC2 0.626)
-MMG_KAPPA = sp.Rational(1, 2)  # κ of the slipstream (KVLCC2 0.50)
 
 
 def _with_terms(
@@ -189,13 +186,6 @@ def hull_mixed(base: ModelFamily, name: str) -> ModelFamily:
         yaw=mixed(base.yaw, cubic_yaw),
         shape=(*base.shape, _CUBIC_SHARE),
     )
-
-
-def mmg_inflow_squared() -> sp.Expr:
-    """u_R² [m²/s²] of the MMG rudder model, with c·(nL)² for 8K_T(nD)²/π (module docstring)."""
-    u_p = PROPELLER_INFLOW
-    slipstream = sp.sqrt(u_p**2 + SLIPSTREAM_C * (n * L) ** 2)
-    return MMG_ETA * (u_p + MMG_KAPPA * (slipstream - u_p)) ** 2 + (1 - MMG_ETA) * u_p**2
 
 
 # X_un of a propeller's thrust is −κ·X_T (KVLCC2 X_T ≈ 2e-5, κ 20): a deviation of
@@ -333,17 +323,7 @@ def candidate_families() -> tuple[ModelFamily, ...]:
             rudder_normal_force(SWIRL_RAD * SLIPSTREAM_SHARE),
             (*base.shape, _SWIRL),
         ),
-        with_rudder_force(
-            PRIME_RUDDER,
-            "slipstream",
-            rudder_normal_force(inflow_squared=mmg_inflow_squared()),
-            tuple(
-                ShapeConstant(SLIPSTREAM_C, 0.0, 0.2, 2e-3, SLIPSTREAM_C_GRID, "slipstream")
-                if constant.symbol == SLIPSTREAM_K
-                else constant
-                for constant in base.shape
-            ),
-        ),
+        with_mmg_inflow(PRIME_RUDDER, "slipstream"),
     )
 
 

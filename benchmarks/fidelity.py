@@ -68,6 +68,7 @@ MODELS = (
     "prime-modulus",
     "prime-rudder[dgamma=0,dwake=0]",
     "prime-rudder",
+    "prime-rudder-offset",
     DEFAULT_MODEL,
 )
 TRAINING = {

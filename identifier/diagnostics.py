@@ -14,10 +14,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from fmu_model import ModelParameters
+from fmu_model import DEFAULT_MODEL, ModelParameters
 from fmu_model.variants import (
     NEUTRAL_RUDDER_OFFSET,
-    PRIME_RUDDER_OFFSET,
     STRAIGHTENING_ASYMMETRY,
     WAKE_ASYMMETRY,
     family_name,
@@ -232,9 +231,9 @@ def neutral_helm_note(data: SmoothedLogs, model: str) -> str | None:
     """Say when the logs approach at a helm off the centre line the model has no term for.
 
     A single-screw ship runs straight at a neutral helm off the centre line (the Mariner
-    reference 1.1° to port); ``prime-rudder-offset`` models it, the other families
-    explain it by their hull and rudder gains (benchmarks/fidelity.md, "A ship of another
-    structure"). None when every log's approach helm is within
+    reference 1.1° to port); the default family and ``prime-rudder-offset`` model it, the
+    other families explain it by their hull and rudder gains (benchmarks/fidelity.md, "A
+    ship of another structure"). None when every log's approach helm is within
     :data:`NEUTRAL_HELM_NOTE_RAD` of amidships, or the model has the offset.
     """
     parsed = parse_family(model)
@@ -247,7 +246,7 @@ def neutral_helm_note(data: SmoothedLogs, model: str) -> str | None:
     return (
         f"{data.names[i]} approaches at a helm of {math.degrees(helms[i]):+.2f} deg "
         f"(mean rudder before execute): a single screw's neutral helm, which "
-        f"{family_name(model)} has no term for; --model {PRIME_RUDDER_OFFSET.name} has one"
+        f"{family_name(model)} has no term for; --model {DEFAULT_MODEL} has one"
     )
 
 

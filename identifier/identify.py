@@ -26,8 +26,9 @@ A ``prime-rudder`` estimate whose free thrust X_nn·n²L + X_un·u·n is not a p
 (``identifier.diagnostics.thrust_warning``: no thrust at bollard, or one that grows with
 the speed; logs at one rpm fix the thrust at the approach only) is refitted as
 ``prime-rudder-thrust``, a thrust of fixed open-water slope, with the same settings (a
-``prime-rudder-offset`` one as ``prime-rudder-offset-thrust``, a ``prime-crossflow`` one
-as ``prime-crossflow-thrust``): the free split would make the ship lose its thrust as it
+``prime-rudder-offset`` one as ``prime-rudder-offset-thrust``, the default
+``prime-rudder-slipstream`` as ``prime-rudder-slipstream-thrust``, a ``prime-crossflow``
+one as ``prime-crossflow-thrust``): the free split would make the ship lose its thrust as it
 slows in a hard turn (benchmarks/hsva.md, "The propeller thrust is why"). The result says
 so (a note, ``identification.thrust``); fits of other families with such a thrust are
 warned about.
@@ -66,6 +67,8 @@ from fmu_model.variants import (
     PRIME_RUDDER,
     PRIME_RUDDER_OFFSET,
     PRIME_RUDDER_OFFSET_THRUST,
+    PRIME_RUDDER_SLIPSTREAM,
+    PRIME_RUDDER_SLIPSTREAM_THRUST,
     PRIME_RUDDER_THRUST,
     family_name,
     parse_family,
@@ -1012,6 +1015,7 @@ _FIXED_THRUST_FAMILIES = {
     PRIME_RUDDER.name: PRIME_RUDDER_THRUST.name,
     PRIME_RUDDER_OFFSET.name: PRIME_RUDDER_OFFSET_THRUST.name,
     PRIME_CROSSFLOW.name: PRIME_CROSSFLOW_THRUST.name,
+    PRIME_RUDDER_SLIPSTREAM.name: PRIME_RUDDER_SLIPSTREAM_THRUST.name,
 }
 """The family a fit of the key family is refitted as when its thrust is not a propeller's."""
 
@@ -1020,7 +1024,8 @@ def fixed_thrust_model(model: str) -> str | None:
     """Return the model a fit is refitted as when its thrust is not a propeller's.
 
     ``prime-rudder-thrust`` for ``prime-rudder``, ``prime-rudder-offset-thrust`` for
-    ``prime-rudder-offset`` and ``prime-crossflow-thrust`` for ``prime-crossflow`` (bare
+    ``prime-rudder-offset``, ``prime-rudder-slipstream-thrust`` for
+    ``prime-rudder-slipstream`` and ``prime-crossflow-thrust`` for ``prime-crossflow`` (bare
     or with constants, which the refit fixes as well); None
     for every other model, whose thrust :func:`~identifier.diagnostics.thrust_warning`
     only warns about.

@@ -121,7 +121,7 @@ def test_a_fit_without_the_offset_notes_the_neutral_helm():
     note = (
         "log 1 approaches at a helm of -1.11 deg (mean rudder before execute): a single "
         "screw's neutral helm, which prime-rudder has no term for; --model "
-        "prime-rudder-offset has one"
+        "prime-rudder-slipstream has one"
     )
     assert note in identify([log], plain).notes
     default = parse_family(DEFAULT_MODEL)
