@@ -14,6 +14,7 @@ from fmu_model.structure import unit_string
 from fmu_model.variants import (
     PRIME_RUDDER,
     PRIME_RUDDER_OFFSET,
+    PRIME_RUDDER_SLIPSTREAM,
     PRIME_RUDDER_THRUST,
     THRUST_SLOPE,
     ModelFamily,
@@ -186,6 +187,72 @@ def test_the_neutral_rudder_offset_holds_a_straight_course_and_is_found() -> Non
         PRIME_RUDDER_OFFSET, _segments(truth), LENGTH_M, SPEED_MPS, N_RPS, fixed=TRUE_SHAPE
     )
     assert found.shape["d0"] == pytest.approx(d0, abs=1e-3)
+
+
+# The MMG slipstream constant c of prime-rudder-slipstream in place of k.
+TRUE_MMG_SHAPE = {**{k: v for k, v in TRUE_SHAPE.items() if k != "k"}, "c": 2e-3, "d0": 0.01}
+
+
+def _mmg_truth() -> ModelParameters:
+    return ModelParameters.from_vector(
+        PRIME_RUDDER_SLIPSTREAM.structure_name(TRUE_MMG_SHAPE),
+        np.array(list(COEFFICIENTS.values())),
+        length_m=LENGTH_M,
+        vessel_name="tanker",
+        nominal_speed_mps=SPEED_MPS,
+        nominal_n_rps=N_RPS,
+    )
+
+
+def test_the_default_rudder_inflow_is_the_mmg_standard_methods() -> None:
+    """prime-rudder-slipstream: u_R² = η(u_P + κ(S − u_P))² + (1 − η)u_P², S² = u_P² +
+    c(nL)² (Yasukawa & Yoshimura 2015, eqs. (21)-(23)), η 0.7, κ 0.5, by hand at a drift
+    to each side; α_R as prime-rudder-offset's (δ₀ and the side-dependent straightening)."""
+    params = _mmg_truth()
+    model = numeric_model(params.structure)
+    shape = TRUE_MMG_SHAPE
+    u, delta, c1 = 6.0, math.radians(10.0), 2.0
+    for w in (0.3, -0.3):
+        beta = -w / math.hypot(u, w)
+        c2_minus_1 = shape["wake"] + math.copysign(shape["dwake"], beta)
+        u_p = u * (1.0 + c2_minus_1 * c1 * abs(beta) / (1.0 + c1 * abs(beta)))
+        far = math.sqrt(u_p**2 + shape["c"] * (N_RPS * LENGTH_M) ** 2)
+        u_r2 = 0.7 * (u_p + 0.5 * (far - u_p)) ** 2 + 0.3 * u_p**2
+        gamma = shape["gamma"] - math.copysign(shape["dgamma"], w)
+        alpha = delta + shape["d0"] + math.atan(gamma * w / math.sqrt(u_r2))
+        regressors = model.regressors(u, w, 0.0, delta, N_RPS, LENGTH_M)
+        for name, factor in (("X_R", math.sin(delta) / LENGTH_M),
+                             ("Y_R", math.cos(delta) / LENGTH_M),
+                             ("N_R", math.cos(delta) / LENGTH_M**2)):  # fmt: skip
+            got = regressors[params.names.index(name)]
+            assert got == pytest.approx(u_r2 * math.sin(alpha) * factor, rel=1e-12)
+
+
+def test_without_a_slipstream_the_mmg_inflow_is_the_offset_familys() -> None:
+    """At c = k = 0 both inflows are u_P²: the two families are one, term for term (the
+    Mariner's fits, which find no slipstream, come out the same with either)."""
+    shape = {**TRUE_MMG_SHAPE, "c": 0.0}
+    mmg = numeric_model(PRIME_RUDDER_SLIPSTREAM.structure(shape))
+    offset_shape = {**{k: v for k, v in shape.items() if k != "c"}, "k": 0.0}
+    offset = numeric_model(PRIME_RUDDER_OFFSET.structure(offset_shape))
+    for state in ((6.0, 0.3, 0.004, 0.2, 1.75), (4.0, -0.8, -0.01, -0.6, 1.2)):
+        a = mmg.regressors(*state, LENGTH_M)
+        b = offset.regressors(*state, LENGTH_M)
+        np.testing.assert_allclose(a, b, rtol=1e-13, atol=0.0)
+    with_slipstream = numeric_model(PRIME_RUDDER_SLIPSTREAM.structure(TRUE_MMG_SHAPE))
+    assert not np.allclose(with_slipstream.regressors(6.0, 0.3, 0.004, 0.2, 1.75, LENGTH_M),
+                           mmg.regressors(6.0, 0.3, 0.004, 0.2, 1.75, LENGTH_M))  # fmt: skip
+
+
+def test_the_shape_search_finds_the_mmg_slipstream() -> None:
+    """c is found from noise-free runs of a ship with that inflow (the rest given)."""
+    truth = _mmg_truth()
+    fixed = {k: v for k, v in TRUE_MMG_SHAPE.items() if k != "c"}
+    found = select_shape(
+        PRIME_RUDDER_SLIPSTREAM, _segments(truth), LENGTH_M, SPEED_MPS, N_RPS, fixed=fixed
+    )
+    assert found.shape["c"] == pytest.approx(TRUE_MMG_SHAPE["c"], rel=0.05)
+    assert found.structure.name.startswith("prime-rudder-slipstream[c=")
 
 
 def test_the_thrust_slope_is_not_searched_but_can_be_given() -> None:
