@@ -24,7 +24,7 @@ DEFAULT_MODEL = "prime-rudder-slipstream"
 """The default structure: the one that best predicts held-out manoeuvres
 (benchmarks/fidelity.md, hsva.md). Since 2026-12-07 ``prime-rudder-offset`` with the
 MMG rudder inflow: trained on zig-zags only, it predicts the 35° turns of the KVLCC2
-reference 0.9 points a draw closer and those of Van Berlekom & Goddard's tanker (a third
+reference 1.0 point a draw closer and those of Van Berlekom & Goddard's tanker (a third
 structure) 1.7 closer than ``prime-rudder-offset``, the Mariner's the same (its fits
 find no slipstream), and the measured HSVA zig-zags held out 0.3° worse in sum of six
 folds. ``prime-rudder-offset`` (the default from 2026-12-04) predicts the Mariner's
