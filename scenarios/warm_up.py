@@ -9,8 +9,9 @@ more memory, a Dask worker keeps it). :func:`warm_up` pays both in a process of 
 own: it fits a short reference-ship zig-zag with the settings a fit uses, so that what
 it compiles is what a fit calls, with the same argument types. ``make`` runs
 ``python -m scenarios warm-up`` once after installing: for the default family and for
-``prime-rudder-thrust``, which a default fit of logs at one rpm may be refitted as
-(``identifier.identify``); ``--model NAME`` warms up another family.
+its thrust twin (``prime-rudder-slipstream-thrust``), which a default fit of logs at one
+rpm may be refitted as (``identifier.identify.fixed_thrust_model``); ``--model NAME``
+warms up another family.
 """
 
 from __future__ import annotations
