@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
@@ -41,9 +42,11 @@ TRUE_SHAPE = {"k": 1.5e-4, "gamma": 0.52, "dgamma": 0.12, "l": -0.7, "wake": 0.3
 LENGTH_M, SPEED_MPS, N_RPS = 320.0, 8.0, 1.75
 
 
-def _truth(family: ModelFamily = PRIME_RUDDER, **shape: float) -> ModelParameters:
+def _truth(
+    family: ModelFamily = PRIME_RUDDER, base: Mapping[str, float] = TRUE_SHAPE, **shape: float
+) -> ModelParameters:
     return ModelParameters.from_vector(
-        family.structure_name({**TRUE_SHAPE, **shape}),
+        family.structure_name({**base, **shape}),
         np.array(list(COEFFICIENTS.values())),
         length_m=LENGTH_M,
         vessel_name="tanker",
@@ -193,22 +196,11 @@ def test_the_neutral_rudder_offset_holds_a_straight_course_and_is_found() -> Non
 TRUE_MMG_SHAPE = {**{k: v for k, v in TRUE_SHAPE.items() if k != "k"}, "c": 2e-3, "d0": 0.01}
 
 
-def _mmg_truth() -> ModelParameters:
-    return ModelParameters.from_vector(
-        PRIME_RUDDER_SLIPSTREAM.structure_name(TRUE_MMG_SHAPE),
-        np.array(list(COEFFICIENTS.values())),
-        length_m=LENGTH_M,
-        vessel_name="tanker",
-        nominal_speed_mps=SPEED_MPS,
-        nominal_n_rps=N_RPS,
-    )
-
-
 def test_the_default_rudder_inflow_is_the_mmg_standard_methods() -> None:
     """prime-rudder-slipstream: u_R² = η(u_P + κ(S − u_P))² + (1 − η)u_P², S² = u_P² +
     c(nL)² (Yasukawa & Yoshimura 2015, eqs. (21)-(23)), η 0.7, κ 0.5, by hand at a drift
     to each side; α_R as prime-rudder-offset's (δ₀ and the side-dependent straightening)."""
-    params = _mmg_truth()
+    params = _truth(PRIME_RUDDER_SLIPSTREAM, TRUE_MMG_SHAPE)
     model = numeric_model(params.structure)
     shape = TRUE_MMG_SHAPE
     u, delta, c1 = 6.0, math.radians(10.0), 2.0
@@ -246,7 +238,7 @@ def test_without_a_slipstream_the_mmg_inflow_is_the_offset_familys() -> None:
 
 def test_the_shape_search_finds_the_mmg_slipstream() -> None:
     """c is found from noise-free runs of a ship with that inflow (the rest given)."""
-    truth = _mmg_truth()
+    truth = _truth(PRIME_RUDDER_SLIPSTREAM, TRUE_MMG_SHAPE)
     fixed = {k: v for k, v in TRUE_MMG_SHAPE.items() if k != "c"}
     found = select_shape(
         PRIME_RUDDER_SLIPSTREAM, _segments(truth), LENGTH_M, SPEED_MPS, N_RPS, fixed=fixed
