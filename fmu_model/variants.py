@@ -172,6 +172,10 @@ class ModelFamily:
     sway: tuple[Term, ...]
     yaw: tuple[Term, ...]
 
+    def has(self, symbol: sp.Symbol) -> bool:
+        """Whether ``symbol`` is one of the family's shape constants."""
+        return any(c.symbol == symbol for c in self.shape)
+
     @property
     def default_shape(self) -> dict[str, float]:
         """The shape of the bare family name."""
@@ -714,13 +718,11 @@ def with_mmg_inflow(base: ModelFamily, name: str) -> ModelFamily:
 
     Its slipstream share k becomes the MMG slipstream's c (bounds 0 to 0.2).
     """
-    offset = any(c.symbol == NEUTRAL_RUDDER_OFFSET for c in base.shape)
+    offset = NEUTRAL_RUDDER_OFFSET if base.has(NEUTRAL_RUDDER_OFFSET) else sp.S.Zero
     return with_rudder_force(
         base,
         name,
-        rudder_normal_force(
-            NEUTRAL_RUDDER_OFFSET if offset else sp.S.Zero, inflow_squared=mmg_inflow_squared()
-        ),
+        rudder_normal_force(offset, inflow_squared=mmg_inflow_squared()),
         tuple(
             ShapeConstant(SLIPSTREAM_C, 0.0, 0.2, 2e-3, SLIPSTREAM_C_GRID, "slipstream")
             if constant.symbol == SLIPSTREAM_K

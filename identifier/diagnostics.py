@@ -237,7 +237,7 @@ def neutral_helm_note(data: SmoothedLogs, model: str) -> str | None:
     :data:`NEUTRAL_HELM_NOTE_RAD` of amidships, or the model has the offset.
     """
     parsed = parse_family(model)
-    if parsed is not None and any(c.symbol == NEUTRAL_RUDDER_OFFSET for c in parsed[0].shape):
+    if parsed is not None and parsed[0].has(NEUTRAL_RUDDER_OFFSET):
         return None
     helms = [approach_helm_rad(log) for log in data.logs]
     i = int(np.argmax(np.abs(helms)))

@@ -125,7 +125,7 @@ def test_a_fit_without_the_offset_notes_the_neutral_helm():
     )
     assert note in identify([log], plain).notes
     default = parse_family(DEFAULT_MODEL)
-    assert default is not None and NEUTRAL_RUDDER_OFFSET in (c.symbol for c in default[0].shape)
+    assert default is not None and default[0].has(NEUTRAL_RUDDER_OFFSET)
     offset = identify([log], replace(plain, model=DEFAULT_MODEL)).notes
     assert not any("neutral helm" in n for n in offset)
 

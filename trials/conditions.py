@@ -165,7 +165,7 @@ def steady_heading(log: ManeuverLog) -> np.ndarray:
     return np.asarray(median_filter(log.heading_rad, size=5, mode="nearest"))
 
 
-def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
+def _reversals(log: ManeuverLog, k: int, sign: float, heading: np.ndarray) -> np.ndarray:
     """Return the samples (≥ k) at which the rudder has left a plateau for the other side.
 
     A plateau is the extreme rudder angle reached on one side; the rudder has left it
@@ -175,6 +175,7 @@ def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
     heading or more (a zig-zag reverses at ±Z in turn). The reversals end at the first
     that is not one: a return to midship (a zig-zag ended, the log's straight run after
     it), or a helmsman steadying the ship about the heading where the zig-zag ended.
+    ``heading``: :func:`steady_heading` of the log [rad].
     """
     out = []
     side = sign
@@ -187,7 +188,6 @@ def _reversals(log: ManeuverLog, k: int, sign: float) -> np.ndarray:
             out.append(i)
             side = -side
             extreme = side * float(log.rudder_rad[i])
-    heading = steady_heading(log)
     heading = heading - heading[k]
     first_switch = sign * float(heading[out[0]]) if out else 0.0
     for j, i in enumerate(out):
@@ -212,11 +212,15 @@ def maneuver_kind(log: ManeuverLog) -> str | None:
     interpolated first (``trials.spikes``), the heading taken through a five-sample
     median.
     """
-    return _maneuver_kind(despiked_inputs(log)[0])
+    despiked = despiked_inputs(log)[0]
+    return _maneuver_kind(despiked, steady_heading(despiked))
 
 
-def _maneuver_kind(log: ManeuverLog) -> str | None:
-    """:func:`maneuver_kind` of a log whose spikes are interpolated already."""
+def _maneuver_kind(log: ManeuverLog, heading: np.ndarray) -> str | None:
+    """:func:`maneuver_kind` of a log whose spikes are interpolated already.
+
+    ``heading``: :func:`steady_heading` of the log [rad].
+    """
     k = _execute_index(log)
     if k >= log.n_samples - 1:
         return None
@@ -224,7 +228,6 @@ def _maneuver_kind(log: ManeuverLog) -> str | None:
     to_the_other_side = np.flatnonzero(sign * log.rudder_rad[k:] < -REVERSAL_RUDDER_RAD)
     if not to_the_other_side.size:
         return "turning"
-    heading = steady_heading(log)
     turned = sign * (heading[k : k + int(to_the_other_side[0]) + 1] - heading[k])
     return "turning" if float(np.max(turned)) >= TURN_BEFORE_REVERSAL_RAD else "zigzag"
 
@@ -340,14 +343,16 @@ class _RudderReading:
     rate_radps: float
 
 
-def _read_rudder(log: ManeuverLog, k: int, *, reversing: bool) -> _RudderReading:
+def _read_rudder(
+    log: ManeuverLog, k: int, heading: np.ndarray, *, reversing: bool
+) -> _RudderReading:
     """Read the rudder from execute sample k: first side, reversals, plateaus and rate.
 
-    ``reversing``: a zig-zag (every return past a plateau is a reversal); else a turn
-    (one plateau, held).
+    ``reversing``: a zig-zag (every return past a plateau is a reversal, judged with the
+    log's :func:`steady_heading` ``heading``); else a turn (one plateau, held).
     """
     sign = _first_side(log, k)
-    reversals = _reversals(log, k, sign) if reversing else np.array([], dtype=int)
+    reversals = _reversals(log, k, sign, heading) if reversing else np.array([], dtype=int)
     bounds = [k, *reversals.tolist(), log.n_samples]
     plateaus = _plateaus(log, bounds, sign)
     rate = _rudder_rate(log, bounds[:-1], [_helm_before(log, k), *plateaus])
@@ -382,13 +387,14 @@ def logged_condition(log: ManeuverLog, *, max_time_s: float = 3600.0) -> LoggedC
     """
     log = at_midship(log)  # the approach speed of the midship point, as the model's
     log = despiked_inputs(log)[0]  # a spike is no rudder angle nor rpm (trials.spikes)
-    kind = _maneuver_kind(log)
+    heading = steady_heading(log)  # one median filter for the kind and the reversals
+    kind = _maneuver_kind(log, heading)
     k = _execute_index(log)
     if kind is None or k >= log.n_samples - 1:
         raise IdentificationError(
             "the rudder never leaves midship: not a turning circle or a zig-zag", log=_name(log)
         )
-    rudder = _read_rudder(log, k, reversing=kind == "zigzag")
+    rudder = _read_rudder(log, k, heading, reversing=kind == "zigzag")
     sign, rate = rudder.sign, rudder.rate_radps
     amplitude = float(np.mean(np.abs(rudder.plateaus)))
     speed = _approach_speed(log, k)
