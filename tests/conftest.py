@@ -16,6 +16,12 @@ settings.register_profile("ci", derandomize=True)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile("ci")
 
+# The suite runs on two workers (`make test`: pytest -n 2 --dist worksteal). Its few tests
+# of a minute or more (the warm-up's from empty caches, the demo, the walkthroughs) are
+# marked @pytest.mark.order("first") (pytest-order): started last, one of them kept a
+# worker busy for minutes after the other had finished (16 min 18 s against 13 min 50 s of
+# CPU time each); started first, the workers steal the short ones from each other around them.
+
 # A 100 m single-screw ship at 5 m/s and 2 rev/s in the Shi et al. (2009) structure.
 # Straight-run equilibrium: a1 u0^2 + a8 u0 n0 + a9 n0^2 = 0. Positive rudder turns to
 # starboard (c3 > 0); 35 deg rudder gives a steady turn of about 1.3 L diameter with

@@ -146,6 +146,7 @@ def _tactical_diameters_L(ship) -> tuple[float, float]:
     return out[0], out[1]
 
 
+@pytest.mark.order("first")  # long: started first (conftest.py)
 def test_zig_zags_in_two_knots_across_the_approach_fit_and_find_the_current():
     """The Mariner's zig-zags (noise draw 1 of benchmarks/fidelity.py) in a current of
     1 m/s setting to 135°, the approaches heading North: they show the current's East

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -18,6 +20,7 @@ def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     return done
 
 
+@pytest.mark.order("first")  # long: started first (conftest.py)
 def test_nmea_recording_to_a_validated_fmu(tmp_path: Path) -> None:
     _run(
         str(ROOT / "examples/own_data/record_nmea.py"),
@@ -60,6 +63,7 @@ def test_nmea_recording_to_a_validated_fmu(tmp_path: Path) -> None:
     }
 
 
+@pytest.mark.order("first")  # long: started first (conftest.py)
 def test_a_sea_trial_recording_with_a_bridge_antenna_and_a_doppler_log(tmp_path: Path) -> None:
     """NMEA at sea: fixes 128 m aft (the bridge), 1 % of them glitched, VBW from a two-axis
     log 128 m forward.

@@ -18,6 +18,7 @@ from trials.logs import read_log
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.order("first")  # long: started first (conftest.py)
 def test_quick_demo_produces_logs_params_fmu_and_report(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out), "--quick", "--quiet"]) == 0

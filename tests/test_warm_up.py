@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from fmu_model import DEFAULT_MODEL
 from fmu_model.kernels import CACHE_ENV
 from identifier.identify import fixed_thrust_model
@@ -34,6 +36,7 @@ print(json.dumps({"compiled": compiled, "loaded": loaded}))
 """
 
 
+@pytest.mark.order("first")  # long: started first (conftest.py)
 def test_after_warm_up_a_fit_loads_every_compiled_function(tmp_path: Path) -> None:
     # Both caches empty, as on a fresh machine: numba's own (the smoother's) and the
     # generated kernel modules'.
