@@ -2,7 +2,7 @@
 
     python benchmarks/identify.py [--rates-hz 10,1] [--samples 1000000]
         [--large-rates-hz 1,10] [--no-large] [--method ekf|output-error] [--timeout-s S]
-        [--current-modes-only]
+        [--current-modes-only] [--shape-search-only]
 
 The data are KVLCC2 full-scale trial logs (MMG reference ship, ``scenarios.synthesize``):
 turning circle 35°, zig-zag 10/10 and 20/20, about 3,200 samples at 1 Hz and 32,000 at
@@ -35,6 +35,11 @@ compiles the smoother and the model family's EKF and replay, as the first fit on
 machine does; once with the caches one ``python -m scenarios warm-up`` filled (what
 ``make`` does after installing; timed and reported once), as every later fit.
 
+The shape search of the default family (``identifier.shape.select_shape``) on the three
+KVLCC2 logs at 1 Hz, its grid's shapes in batches (``SHAPE_BATCH_VALUES``, the default)
+against one at a time, side by side in this process: seconds, the ratio, and that both
+choose the same shape (``--shape-search-only`` runs this part alone).
+
 Last, the cost of the current modes: ``identify`` with ``current`` "none", "constant",
 "per-log" and "auto" (two fits unless a speed log decides) side by side in this process
 (its caches warm from a first, untimed fit), on the three KVLCC2 logs at 1 Hz and on the
@@ -63,8 +68,10 @@ from dataclasses import replace
 import numpy as np
 from hsva import DATA, RUNS
 
-from fmu_model import get_model
+import identifier.shape
+from fmu_model import DEFAULT_MODEL, get_model
 from fmu_model.kernels import CACHE_ENV
+from fmu_model.variants import parse_family
 from identifier.current import PER_LOG, kept_current
 from identifier.ekf import EkfSegment, EkfSettings, SpeedLogMeasurement, ekf_identify
 from identifier.equation_error import equation_error_fit
@@ -382,6 +389,36 @@ def throughput(rate_hz: float) -> float | None:
     return compile_s
 
 
+def shape_search() -> None:
+    """Print the default family's shape search, batched and one shape at a time, side by side."""
+    logs = reference_logs(1.0)
+    family = parse_family(DEFAULT_MODEL)
+    assert family is not None
+    ship = reference_ship("kvlcc2", "full")
+    data = segments(logs)
+    batched = identifier.shape.SHAPE_BATCH_VALUES
+    seconds, chosen = {}, {}
+    for label, values in (("in batches", batched), ("one at a time", 1)):
+        identifier.shape.SHAPE_BATCH_VALUES = values
+        start = time.perf_counter()
+        selection = identifier.shape.select_shape(
+            family[0], data, ship.length_m, ship.speed_mps, ship.n_rps
+        )
+        seconds[label] = time.perf_counter() - start
+        chosen[label] = selection.shape
+        print(
+            f"  {label}: {seconds[label]:.2f} s, {selection.evaluations} shapes "
+            f"({1e3 * seconds[label] / selection.evaluations:.2f} ms a shape, "
+            f"{selection.rows} rows)"
+        )
+    identifier.shape.SHAPE_BATCH_VALUES = batched
+    same = (
+        "the same shape" if chosen["in batches"] == chosen["one at a time"] else "DIFFERENT shapes"
+    )
+    ratio = seconds["one at a time"] / seconds["in batches"]
+    print(f"  one at a time / in batches: {ratio:.2f} ({same})")
+
+
 def current_modes(method: str | None) -> None:
     """Print ``identify``'s seconds per current mode side by side, and their ratios."""
     hsva = [read_log(DATA / f"{run}.csv") for run in RUNS[:2]]
@@ -424,6 +461,11 @@ def main() -> int:
         action="store_true",
         help="only the side-by-side of the current modes",
     )
+    parser.add_argument(
+        "--shape-search-only",
+        action="store_true",
+        help="only the side-by-side of the shape search in batches and one at a time",
+    )
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--rate-hz", type=float, default=10.0, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -433,6 +475,10 @@ def main() -> int:
     if args.current_modes_only:
         print("identify() by --current mode, this process, caches warm")
         current_modes(args.method)
+        return 0
+    print("shape search of the default family, three KVLCC2 logs at 1 Hz")
+    shape_search()
+    if args.shape_search_only:
         return 0
 
     compile_s = None

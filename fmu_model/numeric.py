@@ -165,6 +165,8 @@ def family_regressors(
     order of ``ModelFamily.shape``: one compiled function for a search over shapes,
     from the same symbolic terms as the structures the family instantiates. With
     ``columns``, only those regressors (indices in coefficient-vector order), in that order.
+    Every argument broadcasts: samples (1, M) and shape constants (G, 1) give the
+    regressors of G shapes at once, (p, G, M).
     """
     terms = family.terms if columns is None else tuple(family.terms[i] for i in columns)
     shape_symbols = tuple(c.symbol for c in family.shape)
@@ -173,7 +175,7 @@ def family_regressors(
     )
 
     def phi(*args: Any) -> np.ndarray:
-        shape = np.broadcast_shapes(*(np.shape(a) for a in args[:5]))
+        shape = np.broadcast_shapes(*(np.shape(a) for a in args))
         return _stack(fn(*args), shape)
 
     return phi

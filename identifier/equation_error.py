@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -178,7 +179,10 @@ class NormalEquations:
     """Running sums of the regression of every equation (bounded memory).
 
     ``add(phi, acc)`` adds rows: regressors φ (p, m) and accelerations (3, m); the sums
-    ΦΦᵀ (p, p), Φ aᵀ (p, 3) and Σ a² (3,) are all :meth:`solve` needs.
+    ΦΦᵀ (p, p), Φ aᵀ (p, 3) and Σ a² (3,) are all :meth:`solve` needs. The sums of
+    :meth:`of_sums` may carry leading axes, one regression each (G of them, (G, p, p) and
+    (G, p, 3): the shapes of a family, ``identifier.shape``); :meth:`residual_std` answers
+    for all of them at once.
     """
 
     def __init__(self, n_coefficients: int) -> None:
@@ -252,28 +256,37 @@ class NormalEquations:
         return EquationErrorFit(theta, cov, residual_std, rms, contribution, vif, rows=m)
 
     def residual_std(self, equation_index: Sequence[int]) -> np.ndarray:
-        """Residual standard deviations σ_j of :meth:`solve` alone (3,), without the rest."""
+        """Residual standard deviations σ_j of :meth:`solve` alone (…, 3), without the rest."""
         rms = self._rms()
         eq_index = np.asarray(equation_index)
-        return np.sqrt([self._equation(j, eq_index, rms)[5] for j in range(3)])
+        return np.sqrt(np.stack([self._equation(j, eq_index, rms)[5] for j in range(3)], -1))
 
     def _rms(self) -> np.ndarray:
-        return np.sqrt(np.maximum(np.diag(self.gram), 0.0) / max(self.rows, 1))
+        diagonal = np.diagonal(self.gram, axis1=-2, axis2=-1)
+        return np.sqrt(np.maximum(diagonal, 0.0) / max(self.rows, 1))
 
     def _equation(
         self, j: int, eq_index: np.ndarray, rms: np.ndarray, ridge: np.ndarray | float = 0.0
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float]:
-        """Columns, scale D, A, β, ‖Xβ‖² and σ² of equation j (:meth:`solve`; R = ``ridge``)."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Any, Any]:
+        """Columns, scale D, A, β, ‖Xβ‖² and σ² of equation j (:meth:`solve`; R = ``ridge``).
+
+        Of every regression of the sums' leading axes: D, A and β with those axes in
+        front, ‖Xβ‖² and σ² floats without them, arrays with.
+        """
         m = self.rows
         cols = np.flatnonzero(eq_index == j)
-        scale = np.where(rms[cols] > 0.0, rms[cols], 1.0)
-        xtx = self.gram[np.ix_(cols, cols)] / np.outer(scale, scale)
-        xta = self.cross[cols, j] / scale
+        scale = np.where(rms[..., cols] > 0.0, rms[..., cols], 1.0)
+        xtx = self.gram[..., cols[:, None], cols] / (scale[..., :, None] * scale[..., None, :])
+        xta = self.cross[..., cols, j] / scale
         A = xtx + np.diag(_RIDGE * m + np.broadcast_to(ridge, cols.shape))
-        beta = np.linalg.solve(A, xta)
-        fit_squares = float(beta @ xtx @ beta)
-        residual = max(float(self.acc_squares[j] - 2.0 * beta @ xta + fit_squares), 0.0)
-        return cols, scale, A, beta, fit_squares, residual / max(m - cols.size, 1)
+        beta = np.linalg.solve(A, xta[..., None])[..., 0]
+        fit_squares = (beta[..., None, :] @ xtx @ beta[..., :, None])[..., 0, 0]
+        explained = (beta[..., None, :] @ xta[..., :, None])[..., 0, 0]
+        residual = np.maximum(self.acc_squares[..., j] - 2.0 * explained + fit_squares, 0.0)
+        sigma2 = residual / max(m - cols.size, 1)
+        if fit_squares.ndim == 0:
+            return cols, scale, A, beta, float(fit_squares), float(sigma2)
+        return cols, scale, A, beta, fit_squares, sigma2
 
 
 def equation_error_fit(

@@ -344,7 +344,8 @@ def test_the_polish_stops_after_its_whole_sweeps(monkeypatch: pytest.MonkeyPatch
 
 
 def test_shape_regression_reuses_the_shape_free_sums_and_equals_the_whole_regression() -> None:
-    """J's residuals from the shaped columns alone equal those of all 21 columns."""
+    """J's residuals from the shaped columns alone equal those of all 21 columns, for a
+    batch of shapes as one at a time; a shape whose regressors are not finite gets inf."""
     assert PRIME_RUDDER.shaped_columns == tuple(
         PRIME_RUDDER.structure(TRUE_SHAPE).coefficient_names.index(n) for n in ("X_R", "Y_R", "N_R")
     )
@@ -362,11 +363,17 @@ def test_shape_regression_reuses_the_shape_free_sums_and_equals_the_whole_regres
     acc = rng.normal(0.0, 0.01, (3, m))
     regression = shape_module._ShapeRegression(PRIME_RUDDER, samples, acc, LENGTH_M)
     equation_index = PRIME_RUDDER.structure(TRUE_SHAPE).equation_index
-    for shape in (TRUE_SHAPE, PRIME_RUDDER.default_shape):
-        values = [shape[c.name] for c in PRIME_RUDDER.shape]
+    shapes = np.array(
+        [
+            [shape[c.name] for c in PRIME_RUDDER.shape]
+            for shape in (TRUE_SHAPE, PRIME_RUDDER.default_shape)
+        ]
+    )
+    batch = regression.residual_std(np.vstack([shapes, np.full(shapes.shape[1], np.nan)]))
+    assert np.all(np.isinf(batch[2]))
+    for values, got in zip(shapes, batch, strict=False):
         whole = NormalEquations(len(PRIME_RUDDER.terms))
         whole.add(family_regressors(PRIME_RUDDER)(*samples, LENGTH_M, *values), acc)
         expected = whole.residual_std(equation_index)
-        got = regression.residual_std(values)
-        assert got is not None
         np.testing.assert_allclose(got, expected, rtol=1e-10)
+        np.testing.assert_allclose(regression.residual_std(values[None, :])[0], got, rtol=1e-12)
