@@ -36,7 +36,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -267,7 +266,9 @@ class NormalEquations:
 
     def _equation(
         self, j: int, eq_index: np.ndarray, rms: np.ndarray, ridge: np.ndarray | float = 0.0
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Any, Any]:
+    ) -> tuple[
+        np.ndarray, np.ndarray, np.ndarray, np.ndarray, float | np.ndarray, float | np.ndarray
+    ]:
         """Columns, scale D, A, β, ‖Xβ‖² and σ² of equation j (:meth:`solve`; R = ``ridge``).
 
         Of every regression of the sums' leading axes: D, A and β with those axes in
