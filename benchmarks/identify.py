@@ -401,9 +401,12 @@ def shape_search() -> None:
     for label, values in (("in batches", batched), ("one at a time", 1)):
         identifier.shape.SHAPE_BATCH_VALUES = values
         start = time.perf_counter()
-        selection = identifier.shape.select_shape(
-            family[0], data, ship.length_m, ship.speed_mps, ship.n_rps
-        )
+        try:
+            selection = identifier.shape.select_shape(
+                family[0], data, ship.length_m, ship.speed_mps, ship.n_rps
+            )
+        finally:
+            identifier.shape.SHAPE_BATCH_VALUES = batched
         seconds[label] = time.perf_counter() - start
         chosen[label] = selection.shape
         print(
@@ -411,7 +414,6 @@ def shape_search() -> None:
             f"({1e3 * seconds[label] / selection.evaluations:.2f} ms a shape, "
             f"{selection.rows} rows)"
         )
-    identifier.shape.SHAPE_BATCH_VALUES = batched
     same = (
         "the same shape" if chosen["in batches"] == chosen["one at a time"] else "DIFFERENT shapes"
     )
