@@ -266,13 +266,11 @@ class NormalEquations:
 
     def _equation(
         self, j: int, eq_index: np.ndarray, rms: np.ndarray, ridge: np.ndarray | float = 0.0
-    ) -> tuple[
-        np.ndarray, np.ndarray, np.ndarray, np.ndarray, float | np.ndarray, float | np.ndarray
-    ]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Columns, scale D, A, β, ‖Xβ‖² and σ² of equation j (:meth:`solve`; R = ``ridge``).
 
-        Of every regression of the sums' leading axes: D, A and β with those axes in
-        front, ‖Xβ‖² and σ² floats without them, arrays with.
+        Of every regression of the sums' leading axes: every array with those axes in
+        front (‖Xβ‖² and σ² 0-d for one regression).
         """
         m = self.rows
         cols = np.flatnonzero(eq_index == j)
@@ -284,10 +282,7 @@ class NormalEquations:
         fit_squares = (beta[..., None, :] @ xtx @ beta[..., :, None])[..., 0, 0]
         explained = (beta[..., None, :] @ xta[..., :, None])[..., 0, 0]
         residual = np.maximum(self.acc_squares[..., j] - 2.0 * explained + fit_squares, 0.0)
-        sigma2 = residual / max(m - cols.size, 1)
-        if fit_squares.ndim == 0:
-            return cols, scale, A, beta, float(fit_squares), float(sigma2)
-        return cols, scale, A, beta, fit_squares, sigma2
+        return cols, scale, A, beta, fit_squares, residual / max(m - cols.size, 1)
 
 
 def equation_error_fit(

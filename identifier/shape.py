@@ -195,11 +195,11 @@ def _select_shape(
         for c, s in zip(constants, scale, strict=True)
     ]
     grid = list(itertools.product(*axes))
-    shapes = np.array([full(values) for values in grid], dtype=float).reshape(len(grid), -1)
+    shapes = np.array([full(values) for values in grid], dtype=float)
     batch = max(1, SHAPE_BATCH_VALUES // acc.shape[1])
     scores = np.concatenate([residuals(shapes[i : i + batch]) for i in range(0, len(grid), batch)])
-    best = np.asarray(grid[int(np.argmin(scores))], dtype=float)
-    best_score = float(np.min(scores))
+    i_best = int(np.argmin(scores))
+    best, best_score = np.asarray(grid[i_best], dtype=float), float(scores[i_best])
     if free:
         # Powell in grid units, where every constant is of order 1.
         polish = minimize(
