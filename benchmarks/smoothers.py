@@ -137,7 +137,8 @@ def body_frame_track(
     ``track`` is the paper's smoother's of the fixes ``x_m``, ``y_m`` [m] (its heading,
     noise level and gate decisions are kept); the North and East states and variances
     are replaced by those of the body-frame smoother of the module notes (first-order
-    variances, the heading taken as known).
+    variances, the heading taken as known). Its prior is the paper smoother's state at
+    the first sample with that track's variances.
     """
     rejected = set(track.position_rejected.tolist())
     fixes: list[np.ndarray | None] = [
@@ -148,23 +149,16 @@ def body_frame_track(
     best = max(zip(candidates, Q_GRID_DECADES, strict=True), key=lambda c: c[0][0])
     (_, means, covariances, Fs, Qs, kf), decade = best
     smoothed, smoothed_cov, _, _ = kf.rts_smoother(means, covariances, Fs, Qs)
-    psi, r = track.heading_rad, track.r_radps
-    cos, sin = np.cos(psi), np.sin(psi)
-    u, v, u_dot, v_dot = (smoothed[:, i] for i in range(2, 6))
-    x_dot, y_dot = u * cos - v * sin, u * sin + v * cos
-    states = np.array(track.states)
-    states[0] = np.column_stack([smoothed[:, 0], x_dot, u_dot * cos - v_dot * sin - r * y_dot])
-    states[1] = np.column_stack([smoothed[:, 1], y_dot, u_dot * sin + v_dot * cos + r * x_dot])
-    variances = np.array(track.variances)
-    rate = smoothed_cov[:, 2:4, 2:4]
-    variances[0] = np.column_stack(
-        [smoothed_cov[:, 0, 0], cos**2 * rate[:, 0, 0] - 2 * cos * sin * rate[:, 0, 1]
-         + sin**2 * rate[:, 1, 1]]
-    )  # fmt: skip
-    variances[1] = np.column_stack(
-        [smoothed_cov[:, 1, 1], sin**2 * rate[:, 0, 0] + 2 * cos * sin * rate[:, 0, 1]
-         + cos**2 * rate[:, 1, 1]]
-    )  # fmt: skip
+    rot = _rotation(track.heading_rad)  # (N, 2, 2)
+    ground = np.einsum("nij,nj->ni", rot, smoothed[:, 2:4])  # (ẋ, ẏ) = R(ψ) w
+    # d/dt R(ψ)w = R(ψ)ẇ + r·(−ẏ, ẋ)
+    turning = track.r_radps[:, None] * np.column_stack([-ground[:, 1], ground[:, 0]])
+    ground_rate = np.einsum("nij,nj->ni", rot, smoothed[:, 4:6]) + turning
+    rate_cov = rot @ smoothed_cov[:, 2:4, 2:4] @ np.swapaxes(rot, -1, -2)
+    states, variances = np.array(track.states), np.array(track.variances)
+    for axis in (0, 1):  # North, East
+        states[axis] = np.column_stack([smoothed[:, axis], ground[:, axis], ground_rate[:, axis]])
+        variances[axis] = np.column_stack([smoothed_cov[:, axis, axis], rate_cov[:, axis, axis]])
     return replace(track, states=states, variances=variances), per_axis * 10.0**decade
 
 

@@ -76,6 +76,10 @@ def test_on_a_steady_turn_u_and_v_come_closer_than_the_paper_smoother(
     for name, truth in (("u_mps", u), ("v_mps", v)):
         assert rms(body, name, truth) < 0.01  # m/s
         assert rms(body, name, truth) < 0.5 * rms(paper, name, truth)
+    # the body rates back through the Earth's axes (a turn's r·u, r·v are 0.07, 0.008 m/s²)
+    for name in ("u_dot_mps2", "v_dot_mps2"):
+        assert rms(body, name, 0.0) < 5e-4  # m/s²
+        assert rms(body, name, 0.0) < 0.5 * rms(paper, name, 0.0)
     # the heading and the gate's decisions are the paper smoother's own
     np.testing.assert_array_equal(body.heading_rad, paper.heading_rad)
     np.testing.assert_array_equal(body.position_rejected, paper.position_rejected)
