@@ -51,6 +51,7 @@ from identifier.current import CURRENT_MODES
 from identifier.identify import FitSettings, identify
 from scenarios.records import Condition
 from scenarios.synthesize import (
+    FULL_SCALE_LOGGING,
     MANEUVERS,
     REFERENCE_VESSELS,
     TruthShip,
@@ -238,12 +239,19 @@ def coverage(
 
 
 def draws_table(
-    models: Sequence[str], n_draws: int, dt_s: float, vessel: str, current: str | None = None
+    models: Sequence[str],
+    n_draws: int,
+    dt_s: float,
+    vessel: str,
+    current: str | None = None,
+    position_noise_m: float = FULL_SCALE_LOGGING.position_noise_m,
 ) -> list[str]:
     """Zig-zag-trained fits at ``n_draws`` noise draws: errors of both estimates per draw.
 
     Training logs of the reference ship ``vessel``: zig-zag 10/10 and 20/20 with noise
-    seeds ``10·d + 1`` and ``10·d + 2`` for draw d; the turning circles are held out.
+    seeds ``10·d + 1`` and ``10·d + 2`` for draw d and GNSS noise ``position_noise_m``
+    [m] (the default 1 m; a quieter logger no longer widens the turns, ``smoothers.md``);
+    the turning circles are held out.
     Rows: the EKF estimate (``--method ekf``) and the one the default ``identify`` keeps,
     fitted with ``current`` (``FitSettings.current``; None: ``fit``'s default, a ship's
     constant current); the row's draw names the mode a fit with "auto" kept.
@@ -259,7 +267,12 @@ def draws_table(
     for model in models:
         for draw in range(n_draws):
             logs = [
-                synthesize_log(ship, MANEUVERS[name](), seed=10 * draw + SEEDS[name])
+                synthesize_log(
+                    ship,
+                    MANEUVERS[name](),
+                    seed=10 * draw + SEEDS[name],
+                    position_noise_m=position_noise_m,
+                )
                 for name in TRAINING["zig-zags"]
             ]
             start = time.perf_counter()
@@ -325,11 +338,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         choices=CURRENT_MODES,
         help="with --draws: the fits' current (default: fit's, a constant one at a ship's size)",
     )
+    default_noise = FULL_SCALE_LOGGING.position_noise_m
+    parser.add_argument(
+        "--position-noise-m",
+        type=float,
+        default=default_noise,
+        help=f"with --draws: the logs' GNSS noise [m] (default {default_noise:g}; "
+        "another level writes a block of its own)",
+    )
     args = parser.parse_args(argv)
     if args.draws:
         models = args.models or [MODELS[-1]]
-        lines = draws_table(models, args.draws, args.dt_s, args.vessel, args.current)
-        write_block(args.out, _block("fidelity.py draws", args.vessel), lines)
+        noise = args.position_noise_m
+        lines = draws_table(models, args.draws, args.dt_s, args.vessel, args.current, noise)
+        block = _block("fidelity.py draws", args.vessel)
+        block += "" if noise == default_noise else f" {noise:g} m"
+        write_block(args.out, block, lines)
         return 0
 
     ship = reference_ship(args.vessel, "full")
