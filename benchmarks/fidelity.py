@@ -238,6 +238,22 @@ def coverage(
     return Coverage(inside[0], inside[1], judged, ratio, (within[0], within[1]))
 
 
+def training_logs(
+    ship: TruthShip, draw: int, position_noise_m: float = FULL_SCALE_LOGGING.position_noise_m
+) -> list[ManeuverLog]:
+    """Return the zig-zag training logs of noise draw ``draw`` (seeds ``10·d + 1``, ``+ 2``).
+
+    ``position_noise_m``: their GNSS noise [m] (the compass's and the rate as logged at
+    full scale).
+    """
+    return [
+        synthesize_log(
+            ship, MANEUVERS[name](), seed=10 * draw + SEEDS[name], position_noise_m=position_noise_m
+        )
+        for name in TRAINING["zig-zags"]
+    ]
+
+
 def draws_table(
     models: Sequence[str],
     n_draws: int,
@@ -266,15 +282,7 @@ def draws_table(
     ]
     for model in models:
         for draw in range(n_draws):
-            logs = [
-                synthesize_log(
-                    ship,
-                    MANEUVERS[name](),
-                    seed=10 * draw + SEEDS[name],
-                    position_noise_m=position_noise_m,
-                )
-                for name in TRAINING["zig-zags"]
-            ]
+            logs = training_logs(ship, draw, position_noise_m)
             start = time.perf_counter()
             result = identify(logs, FitSettings(model=model, current=current))
             seconds = time.perf_counter() - start

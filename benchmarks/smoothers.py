@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from fidelity import COLUMNS, SEEDS, TRAINING, indices, worst_turning_error
+from fidelity import COLUMNS, indices, training_logs, worst_turning_error
 from filterpy.kalman import KalmanFilter
 from report import write_block
 
@@ -100,12 +100,19 @@ def body_frame_model(
 
 
 def _filtered(
-    track: SmoothedTrack, fixes: list[np.ndarray | None], jerk_density: float
-) -> tuple[float, Any, Any, list[np.ndarray], list[np.ndarray], KalmanFilter]:
-    """Filter the fixes at one q: log-likelihood, filterpy's means and covariances, F, Q."""
+    track: SmoothedTrack,
+    fixes: list[np.ndarray | None],
+    Fs: list[np.ndarray],
+    unit_Q: np.ndarray,
+    jerk_density: float,
+) -> tuple[float, Any, Any, list[np.ndarray], KalmanFilter]:
+    """Filter the fixes at one q: log-likelihood, filterpy's means and covariances, Q.
+
+    ``Fs``: the transitions into every sample (the first the identity); ``unit_Q`` the
+    process noise of every interval at q = 1 (Q is linear in q).
+    """
     t, psi = track.time_s, track.heading_rad
-    F, Q = body_frame_model(np.diff(t), 0.5 * (psi[1:] + psi[:-1]), jerk_density)
-    Fs, Qs = [np.eye(6), *F], [np.zeros((6, 6)), *Q]
+    Qs = [np.zeros((6, 6)), *(jerk_density * unit_Q)]
     body = _rotation(psi[0]).T
     kf = KalmanFilter(dim_x=6, dim_z=2)
     kf.x = np.concatenate(
@@ -126,7 +133,7 @@ def _filtered(
         log_likelihood -= 0.5 * (
             innovation @ np.linalg.solve(S, innovation) + math.log(np.linalg.det(2 * np.pi * S))
         )
-    return log_likelihood, means, covariances, Fs, Qs, kf
+    return log_likelihood, means, covariances, Qs, kf
 
 
 def body_frame_track(
@@ -144,10 +151,13 @@ def body_frame_track(
     fixes: list[np.ndarray | None] = [
         None if k in rejected else np.array([x_m[k], y_m[k]]) for k in range(len(x_m))
     ]
+    psi = track.heading_rad
+    F, unit_Q = body_frame_model(np.diff(track.time_s), 0.5 * (psi[1:] + psi[:-1]), 1.0)
+    Fs = [np.eye(6), *F]
     per_axis = 2.0 * track.position_accel_std_mps2**2 / track.tau_s
-    candidates = (_filtered(track, fixes, per_axis * 10.0**d) for d in Q_GRID_DECADES)
+    candidates = (_filtered(track, fixes, Fs, unit_Q, per_axis * 10.0**d) for d in Q_GRID_DECADES)
     best = max(zip(candidates, Q_GRID_DECADES, strict=True), key=lambda c: c[0][0])
-    (_, means, covariances, Fs, Qs, kf), decade = best
+    (_, means, covariances, Qs, kf), decade = best
     smoothed, smoothed_cov, _, _ = kf.rts_smoother(means, covariances, Fs, Qs)
     rot = _rotation(track.heading_rad)  # (N, 2, 2)
     ground = np.einsum("nij,nj->ni", rot, smoothed[:, 2:4])  # (ẋ, ẏ) = R(ψ) w
@@ -224,10 +234,7 @@ def fit_rows(vessel: str, n_draws: int, dt_s: float) -> list[str]:
     overshoots = [c for c in COLUMNS if "OS" in c]
     rows = []
     for draw in range(n_draws):
-        logs = [
-            synthesize_log(ship, MANEUVERS[name](), seed=10 * draw + SEEDS[name])
-            for name in TRAINING["zig-zags"]
-        ]
+        logs = training_logs(ship, draw)
         cells = []
         for candidate in (contextlib.nullcontext(), body_frame_smoothing()):
             start = time.perf_counter()
