@@ -44,6 +44,12 @@ free one:
   Its tables in ``fidelity.md`` ("The rudder in the hull's shadow") were measured with
   ``offset-shadow`` refitted as its thrust twin, as ``fit`` does the default (one more
   entry in ``identifier.identify``'s map of fixed-thrust families, in a worktree);
+* ``slipstream-nvvr``, ``slipstream-nvvr-thrust``: the default ``prime-rudder-slipstream``
+  with the MMG cubic basis' yaw term q·v′²r′/L beside the modulus ones (one gain, N_vvr),
+  and the same with the fixed thrust: the yaw damping a hard turn's drift adds, which
+  carries half of the KVLCC2 reference's yaw damping in its 35° turn and grows faster
+  than the modulus terms from the zig-zags' yaw rates (``benchmarks/fidelity.md``, "How
+  far a turn is extrapolated": the yaw equation carries the turn's error);
 * ``helm``: the neutral-rudder offset linearised, so that it is estimated with the other
   gains instead of gridded: u_R² sin(α_R + δ₀) ≈ u_R² sin α_R + δ₀·u_R² cos α_R, the
   second term with its own gain in sway and yaw (Y_R0, N_R0; Y_R0/Y_R ≈ δ₀): the
@@ -107,6 +113,7 @@ from fmu_model.variants import (
     PRIME_RUDDER_LIFT,
     PRIME_RUDDER_OFFSET,
     PRIME_RUDDER_OFFSET_THRUST,
+    PRIME_RUDDER_SLIPSTREAM,
     RUDDER_INFLOW_SQUARED,
     SLIPSTREAM_SHARE,
     SWAY_MASS,
@@ -270,7 +277,16 @@ def candidate_families() -> tuple[ModelFamily, ...]:
     crossflow_lift = _with_terms(
         "crossflow-lift", PRIME_CROSSFLOW.surge, (_OFFSET_SWAY3,), (_OFFSET_YAW3,), PRIME_CROSSFLOW
     )
+    yaw_vvr = _with_terms(
+        "slipstream-nvvr",
+        PRIME_RUDDER_SLIPSTREAM.surge,
+        (),
+        sway_and_yaw_terms(PRIME_CUBIC, "vvr")[1],
+        PRIME_RUDDER_SLIPSTREAM,
+    )
     return (
+        yaw_vvr,
+        with_fixed_thrust(yaw_vvr, "slipstream-nvvr-thrust", "slipstream-nvvr, fixed thrust"),
         shadow,
         with_fixed_thrust(shadow, "offset-shadow-thrust", "offset-shadow, fixed thrust"),
         crossflow_lift,

@@ -1,7 +1,8 @@
 """Model fidelity: which structure predicts manoeuvres it was not trained on (issue 8).
 
     python benchmarks/fidelity.py [--model NAME ...] [--out benchmarks/fidelity.md]
-        [--dt-s 0.2] [--vessel kvlcc2|mariner|tanker] [--draws N [--current MODE]]
+        [--dt-s 0.2] [--vessel kvlcc2|mariner|tanker]
+        [--draws N [--current MODE] [--position-noise-m M] [--training 10/10|20/20]]
 
 Data: full-scale trial logs from a reference ship (``scenarios.synthesize``, ``--vessel``:
 the KVLCC2 MMG model by default, or the Mariner's Abkowitz model or Van Berlekom &
@@ -75,6 +76,13 @@ MODELS = (
 TRAINING = {
     "zig-zags": ("zigzag-10", "zigzag-20"),
     "all three": ("turning-35", "zigzag-10", "zigzag-20"),
+}
+# The draws' training sets (``--training``): both zig-zags, or one rudder amplitude alone
+# (the same log as in the pair): how far a turn is extrapolated in rudder angle.
+DRAW_TRAINING = {
+    "zig-zags": TRAINING["zig-zags"],
+    "10/10": ("zigzag-10",),
+    "20/20": ("zigzag-20",),
 }
 SEEDS = {"turning-35": 0, "zigzag-10": 1, "zigzag-20": 2}
 COLUMNS = ("adv", "trf", "TD", "TD port", "10/10 OS1", "10/10 OS2", "20/20 OS1", "20/20 OS2")
@@ -239,18 +247,21 @@ def coverage(
 
 
 def training_logs(
-    ship: TruthShip, draw: int, position_noise_m: float = FULL_SCALE_LOGGING.position_noise_m
+    ship: TruthShip,
+    draw: int,
+    position_noise_m: float = FULL_SCALE_LOGGING.position_noise_m,
+    training: str = "zig-zags",
 ) -> list[ManeuverLog]:
     """Return the zig-zag training logs of noise draw ``draw`` (seeds ``10·d + 1``, ``+ 2``).
 
     ``position_noise_m``: their GNSS noise [m] (the compass's and the rate as logged at
-    full scale).
+    full scale); ``training``: a key of :data:`DRAW_TRAINING`.
     """
     return [
         synthesize_log(
             ship, MANEUVERS[name](), seed=10 * draw + SEEDS[name], position_noise_m=position_noise_m
         )
-        for name in TRAINING["zig-zags"]
+        for name in DRAW_TRAINING[training]
     ]
 
 
@@ -261,13 +272,15 @@ def draws_table(
     vessel: str,
     current: str | None = None,
     position_noise_m: float = FULL_SCALE_LOGGING.position_noise_m,
+    training: str = "zig-zags",
 ) -> list[str]:
     """Zig-zag-trained fits at ``n_draws`` noise draws: errors of both estimates per draw.
 
     Training logs of the reference ship ``vessel``: zig-zag 10/10 and 20/20 with noise
     seeds ``10·d + 1`` and ``10·d + 2`` for draw d and GNSS noise ``position_noise_m``
-    [m] (the default 1 m; a quieter logger no longer widens the turns, ``smoothers.md``);
-    the turning circles are held out.
+    [m] (the default 1 m; a quieter logger no longer widens the turns, ``smoothers.md``),
+    or one of them alone (``training``, a key of :data:`DRAW_TRAINING`); the turning
+    circles are held out.
     Rows: the EKF estimate (``--method ekf``) and the one the default ``identify`` keeps,
     fitted with ``current`` (``FitSettings.current``; None: ``fit``'s default, a ship's
     constant current); the row's draw names the mode a fit with "auto" kept.
@@ -282,7 +295,7 @@ def draws_table(
     ]
     for model in models:
         for draw in range(n_draws):
-            logs = training_logs(ship, draw, position_noise_m)
+            logs = training_logs(ship, draw, position_noise_m, training)
             start = time.perf_counter()
             result = identify(logs, FitSettings(model=model, current=current))
             seconds = time.perf_counter() - start
@@ -354,13 +367,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         help=f"with --draws: the logs' GNSS noise [m] (default {default_noise:g}; "
         "another level writes a block of its own)",
     )
+    parser.add_argument(
+        "--training",
+        choices=DRAW_TRAINING,
+        default="zig-zags",
+        help="with --draws: both zig-zags (default) or one rudder amplitude alone (a block "
+        "of its own)",
+    )
     args = parser.parse_args(argv)
     if args.draws:
         models = args.models or [MODELS[-1]]
         noise = args.position_noise_m
-        lines = draws_table(models, args.draws, args.dt_s, args.vessel, args.current, noise)
+        lines = draws_table(
+            models, args.draws, args.dt_s, args.vessel, args.current, noise, args.training
+        )
         block = _block("fidelity.py draws", args.vessel)
         block += "" if noise == default_noise else f" {noise:g} m"
+        block += "" if args.training == "zig-zags" else f" {args.training} only"
         write_block(args.out, block, lines)
         return 0
 

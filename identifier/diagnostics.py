@@ -1,7 +1,7 @@
 """What a fit's estimate or logs leave in doubt: the warnings and notes of ``identify``.
 
 Pure judgements of an estimate (its propeller thrust, its centripetal surge term), of
-what the logs determine (the surge force of a hard turn, the response to a rudder
+what the logs determine (a hard turn and its surge force, the response to a rudder
 reversal; a current their headings barely tell from the ship's speed), of a current
 asked of a model's logs, and of an approach at a helm off the centre line that the model
 family has no term for. Each returns its text, or None where there is nothing to say.
@@ -73,36 +73,59 @@ TURN_SURGE_TERMS = ("X_vr", "X_vv", "X_rr")
 """The prime families' surge terms of a hard turn: the centripetal v·r and the drag of
 drift and yaw, which set the speed a model keeps in a turn."""
 
+TURN_EXTRAPOLATION_EVIDENCE = (
+    "on three reference ships the default fit's 35 deg turns came out too tight, by up "
+    "to 16 % from 10 and 20 deg zig-zags and by 15-31 % (or spiralling in) from 10 deg "
+    "ones alone, which at 1 m GNSS noise also came out up to 113 % too wide: "
+    'benchmarks/fidelity.md, "How far a turn is extrapolated"'
+)
+"""What the benchmarks found of zig-zag-trained turns (:func:`turn_warning`)."""
 
-def turn_surge_warning(
-    weak: Sequence[str], *, turn_logged: bool, held: Sequence[str] = ()
+
+def turn_warning(
+    weak: Sequence[str],
+    *,
+    turn_logged: bool,
+    largest_rudder_rad: float,
+    held: Sequence[str] = (),
 ) -> str | None:
-    """Return a warning when the surge force of a hard turn is left open, else None.
+    """Return a warning when no log turns through 180°: the turns are extrapolated.
 
-    ``weak``: the coefficients the logs do not determine. Zig-zags leave
-    :data:`TURN_SURGE_TERMS` open, and those alone move the held-out 35° turn of a
-    KVLCC2 fit by 30 points (benchmarks/fidelity.md, "Where the KVLCC2 turn's error
-    lives"). ``held``: the coefficients the family holds by a zero-mean prior (the
+    A hard turn predicted from zig-zags is an extrapolation in rudder angle, yaw rate and
+    drift, and on every reference ship it came out too tight, the more so the smaller the
+    logs' rudder (benchmarks/fidelity.md, "How far a turn is extrapolated":
+    :data:`TURN_EXTRAPOLATION_EVIDENCE`); ``largest_rudder_rad`` is the logs' largest
+    rudder angle [rad]. ``weak``: the coefficients the logs do not determine; zig-zags
+    leave :data:`TURN_SURGE_TERMS` open, and those alone move the held-out 35° turn of a
+    KVLCC2 fit by 30 points ("Where the KVLCC2 turn's error lives"); the warning names
+    them. ``held``: the coefficients the family holds by a zero-mean prior (the
     default's X_vv, X_rr, ``fmu_model.variants.with_surge_drag_prior``); the warning says
     which of the open ones keep the prior's value rather than the logs'. None when a log
-    turns through 180° (``turn_logged``: it fixes them) or none of them is weak.
+    turns through 180° (``turn_logged``: it fixes the turn).
     """
-    open_terms = [name for name in TURN_SURGE_TERMS if name in weak]
-    if turn_logged or not open_terms:
+    if turn_logged:
         return None
-    by_prior = [name for name in open_terms if name in held]
-    keep = "keeps" if len(by_prior) == 1 else "keep"
-    prior = (
-        f"; {', '.join(by_prior)} {keep} the family's prior (near zero, a ship's size)"
-        if by_prior
-        else ""
+    text = (
+        "no log turns through 180 deg: the model's turning circles are extrapolated from "
+        f"a rudder of at most {math.degrees(largest_rudder_rad):.1f} deg "
+        f"({TURN_EXTRAPOLATION_EVIDENCE})"
     )
-    return (
-        f"the surge force of a hard turn ({', '.join(open_terms)}) is not determined by "
-        "these logs, and it sets the speed the model keeps in a turn: its turning circles "
-        "are extrapolated (on the KVLCC2 reference these terms alone move a zig-zag fit's "
-        f"35 deg tactical diameter by 30 points){prior}; add a turning circle to the logs"
-    )
+    open_terms = [name for name in TURN_SURGE_TERMS if name in weak]
+    if open_terms:
+        by_prior = [name for name in open_terms if name in held]
+        keep = "keeps" if len(by_prior) == 1 else "keep"
+        prior = (
+            f"; {', '.join(by_prior)} {keep} the family's prior (near zero, a ship's size)"
+            if by_prior
+            else ""
+        )
+        text += (
+            f"; the surge force of a hard turn ({', '.join(open_terms)}) is not determined "
+            "by these logs, and it sets the speed the model keeps in a turn (on the KVLCC2 "
+            f"reference these terms alone move a zig-zag fit's 35 deg tactical diameter by "
+            f"30 points){prior}"
+        )
+    return text + "; add a turning circle to the logs"
 
 
 def reversal_warning(logs: Sequence[ManeuverLog]) -> str | None:
@@ -114,7 +137,7 @@ def reversal_warning(logs: Sequence[ManeuverLog]) -> str | None:
     default fit of the KVLCC2 reference predicts the 10°/10° zig-zag's overshoots 3.3° /
     4.4° against 5.0° / 14.0° (its EKF estimate diverges in it), the Mariner's 1.1° / 0.2°
     against 6.4° / 5.6°; no envelope warns of it, for a 10° rudder is within a turn's 35°.
-    The mirror of :func:`turn_surge_warning`. When the turns are all to one side, the
+    The mirror of :func:`turn_warning`. When the turns are all to one side, the
     other side's turn is extrapolated too, as their mirror (:func:`one_sided_model`).
     """
     if any(maneuver_kind(log) == "zigzag" for log in logs):

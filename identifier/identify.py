@@ -111,7 +111,7 @@ from identifier.diagnostics import (
     one_sided_model,
     reversal_warning,
     thrust_warning,
-    turn_surge_warning,
+    turn_warning,
 )
 from identifier.ekf import (
     EkfResult,
@@ -1112,7 +1112,12 @@ def _fit(
         )
     held = [t.coefficient for t in structure.terms if t.prior_std is not None]
     for left_open in (
-        turn_surge_warning(weak, turn_logged=covers_turn(tracks), held=held),
+        turn_warning(
+            weak,
+            turn_logged=covers_turn(tracks),
+            largest_rudder_rad=max(envelope.rudder_max_rad),
+            held=held,
+        ),
         reversal_warning(logs),
     ):
         if left_open is not None:

@@ -24,12 +24,13 @@ from fmu_model.variants import (
 from identifier.cli import build_parser, main
 from identifier.cli import fit as fit_cli
 from identifier.diagnostics import (
+    TURN_EXTRAPOLATION_EVIDENCE,
     centripetal_warning,
     logged_side,
     one_sided_model,
     reversal_warning,
     thrust_warning,
-    turn_surge_warning,
+    turn_warning,
 )
 from identifier.identify import FitSettings, IdentificationResult, fixed_thrust_model, identify
 from identifier.preparation import MAX_SAMPLE_INTERVAL_S, ekf_order, smooth_logs
@@ -503,37 +504,52 @@ def test_a_centripetal_surge_term_of_no_ships_sign_is_warned_about(
         assert f"X_vr = {x_vr:.3g}" in warning and "--current none" in warning
 
 
+_TWENTY_DEG = math.radians(20.0)
+
+
 @pytest.mark.parametrize(
     ("weak", "turn_logged", "named"),
     [
         (("X_vr", "X_vv", "X_rr", "Y_rar"), False, "X_vr, X_vv, X_rr"),
         (("X_un", "X_rr"), False, "X_rr"),
         (("X_vr", "X_vv", "X_rr"), True, None),  # a turning log fixes them
-        (("X_un", "Y_rar"), False, None),  # the turn's surge is determined
-        (("a5",), False, None),  # not a prime family's
+        (("X_un", "Y_rar"), False, ""),  # the turn's surge is determined: extrapolated still
+        (("a5",), False, ""),  # not a prime family's
     ],
 )
-def test_a_turns_surge_force_left_open_is_warned_about(
+def test_turns_extrapolated_from_zigzags_are_warned_about_with_the_surge_left_open(
     weak: tuple[str, ...], turn_logged: bool, named: str | None
 ) -> None:
-    warning = turn_surge_warning(weak, turn_logged=turn_logged)
+    warning = turn_warning(weak, turn_logged=turn_logged, largest_rudder_rad=_TWENTY_DEG)
     if named is None:
         assert warning is None
-    else:
-        assert warning is not None
-        assert warning.startswith(f"the surge force of a hard turn ({named}) is not determined")
-        assert warning.endswith("add a turning circle to the logs")
+        return
+    assert warning is not None
+    assert warning.startswith(
+        "no log turns through 180 deg: the model's turning circles are extrapolated from a "
+        f"rudder of at most 20.0 deg ({TURN_EXTRAPOLATION_EVIDENCE})"
+    )
+    assert warning.endswith("add a turning circle to the logs")
+    surge = f"; the surge force of a hard turn ({named}) is not determined by these logs"
+    assert (surge in warning) == bool(named)
+    assert ("surge force" in warning) == bool(named)
 
 
 def test_the_open_surge_terms_a_prior_holds_are_named() -> None:
     weak = ("X_vv", "X_rr", "Y_rar")
-    warning = turn_surge_warning(weak, turn_logged=False, held=("X_vv", "X_rr", "Y_vav"))
+    warning = turn_warning(
+        weak, turn_logged=False, largest_rudder_rad=_TWENTY_DEG, held=("X_vv", "X_rr", "Y_vav")
+    )
     assert warning is not None
     assert "(X_vv, X_rr) is not determined" in warning
     assert "; X_vv, X_rr keep the family's prior (near zero, a ship's size);" in warning
-    one = turn_surge_warning(("X_vr", "X_rr"), turn_logged=False, held=("X_vv", "X_rr"))
+    one = turn_warning(
+        ("X_vr", "X_rr"), turn_logged=False, largest_rudder_rad=_TWENTY_DEG, held=("X_vv", "X_rr")
+    )
     assert one is not None and "; X_rr keeps the family's prior" in one
-    free = turn_surge_warning(("X_vr",), turn_logged=False, held=("X_vv", "X_rr"))
+    free = turn_warning(
+        ("X_vr",), turn_logged=False, largest_rudder_rad=_TWENTY_DEG, held=("X_vv", "X_rr")
+    )
     assert free is not None and "prior" not in free
 
 
@@ -559,11 +575,12 @@ def test_zigzags_alone_leave_the_turns_surge_open_and_a_turning_log_does_not(
     kvlcc2_zigzag_fit: IdentificationResult,
 ) -> None:
     """The default family fitted on a zig-zag alone is warned that its turns extrapolate
-    the surge; with a turning circle beside it, not."""
-    alone = [w for w in kvlcc2_zigzag_fit.warnings if "surge force of a hard turn" in w]
+    from its rudder of 10° and the surge; with a turning circle beside it, not."""
+    alone = [w for w in kvlcc2_zigzag_fit.warnings if "no log turns through 180 deg" in w]
     assert len(alone) == 1 and "X_vv, X_rr keep the family's prior" in alone[0]
+    assert "extrapolated from a rudder of at most 10.0 deg" in alone[0]
     both = identify(list(kvlcc2_zigzag_and_turn), _SURGE_SETTINGS).warnings
-    assert not any("surge force of a hard turn" in w for w in both)
+    assert not any("no log turns" in w or "surge force of a hard turn" in w for w in both)
 
 
 def test_turning_circles_alone_leave_the_response_to_a_reversal_open_and_a_zigzag_does_not(
