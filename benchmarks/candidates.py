@@ -49,7 +49,10 @@ free one:
   and the same with the fixed thrust: the yaw damping a hard turn's drift adds, which
   carries half of the KVLCC2 reference's yaw damping in its 35° turn and grows faster
   than the modulus terms from the zig-zags' yaw rates (``benchmarks/fidelity.md``, "How
-  far a turn is extrapolated": the yaw equation carries the turn's error);
+  far a turn is extrapolated": the yaw equation carries the turn's error). The best
+  zig-zag-trained KVLCC2 turns yet, but on the measured HSVA runs the 20°/10° overshoots
+  twice as far off and turns 25–41 % too wide (``hsva.md``, "The yaw damping of a turn's
+  drift"): not adopted;
 * ``helm``: the neutral-rudder offset linearised, so that it is estimated with the other
   gains instead of gridded: u_R² sin(α_R + δ₀) ≈ u_R² sin α_R + δ₀·u_R² cos α_R, the
   second term with its own gain in sway and yaw (Y_R0, N_R0; Y_R0/Y_R ≈ δ₀): the
