@@ -74,12 +74,14 @@ TURN_SURGE_TERMS = ("X_vr", "X_vv", "X_rr")
 drift and yaw, which set the speed a model keeps in a turn."""
 
 TURN_EXTRAPOLATION_EVIDENCE = (
-    "on three reference ships the default fit's 35 deg turns came out too tight, by up "
-    "to 16 % from 10 and 20 deg zig-zags and by 15-31 % (or spiralling in) from 10 deg "
-    "ones alone, which at 1 m GNSS noise also came out up to 113 % too wide: "
+    "from 10 and 20 deg zig-zags the default fit's 35 deg turns of three synthetic "
+    "reference ships came out up to 16 % too tight, from 10 deg ones alone 15-31 % too "
+    "tight or spiralling in (at 1 m GNSS noise also up to 113 % too wide), and those of "
+    "the measured KVLCC2 model (HSVA) 6-15 % wider than its MMG reference's: "
     'benchmarks/fidelity.md, "How far a turn is extrapolated"'
 )
-"""What the benchmarks found of zig-zag-trained turns (:func:`turn_warning`)."""
+"""What the benchmarks found of zig-zag-trained turns (:func:`turn_warning`): off either
+way, the direction a matter of the hull."""
 
 
 def turn_warning(
@@ -92,9 +94,9 @@ def turn_warning(
     """Return a warning when no log turns through 180°: the turns are extrapolated.
 
     A hard turn predicted from zig-zags is an extrapolation in rudder angle, yaw rate and
-    drift, and on every reference ship it came out too tight, the more so the smaller the
-    logs' rudder (benchmarks/fidelity.md, "How far a turn is extrapolated":
-    :data:`TURN_EXTRAPOLATION_EVIDENCE`); ``largest_rudder_rad`` is the logs' largest
+    drift: on the synthetic reference ships it came out too tight, the more so the smaller
+    the logs' rudder, and on the measured KVLCC2 model too wide
+    (:data:`TURN_EXTRAPOLATION_EVIDENCE`); ``largest_rudder_rad`` is the logs' largest
     rudder angle [rad]. ``weak``: the coefficients the logs do not determine; zig-zags
     leave :data:`TURN_SURGE_TERMS` open, and those alone move the held-out 35° turn of a
     KVLCC2 fit by 30 points ("Where the KVLCC2 turn's error lives"); the warning names
