@@ -76,8 +76,8 @@ drift and yaw, which set the speed a model keeps in a turn."""
 TURN_EXTRAPOLATION_EVIDENCE = (
     "from 10 and 20 deg zig-zags the default fit's 35 deg turns of three synthetic "
     "reference ships came out up to 16 % too tight, from 10 deg ones alone 15-31 % too "
-    "tight or spiralling in (at 1 m GNSS noise also up to 113 % too wide), and those of "
-    "the measured KVLCC2 model (HSVA) 6-15 % wider than its MMG reference's: "
+    "tight or spiralling in (at 1 m GNSS noise also up to 113 % too wide), and those "
+    "fitted to the measured KVLCC2 model's zig-zags (HSVA) wider than its MMG reference's: "
     'benchmarks/fidelity.md, "How far a turn is extrapolated"'
 )
 """What the benchmarks found of zig-zag-trained turns (:func:`turn_warning`): off either
