@@ -57,7 +57,12 @@ def reference_rhs(vessel: str) -> Rhs:
 
 
 def transplanted(params: ModelParameters, reference: Rhs, rows: tuple[int, ...]) -> RhsPlant:
-    """Return the fitted model as a plant, rows ``rows`` of its derivative from ``reference``."""
+    """Return the fitted model as a plant, rows ``rows`` of its derivative from ``reference``.
+
+    A state where the reference has no forces (it raises ValueError: the tanker's model
+    astern) ends the run as a divergence does, FloatingPointError, which ``indices``
+    reports as n/a.
+    """
     model = numeric_model(params.structure)
 
     def rhs(state: np.ndarray, rudder_rad: float, n_rps: float) -> np.ndarray:
@@ -65,7 +70,11 @@ def transplanted(params: ModelParameters, reference: Rhs, rows: tuple[int, ...])
             model.rhs(state, rudder_rad, n_rps, params.coefficients, params.length_m), dtype=float
         )
         if rows:
-            derivative[list(rows)] = reference(state, rudder_rad, n_rps)[list(rows)]
+            try:
+                theirs = reference(state, rudder_rad, n_rps)
+            except ValueError as exc:  # e.g. the tanker's slipstream astern: sqrt of < 0
+                raise FloatingPointError(f"the reference has no forces at {state}: {exc}") from exc
+            derivative[list(rows)] = theirs[list(rows)]
         return derivative
 
     return RhsPlant(rhs, params.length_m, MAX_SUBSTEP_S)

@@ -67,6 +67,20 @@ def test_a_transplant_takes_the_rows_asked_from_the_reference_and_no_other(
     np.testing.assert_array_equal(plant.rhs(STATE, RUDDER_RAD, N_RPS), expected)
 
 
+def test_a_state_the_reference_has_no_forces_at_ends_the_run_as_a_divergence(
+    transplant: ModuleType, seed_params: ModelParameters
+) -> None:
+    """The tanker's model has no slipstream astern (the square root of a negative): the
+    transplanted run ends there as a diverging one does, which the indices call n/a."""
+
+    def astern(state: np.ndarray, rudder_rad: float, n_rps: float) -> np.ndarray:
+        return np.full(6, math.sqrt(-1.0))  # ValueError, as tanker_rhs's at u < 0
+
+    plant = transplant.transplanted(seed_params, astern, (2,))
+    with pytest.raises(FloatingPointError, match="the reference has no forces at"):
+        plant.rhs(STATE, RUDDER_RAD, N_RPS)
+
+
 def test_with_no_row_taken_the_fit_sails_as_the_python_model(
     transplant: ModuleType, seed_params: ModelParameters
 ) -> None:
