@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
 def load_module(name: str, path: Path) -> ModuleType:
@@ -16,3 +20,18 @@ def load_module(name: str, path: Path) -> ModuleType:
     sys.modules[name] = module
     spec.loader.exec_module(module)
     return module
+
+
+@contextmanager
+def benchmark_module(filename: str) -> Iterator[ModuleType]:
+    """Import ``benchmarks/<filename>`` with its folder on sys.path for its siblings.
+
+    The benchmarks import each other (``fidelity``, ``report``) as top-level modules;
+    sys.path is restored on leaving.
+    """
+    saved = list(sys.path)
+    sys.path.insert(0, str(BENCHMARKS))
+    try:
+        yield load_module(f"benchmark_{Path(filename).stem}", BENCHMARKS / filename)
+    finally:
+        sys.path[:] = saved

@@ -9,9 +9,7 @@ smoother; and it enters a fit for a block only.
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Iterator
-from pathlib import Path
 from types import ModuleType
 
 import numpy as np
@@ -20,19 +18,13 @@ import scipy.linalg
 
 import identifier.preparation
 from identifier.smoothing import smooth_track
-from tests.module_files import load_module
-
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+from tests.module_files import benchmark_module
 
 
 @pytest.fixture(scope="module")
 def smoothers() -> Iterator[ModuleType]:
-    saved = list(sys.path)
-    sys.path.insert(0, str(BENCHMARKS))  # its sibling modules (fidelity, report)
-    try:
-        yield load_module("benchmark_smoothers", BENCHMARKS / "smoothers.py")
-    finally:
-        sys.path[:] = saved
+    with benchmark_module("smoothers.py") as module:
+        yield module
 
 
 def test_the_transition_is_the_exact_discretisation_at_a_steady_heading(

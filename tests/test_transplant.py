@@ -8,10 +8,8 @@ reference ships' own.
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Iterator
 from dataclasses import replace
-from pathlib import Path
 from types import ModuleType
 
 import numpy as np
@@ -20,11 +18,10 @@ import pytest
 from fmu_model import ModelParameters, numeric_model
 from scenarios.kvlcc2 import kvlcc2, mmg_rhs
 from scenarios.tanker import tanker, tanker_rhs
-from tests.module_files import load_module
+from tests.module_files import benchmark_module
 from trials.maneuvers import zigzag
 from trials.run import ModelPlant, run_program
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 STATE = np.array([4.6, -0.4, 0.012, 10.0, -5.0, 0.3])  # u, v [m/s], r [rad/s], x, y [m], ψ
 RUDDER_RAD = math.radians(20.0)
 N_RPS = 2.0
@@ -32,12 +29,8 @@ N_RPS = 2.0
 
 @pytest.fixture(scope="module")
 def transplant() -> Iterator[ModuleType]:
-    saved = list(sys.path)
-    sys.path.insert(0, str(BENCHMARKS))  # its sibling modules (fidelity, report)
-    try:
-        yield load_module("benchmark_transplant", BENCHMARKS / "transplant.py")
-    finally:
-        sys.path[:] = saved
+    with benchmark_module("transplant.py") as module:
+        yield module
 
 
 def _other(params: ModelParameters) -> ModelParameters:
