@@ -61,10 +61,9 @@ from identifier.smoothing import (
     smooth_log,
     smooth_track,
 )
-from scenarios.synthesize import MANEUVERS, reference_ship, synthesize_log
+from scenarios.synthesize import MANEUVERS, REFERENCE_VESSELS, reference_ship, synthesize_log
 from trials.run import ModelPlant
 
-VESSELS = ("kvlcc2", "mariner", "tanker")
 STATE_MANEUVERS = ("zigzag-10", "zigzag-20", "turning-35")
 STATE_SEEDS = (0, 1, 2)
 Q_GRID_DECADES = np.arange(-4.0, 1.01, 0.5)
@@ -259,13 +258,13 @@ def fit_rows(vessel: str, n_draws: int, dt_s: float) -> list[str]:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run both tables; print and write them."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
-    parser.add_argument("--vessel", action="append", choices=VESSELS, dest="vessels")
+    parser.add_argument("--vessel", action="append", choices=REFERENCE_VESSELS, dest="vessels")
     parser.add_argument("--draws", type=int, default=5, help="noise draws of the fits")
     parser.add_argument("--no-fits", action="store_true", help="the states' table only")
     parser.add_argument("--dt-s", type=float, default=0.2, help="driver step [s]")
     parser.add_argument("--out", default=str(Path(__file__).with_name("smoothers.md")))
     args = parser.parse_args(argv)
-    vessels = args.vessels or list(VESSELS)
+    vessels = args.vessels or list(REFERENCE_VESSELS)
     lines = [
         "# The ship's velocity smoothed in its own axes (benchmarks/smoothers.py)",
         "",

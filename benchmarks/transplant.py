@@ -37,7 +37,7 @@ from report import write_block
 from fmu_model import ModelParameters, numeric_model
 from identifier.identify import FitSettings, identify
 from scenarios.calm_plants import Rhs, RhsPlant
-from scenarios.kvlcc2 import kvlcc2, mmg_rhs
+from scenarios.kvlcc2 import ReferencePlant, mmg_rhs
 from scenarios.synthesize import FULL_SCALE_LOGGING, REFERENCE_VESSELS, reference_ship
 
 EQUATIONS = {"surge": (0,), "sway": (1,), "yaw": (2,), "sway and yaw": (1, 2)}
@@ -52,7 +52,8 @@ def reference_rhs(vessel: str) -> Rhs:
     plant = reference_ship(vessel, "full").plant
     if isinstance(plant, RhsPlant):  # the Mariner and the tanker
         return plant.rhs
-    ship = kvlcc2("full")
+    assert isinstance(plant, ReferencePlant)  # KVLCC2's, in calm water
+    ship = plant.ship
     return lambda state, rudder_rad, n_rps: mmg_rhs(ship, state, rudder_rad, n_rps)
 
 
